@@ -1,0 +1,1 @@
+"""Calibration studies: the study file (TOML, pydantic), stages, and the runner."""

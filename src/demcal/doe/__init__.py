@@ -1,0 +1,1 @@
+"""Design of experiments: designs, response-surface models, ANOVA, optimisation."""

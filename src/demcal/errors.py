@@ -1,0 +1,42 @@
+"""Exceptions shared by every layer of demcal (this module imports nothing).
+
+- :class:`InputError`: bad user input (a file, a parameter, a design); the message names the
+  field and the allowed range. The CLI prints it on one line and exits with code 2.
+- :class:`SimulationUnstable`: a numerical failure of the DEM engine (NaN, energy blow-up,
+  excessive overlap); the message names the world, the simulated time and the likely cause.
+- :class:`StudyError`: a calibration study cannot continue (a stage failed, the store is
+  inconsistent with the study file).
+"""
+
+from __future__ import annotations
+
+__all__ = ["DemcalError", "InputError", "SimulationUnstable", "StudyError"]
+
+
+class DemcalError(Exception):
+    """Base class of every error demcal raises on purpose."""
+
+
+class InputError(DemcalError, ValueError):
+    """Invalid user input. The message names the field and the allowed values."""
+
+
+class SimulationUnstable(DemcalError, RuntimeError):
+    """The DEM engine stopped a run: NaN, energy blow-up or excessive overlap.
+
+    Attributes
+    ----------
+    world : int or None
+        Index of the world (batched simulation) that failed.
+    time_s : float or None
+        Simulated time of the failure, s.
+    """
+
+    def __init__(self, message: str, *, world: int | None = None, time_s: float | None = None):
+        super().__init__(message)
+        self.world = world
+        self.time_s = time_s
+
+
+class StudyError(DemcalError, RuntimeError):
+    """A calibration study cannot continue; the message says why and what to change."""

@@ -1,0 +1,1 @@
+"""Executors: run virtual tests locally (process pool, one batched engine) or on Dask."""

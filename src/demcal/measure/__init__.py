@@ -1,0 +1,1 @@
+"""Angle of repose from photos and from simulated piles."""

@@ -1,0 +1,1 @@
+"""Physical (bench) measurements in, model parameters out."""

@@ -1,0 +1,1 @@
+"""The calibration report: HTML with the paper's tables and figures, rebuilt from the run store."""

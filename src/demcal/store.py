@@ -1,0 +1,1 @@
+"""SQLite run store: one row per simulation, written the moment a run ends."""
