@@ -1,0 +1,37 @@
+"""Tunables of the DEM engine, in one patchable place (SI units).
+
+Tests patch these (``monkeypatch.setattr(demcal.dem._config, "NAME", value)``) before a
+:class:`~demcal.dem.simulation.Simulation` is built; they are read when arrays are allocated
+and when a run loop starts, never inside compiled kernels.
+"""
+
+from __future__ import annotations
+
+#: Verlet skin as a fraction of the largest sphere radius of the simulation. A larger skin
+#: means fewer neighbour rebuilds but more candidate pairs per sphere.
+SKIN_FRACTION: float = 0.25
+
+#: Initial neighbour slots per sphere; grown automatically (x1.5) when a rebuild overflows.
+NEIGHBOR_CAPACITY: int = 32
+
+#: Initial sphere slots per hash-grid bucket; grown automatically when a bucket overflows.
+BUCKET_CAPACITY: int = 16
+
+#: Hash-grid buckets per sphere (rounded up to a power of two).
+BUCKETS_PER_SPHERE: float = 2.0
+
+#: Steps per compiled chunk between host checks (health, settle detection, insertion).
+CHUNK_STEPS: int = 500
+
+#: Newton iterations cap for the JKR contact radius (converges in ~5 from above).
+JKR_MAX_ITER: int = 50
+
+#: Largest overlap accepted, as a fraction of the smaller radius of the pair; beyond it the
+#: world is flagged and the run stops with :class:`~demcal.errors.SimulationUnstable`.
+MAX_OVERLAP_FRACTION: float = 0.5
+
+#: Largest clump speed accepted, m/s; beyond it the run stops (energy blow-up).
+MAX_SPEED: float = 100.0
+
+#: Default fraction of the Rayleigh time step used as the time step (EDEM's 20 %).
+DT_FRACTION: float = 0.2

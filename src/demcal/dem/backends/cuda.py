@@ -1,0 +1,439 @@
+"""CUDA backend: numba.cuda kernels around the shared bodies, replayed as a CUDA graph.
+
+One time step is eight small kernels, one thread per element:
+
+1. ``zero``: clear the hash grid (only when the rebuild flag is set);
+2. ``bin``: put each active sphere in its bucket (atomic), remember its reference position;
+3. ``search``: fill each sphere's neighbour slots into the scratch buffer ("b"), sorted, with
+   the history carried over from the current buffer ("a");
+4. ``commit``: copy scratch to current (unless a buffer overflowed);
+5. ``finish``: one thread clears the rebuild flag, or raises the halt flag on overflow;
+6. ``forces`` and 7. ``clumps``: the shared bodies of :mod:`demcal.dem.kernels`;
+8. ``worlds``: move the walls, advance each world's clock, count the step.
+
+Every kernel returns at once when the halt flag is set, so an overflow mid-chunk makes the rest
+of the chunk a no-op; the host then grows the arrays and continues: nothing is lost. The rebuild
+kernels return at once when no rebuild is due, so a step costs three idle launches then. Launch
+overhead from Python (tens of microseconds per kernel) would dominate at these sizes, so the
+steps are captured once into a CUDA graph (several steps per graph) and replayed.
+
+The neighbour order is made canonical by sorting (binning order is not deterministic on the
+GPU), so GPU runs are reproducible run to run; they differ from CPU runs by rounding (FMA).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+
+import numpy as np
+
+if not hasattr(np, "row_stack"):  # numba-cuda 0.30 calls np.row_stack, gone in numpy 2.4+
+    setattr(np, "row_stack", np.vstack)  # noqa: B010
+
+from numba import cuda
+
+from demcal.dem import _config
+from demcal.dem.kernels import (
+    ACTIVE,
+    cell_bucket,
+    cell_coords,
+    cell_key,
+    clump_step,
+    neighbor_search,
+    sphere_forces,
+)
+
+log = logging.getLogger("demcal.dem")
+
+
+def _simulator() -> bool:
+    return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") == "1"
+
+
+def _unwrapping(fn):
+    """Under the CUDA simulator, call the compiled CPU body on the plain numpy arrays.
+
+    The simulator hands kernels wrapped arrays that compiled functions cannot take; the
+    per-element bodies are the same code on both targets, so the simulator checks the
+    kernels' glue (indexing, flags, atomics, buffers) around them.
+    """
+
+    def call(*args):
+        return fn(*[a._item._ary if hasattr(a, "_item") else a for a in args])
+
+    return call
+
+
+if _simulator():
+    cell_bucket = _unwrapping(cell_bucket)
+    cell_coords = _unwrapping(cell_coords)
+    cell_key = _unwrapping(cell_key)
+    clump_step = _unwrapping(clump_step)
+    neighbor_search = _unwrapping(neighbor_search)
+    sphere_forces = _unwrapping(sphere_forces)
+
+THREADS = 128
+#: steps captured in one CUDA graph (the graph is replayed ceil(n / GRAPH_STEPS) times)
+GRAPH_STEPS = 20
+
+_KERNELS = None
+
+
+def _build_kernels():
+    """Compile (lazily) the CUDA kernels; returns a namespace of them."""
+    global _KERNELS
+    if _KERNELS is not None:
+        return _KERNELS
+
+    @cuda.jit
+    def k_zero(halt, flag_rebuild, bucket_count, stats):
+        if halt[0] != 0 or flag_rebuild[0] == 0:
+            return
+        i = cuda.grid(1)
+        if i < bucket_count.shape[0]:
+            bucket_count[i] = 0
+        if i == 0:
+            stats[0] = 0
+            stats[1] = 0
+
+    @cuda.jit
+    def k_bin(halt, flag_rebuild, s_pos, s_clump, c_state, c_world, grid_lo, inv_cell,
+              bucket_count, bucket_members, mask, s_cellkey, s_ref, stats):
+        if halt[0] != 0 or flag_rebuild[0] == 0:
+            return
+        i = cuda.grid(1)
+        if i >= s_pos.shape[0]:
+            return
+        s_ref[i, 0] = s_pos[i, 0]
+        s_ref[i, 1] = s_pos[i, 1]
+        s_ref[i, 2] = s_pos[i, 2]
+        c = s_clump[i]
+        if c_state[c] != ACTIVE:
+            s_cellkey[i] = -1
+            return
+        w = c_world[c]
+        ix, iy, iz = cell_coords(w, s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], grid_lo, inv_cell)
+        s_cellkey[i] = cell_key(w, ix, iy, iz)
+        b = cell_bucket(w, ix, iy, iz, mask)
+        n = cuda.atomic.add(bucket_count, b, 1)
+        if n < bucket_members.shape[1]:
+            bucket_members[b, n] = i
+        cuda.atomic.max(stats, 1, n + 1)
+
+    @cuda.jit
+    def k_search(halt, flag_rebuild, s_pos, s_radius, s_clump, c_state, c_world, s_cellkey,
+                 grid_lo, inv_cell, bucket_count, bucket_members, mask, extra, old_count,
+                 old_index, old_hist, old_rhist, new_count, new_index, new_hist, new_rhist,
+                 carry_rolling, stats):
+        if halt[0] != 0 or flag_rebuild[0] == 0:
+            return
+        if stats[1] > bucket_members.shape[1]:
+            return
+        i = cuda.grid(1)
+        if i >= s_pos.shape[0]:
+            return
+        neighbor_search(i, i + 1, s_pos, s_radius, s_clump, c_state, c_world, s_cellkey,
+                        grid_lo, inv_cell, bucket_count, bucket_members, mask, extra,
+                        old_count, old_index, old_hist, old_rhist, new_count, new_index,
+                        new_hist, new_rhist, carry_rolling)
+        cuda.atomic.max(stats, 0, new_count[i])
+
+    @cuda.jit
+    def k_commit(halt, flag_rebuild, stats, bucket_cap, src_count, src_index, src_hist,
+                 src_rhist, dst_count, dst_index, dst_hist, dst_rhist, carry_rolling):
+        if halt[0] != 0 or flag_rebuild[0] == 0:
+            return
+        cap = dst_index.shape[1]
+        if stats[0] > cap or stats[1] > bucket_cap:
+            return
+        i = cuda.grid(1)
+        if i >= dst_count.shape[0]:
+            return
+        n = src_count[i]
+        dst_count[i] = n
+        for k in range(min(n, cap)):
+            dst_index[i, k] = src_index[i, k]
+            dst_hist[i, k, 0] = src_hist[i, k, 0]
+            dst_hist[i, k, 1] = src_hist[i, k, 1]
+            dst_hist[i, k, 2] = src_hist[i, k, 2]
+            if carry_rolling:
+                dst_rhist[i, k, 0] = src_rhist[i, k, 0]
+                dst_rhist[i, k, 1] = src_rhist[i, k, 1]
+                dst_rhist[i, k, 2] = src_rhist[i, k, 2]
+
+    @cuda.jit
+    def k_finish(halt, flag_rebuild, stats, nb_cap, bucket_cap):
+        if halt[0] != 0 or flag_rebuild[0] == 0:
+            return
+        if cuda.grid(1) != 0:
+            return
+        if stats[0] > nb_cap or stats[1] > bucket_cap:
+            halt[0] = 1
+        else:
+            flag_rebuild[0] = 0
+            stats[2] += 1
+
+    @cuda.jit
+    def k_forces(halt, s_pos, s_radius, s_clump, s_material, c_pos, c_veval, c_omega, c_mass,
+                 c_world, c_state, nb_count, nb_index, nb_hist, nb_rhist, wall_type,
+                 wall_origin, wall_geom, wall_vel, wall_material, w_hist, w_rhist, pair_params,
+                 world_dt, world_active, rolling_model, contact_margin, max_overlap_fraction,
+                 s_force, s_torque, s_roll, s_wall_force, flag_overlap):
+        if halt[0] != 0:
+            return
+        i = cuda.grid(1)
+        if i >= s_pos.shape[0]:
+            return
+        sphere_forces(i, i + 1, s_pos, s_radius, s_clump, s_material, c_pos, c_veval, c_omega,
+                      c_mass, c_world, c_state, nb_count, nb_index, nb_hist, nb_rhist,
+                      wall_type, wall_origin, wall_geom, wall_vel, wall_material, w_hist,
+                      w_rhist, pair_params, world_dt, world_active, rolling_model,
+                      contact_margin, max_overlap_fraction, s_force, s_torque, s_roll,
+                      s_wall_force, flag_overlap)
+
+    @cuda.jit
+    def k_clumps(halt, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass, c_inertia,
+                 c_world, c_state, c_first, c_count, s_offset, s_pos, s_ref, s_force, s_torque,
+                 s_roll, world_dt, world_gravity, world_active, world_lo, world_hi, half_skin,
+                 flag_rebuild, flag_nan):
+        if halt[0] != 0:
+            return
+        c = cuda.grid(1)
+        if c >= c_pos.shape[0]:
+            return
+        clump_step(c, c + 1, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
+                   c_inertia, c_world, c_state, c_first, c_count, s_offset, s_pos, s_ref,
+                   s_force, s_torque, s_roll, world_dt, world_gravity, world_active, world_lo,
+                   world_hi, half_skin, flag_rebuild, flag_nan)
+
+    @cuda.jit
+    def k_worlds(halt, wall_origin, wall_vel, world_dt, world_active, world_time, world_steps,
+                 stats):
+        if halt[0] != 0:
+            return
+        w = cuda.grid(1)
+        if w == 0:
+            stats[3] += 1
+        if w >= world_dt.shape[0] or world_active[w] == 0:
+            return
+        dt = world_dt[w]
+        for k in range(wall_origin.shape[1]):
+            wall_origin[w, k, 0] += wall_vel[w, k, 0] * dt
+            wall_origin[w, k, 1] += wall_vel[w, k, 1] * dt
+            wall_origin[w, k, 2] += wall_vel[w, k, 2] * dt
+        world_time[w] += dt
+        world_steps[w] += 1
+
+    class K:
+        pass
+
+    ns = K()
+    for name, fn in list(locals().items()):
+        if name.startswith("k_"):
+            setattr(ns, name, fn)
+    _KERNELS = ns
+    return ns
+
+
+def _blocks(n: int) -> int:
+    return max(1, (int(n) + THREADS - 1) // THREADS)
+
+
+class CudaRunner:
+    """Runs a :class:`~demcal.dem.simulation.Simulation` on a CUDA GPU.
+
+    Device copies of every array live in :attr:`dev`; ``pull``/``push`` copy named arrays
+    between host and device in place (so captured graphs stay valid). Buffer "a" is always
+    the current neighbour list and "b" the scratch one.
+    """
+
+    def __init__(self, sim):
+        from demcal.errors import InputError
+
+        if not _simulator() and not cuda.is_available():
+            raise InputError("backend 'cuda' was requested but numba finds no CUDA GPU; "
+                             "use backend='cpu' or 'auto'")
+        self.cuda = cuda
+        self.sim = sim
+        self.k = _build_kernels()
+        self.stream = cuda.stream()
+        self.use_graphs = (not _simulator()) and os.environ.get("DEMCAL_CUDA_GRAPHS", "1") != "0"
+        self._graph = None
+        self.dev: dict = {}
+        self.sim.parity = 0
+        # both neighbour buffers share one capacity on the GPU
+        a = sim.arrays
+        cap = max(a["nb_index_a"].shape[1], a["nb_index_b"].shape[1])
+        if a["nb_index_a"].shape[1] != cap:
+            sim._alloc_neighbors("a", cap)
+        if a["nb_index_b"].shape[1] != cap:
+            sim._alloc_neighbors("b", cap)
+        a["halt"] = np.zeros(1, dtype=np.int32)
+        self.upload_all()
+
+    # ---------------------------------------------------------------- transfers
+    def upload_all(self) -> None:
+        self.dev = {k: self.cuda.to_device(np.ascontiguousarray(v), stream=self.stream)
+                    for k, v in self.sim.arrays.items()}
+        self.stream.synchronize()
+        self._graph = None
+
+    def push_all(self) -> None:
+        self.sim.parity = 0
+        self.upload_all()
+
+    def pull(self, *names: str) -> None:
+        for n in names:
+            self.dev[n].copy_to_host(self.sim.arrays[n], stream=self.stream)
+        self.stream.synchronize()
+
+    def push(self, *names: str) -> None:
+        for n in names:
+            host = self.sim.arrays[n]
+            if host.shape != self.dev[n].shape:
+                self.dev[n] = self.cuda.to_device(np.ascontiguousarray(host), stream=self.stream)
+                self._graph = None
+            else:
+                self.dev[n].copy_to_device(np.ascontiguousarray(host), stream=self.stream)
+        self.stream.synchronize()
+
+    # ---------------------------------------------------------------- stepping
+    def _launch_step(self) -> None:
+        d = self.dev
+        sim = self.sim
+        k = self.k
+        s = self.stream
+        n_s = sim.n_spheres
+        n_c = sim.n_clumps
+        nb = _blocks(n_s)
+        mask = np.int64(len(sim.arrays["bucket_count"]) - 1)
+        inv_cell = 1.0 / sim.cell_size
+        extra = sim.skin + sim.contact_margin
+        carry = sim.rolling_model == 2
+        nb_cap = d["nb_index_a"].shape[1]
+        bcap = d["bucket_members"].shape[1]
+        k.k_zero[_blocks(len(sim.arrays["bucket_count"])), THREADS, s](
+            d["halt"], d["flag_rebuild"], d["bucket_count"], d["stats"])
+        k.k_bin[nb, THREADS, s](
+            d["halt"], d["flag_rebuild"], d["s_pos"], d["s_clump"], d["c_state"], d["c_world"],
+            d["grid_lo"], inv_cell, d["bucket_count"], d["bucket_members"], mask,
+            d["s_cellkey"], d["s_ref"], d["stats"])
+        k.k_search[nb, THREADS, s](
+            d["halt"], d["flag_rebuild"], d["s_pos"], d["s_radius"], d["s_clump"], d["c_state"],
+            d["c_world"], d["s_cellkey"], d["grid_lo"], inv_cell, d["bucket_count"],
+            d["bucket_members"], mask, extra, d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"],
+            d["nb_rhist_a"], d["nb_count_b"], d["nb_index_b"], d["nb_hist_b"], d["nb_rhist_b"],
+            carry, d["stats"])
+        k.k_commit[nb, THREADS, s](
+            d["halt"], d["flag_rebuild"], d["stats"], bcap, d["nb_count_b"], d["nb_index_b"],
+            d["nb_hist_b"], d["nb_rhist_b"], d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"],
+            d["nb_rhist_a"], carry)
+        k.k_finish[1, 32, s](d["halt"], d["flag_rebuild"], d["stats"], nb_cap, bcap)
+        k.k_forces[nb, THREADS, s](
+            d["halt"], d["s_pos"], d["s_radius"], d["s_clump"], d["s_material"], d["c_pos"],
+            d["c_veval"], d["c_omega"], d["c_mass"], d["c_world"], d["c_state"],
+            d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"], d["nb_rhist_a"], d["wall_type"],
+            d["wall_origin"], d["wall_geom"], d["wall_vel"], d["wall_material"], d["w_hist"],
+            d["w_rhist"], d["pair_params"], d["world_dt"], d["world_active"],
+            sim.rolling_model, sim.contact_margin, float(_config.MAX_OVERLAP_FRACTION),
+            d["s_force"], d["s_torque"], d["s_roll"], d["s_wall_force"], d["flag_overlap"])
+        k.k_clumps[_blocks(n_c), THREADS, s](
+            d["halt"], d["c_pos"], d["c_quat"], d["c_vel"], d["c_veval"], d["c_angmom"],
+            d["c_omega"], d["c_mass"], d["c_inertia"], d["c_world"], d["c_state"],
+            d["c_first"], d["c_count"], d["s_offset"], d["s_pos"], d["s_ref"], d["s_force"],
+            d["s_torque"], d["s_roll"], d["world_dt"], d["world_gravity"], d["world_active"],
+            d["world_lo"], d["world_hi"], 0.5 * sim.skin, d["flag_rebuild"], d["flag_nan"])
+        k.k_worlds[_blocks(sim.n_worlds), THREADS, s](
+            d["halt"], d["wall_origin"], d["wall_vel"], d["world_dt"], d["world_active"],
+            d["world_time"], d["world_steps"], d["stats"])
+
+    def _capture(self):
+        """Capture GRAPH_STEPS steps into an executable CUDA graph (driver API)."""
+        from cuda.bindings import driver as drv
+
+        h = self.stream.handle
+        h = int(getattr(h, "value", h) or 0)
+        hs = drv.CUstream(h)
+        _check(drv.cuStreamBeginCapture(
+            hs, drv.CUstreamCaptureMode.CU_STREAM_CAPTURE_MODE_THREAD_LOCAL))
+        try:
+            for _ in range(GRAPH_STEPS):
+                self._launch_step()
+        finally:
+            graph = _check(drv.cuStreamEndCapture(hs))
+        exe = _check(drv.cuGraphInstantiate(graph, 0))
+        self._graph = (graph, exe, hs, drv)
+
+    def _replay(self, n_graphs: int) -> None:
+        _graph, exe, hs, drv = self._graph
+        for _ in range(n_graphs):
+            _check(drv.cuGraphLaunch(exe, hs))
+
+    def run_steps(self, n_steps: int) -> None:
+        sim = self.sim
+        a = sim.arrays
+        done = 0
+        while done < n_steps:
+            a["stats"][3] = 0
+            self.push("stats")
+            want = n_steps - done
+            if self.use_graphs and want >= GRAPH_STEPS:
+                if self._graph is None:
+                    try:
+                        self._capture()
+                    except Exception as exc:  # fall back to plain launches
+                        log.warning("CUDA graph capture failed (%s); using plain launches", exc)
+                        self.use_graphs = False
+                        self._graph = None
+                if self._graph is not None:
+                    self._replay(want // GRAPH_STEPS)
+                    want = (want // GRAPH_STEPS) * GRAPH_STEPS
+                else:
+                    for _ in range(want):
+                        self._launch_step()
+            else:
+                for _ in range(want):
+                    self._launch_step()
+            self.pull("stats", "halt")
+            executed = int(a["stats"][3])
+            done += executed
+            if a["halt"][0] != 0:
+                self._grow()
+            elif executed < want:
+                raise RuntimeError(f"CUDA chunk ran {executed} of {want} steps without halting")
+
+    def _grow(self) -> None:
+        """Grow the neighbour or bucket arrays after an overflow and clear the halt flag."""
+        sim = self.sim
+        a = sim.arrays
+        self.pull(*[n for n in a if n in self.dev])
+        need_nb = int(a["stats"][0])
+        need_b = int(a["stats"][1])
+        cap = a["nb_index_a"].shape[1]
+        if need_nb > cap:
+            new_cap = int(need_nb * 1.25) + 4
+            for side in ("a", "b"):
+                old = {k: a[f"{k}_{side}"] for k in ("nb_count", "nb_index", "nb_hist",
+                                                     "nb_rhist")}
+                sim._alloc_neighbors(side, new_cap)
+                a[f"nb_count_{side}"][:] = old["nb_count"]
+                a[f"nb_index_{side}"][:, :cap] = old["nb_index"]
+                a[f"nb_hist_{side}"][:, :cap] = old["nb_hist"]
+                if sim.rolling_model == 2:
+                    a[f"nb_rhist_{side}"][:, :cap] = old["nb_rhist"]
+        if need_b > a["bucket_members"].shape[1]:
+            sim._grow_buckets(need_b)
+        a["halt"][0] = 0
+        a["flag_rebuild"][0] = 1
+        self.upload_all()
+
+
+def _check(result):
+    """Unpack a cuda.bindings call result, raising on an error code."""
+    err = result[0]
+    if int(err) != 0:
+        raise RuntimeError(f"CUDA driver error {err}")
+    if len(result) == 1:
+        return None
+    return result[1] if len(result) == 2 else result[1:]

@@ -1,0 +1,737 @@
+"""Per-element kernel bodies shared by the CPU and CUDA backends.
+
+Each function here works on ONE element (a sphere or a clump) and writes only that element's
+rows, so a launcher may run them in any order or in parallel:
+
+- :func:`sphere_forces` gathers the contact forces on sphere ``i`` from its neighbour slots and
+  its world's walls. Each pair is evaluated from both sides with identical arithmetic in a
+  canonical order (lower sphere index first), so the two sides agree bitwise and no atomics
+  are needed; results do not depend on the thread count.
+- :func:`clump_step` sums a clump's sphere forces, integrates it (leapfrog for translation,
+  symmetric free-rotor splitting for rotation) and places its spheres.
+- :func:`neighbor_search` fills sphere ``i``'s neighbour slots from the hash grid, sorts them
+  by neighbour index and carries the contact history over from the previous list.
+
+The launchers live in :mod:`demcal.dem.backends`.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from demcal.dem.contact import normal_contact, tangential_contact
+from demcal.dem.walls import WALL_NONE, closest_point
+
+# pair-parameter fields (last axis of ``pair_params``)
+P_ESTAR = 0
+P_GSTAR = 1
+P_BETA = 2
+P_MU_S = 3
+P_MU_R = 4
+P_GAMMA = 5
+N_PAIR_FIELDS = 6
+
+# clump states
+INACTIVE = 0
+ACTIVE = 1
+REMOVED = 2
+
+# rolling friction models
+ROLLING_NONE = 0
+ROLLING_A = 1  # constant directional torque (EDEM standard)
+ROLLING_C = 2  # elastic-plastic spring-dashpot (EPSD)
+
+# cell-key packing
+CELL_BITS = 16
+CELL_MAX = (1 << CELL_BITS) - 1
+
+
+@njit(cache=True)
+def quat_rotate(qw, qx, qy, qz, vx, vy, vz):
+    """Rotate vector v by unit quaternion q (body -> space)."""
+    # t = 2 q_vec x v ; v' = v + w t + q_vec x t
+    tx = 2.0 * (qy * vz - qz * vy)
+    ty = 2.0 * (qz * vx - qx * vz)
+    tz = 2.0 * (qx * vy - qy * vx)
+    return (vx + qw * tx + (qy * tz - qz * ty),
+            vy + qw * ty + (qz * tx - qx * tz),
+            vz + qw * tz + (qx * ty - qy * tx))
+
+
+@njit(cache=True)
+def quat_rotate_inv(qw, qx, qy, qz, vx, vy, vz):
+    """Rotate vector v by the inverse of unit quaternion q (space -> body)."""
+    return quat_rotate(qw, -qx, -qy, -qz, vx, vy, vz)
+
+
+@njit(cache=True)
+def quat_mul(aw, ax, ay, az, bw, bx, by, bz):
+    """Hamilton product a (x) b."""
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+@njit(cache=True)
+def _rotor_substep(axis, h, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz):
+    """Rotor flow of the term L_k^2/(2 I_k) over time h (body-frame momentum), Cayley form.
+
+    The body turns about its axis k, and its body-frame momentum by the opposite angle, through
+    ``phi = 2 atan(theta/2)`` with ``theta = L_k h / I_k`` (``phi = theta + O(theta^3)``). Each
+    sub-step is an exact rotation, so the space-frame momentum is conserved exactly and the
+    scheme stays time reversible, with two divisions and one square root instead of four
+    trigonometric calls.
+    """
+    if axis == 0:
+        t = 0.5 * l0 / i0 * h
+    elif axis == 1:
+        t = 0.5 * l1 / i1 * h
+    else:
+        t = 0.5 * l2 / i2 * h
+    inv = 1.0 / (1.0 + t * t)
+    c = (1.0 - t * t) * inv
+    s = 2.0 * t * inv
+    hn = 1.0 / math.sqrt(1.0 + t * t)
+    hw = hn
+    hs = t * hn
+    if axis == 0:
+        l1, l2 = c * l1 + s * l2, -s * l1 + c * l2
+        return l0, l1, l2, *quat_mul(qw, qx, qy, qz, hw, hs, 0.0, 0.0)
+    if axis == 1:
+        l2, l0 = c * l2 + s * l0, -s * l2 + c * l0
+        return l0, l1, l2, *quat_mul(qw, qx, qy, qz, hw, 0.0, hs, 0.0)
+    l0, l1 = c * l0 + s * l1, -s * l0 + c * l1
+    return l0, l1, l2, *quat_mul(qw, qx, qy, qz, hw, 0.0, 0.0, hs)
+
+
+@njit(cache=True)
+def free_rotation(dt, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz):
+    """Advance orientation q and body-frame momentum by a symmetric splitting over dt.
+
+    Sequence x(dt/2) y(dt/2) z(dt) y(dt/2) x(dt/2) of exact single-axis rotor flows
+    (Dullweber, Leimkuhler & McLachlan 1997): symplectic, time reversible, conserves the
+    space-frame angular momentum exactly.
+    """
+    h = 0.5 * dt
+    l0, l1, l2, qw, qx, qy, qz = _rotor_substep(0, h, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)
+    l0, l1, l2, qw, qx, qy, qz = _rotor_substep(1, h, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)
+    l0, l1, l2, qw, qx, qy, qz = _rotor_substep(2, dt, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)
+    l0, l1, l2, qw, qx, qy, qz = _rotor_substep(1, h, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)
+    l0, l1, l2, qw, qx, qy, qz = _rotor_substep(0, h, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)
+    norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    return l0, l1, l2, qw / norm, qx / norm, qy / norm, qz / norm
+
+
+@njit(cache=True)
+def _rolling_c(m_x, m_y, m_z, n_x, n_y, n_z, w_x, w_y, w_z, dt, stiff_n, eff_radius,
+               mu_r, f_rep):
+    """EPSD rolling spring (type C): torque on body b, updated history (3 floats).
+
+    ``w`` is the angular velocity of b relative to a. The spring ``k_r = 2.25 S_n mu_r^2 R*^2``
+    accumulates ``-k_r w_t dt`` (tangential part of w) and is capped at ``mu_r R* F_rep``.
+    """
+    wn = w_x * n_x + w_y * n_y + w_z * n_z
+    w_x -= wn * n_x
+    w_y -= wn * n_y
+    w_z -= wn * n_z
+    old2 = m_x * m_x + m_y * m_y + m_z * m_z
+    mn = m_x * n_x + m_y * n_y + m_z * n_z
+    m_x -= mn * n_x
+    m_y -= mn * n_y
+    m_z -= mn * n_z
+    new2 = m_x * m_x + m_y * m_y + m_z * m_z
+    if new2 > 0.0 and old2 > new2:
+        sc = math.sqrt(old2 / new2)
+        m_x *= sc
+        m_y *= sc
+        m_z *= sc
+    kr = 2.25 * stiff_n * mu_r * mu_r * eff_radius * eff_radius
+    m_x -= kr * w_x * dt
+    m_y -= kr * w_y * dt
+    m_z -= kr * w_z * dt
+    mmax = mu_r * eff_radius * f_rep
+    mag = math.sqrt(m_x * m_x + m_y * m_y + m_z * m_z)
+    if mag > mmax:
+        if mag > 0.0:
+            r = mmax / mag
+            m_x *= r
+            m_y *= r
+            m_z *= r
+    return m_x, m_y, m_z
+
+
+@njit(cache=True)
+def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
+                  c_pos, c_veval, c_omega, c_mass, c_world, c_state,
+                  nb_count, nb_index, nb_hist, nb_rhist,
+                  wall_type, wall_origin, wall_geom, wall_vel, wall_material, w_hist, w_rhist,
+                  pair_params, world_dt, world_active, rolling_model, contact_margin,
+                  max_overlap_fraction,
+                  s_force, s_torque, s_roll, s_wall_force, flag_overlap):
+    """Gather the contact forces and torques acting on sphere ``i``.
+
+    Writes ``s_force[i]`` (N), ``s_torque[i]`` (contact torque about the clump's centre of
+    mass plus type-C rolling torque, N m), ``s_roll[i]`` (type-A rolling torque, N m, applied
+    with a no-reversal limit by :func:`clump_step`), the forces this sphere exerts on each of
+    its world's walls ``s_wall_force[i, k]`` (N), and its contact histories.
+    """
+    for i in range(lo, hi):
+        ci = s_clump[i]
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        rx = 0.0
+        ry = 0.0
+        rz = 0.0
+        n_walls = wall_type.shape[1]
+        if c_state[ci] != ACTIVE or world_active[c_world[ci]] == 0:
+            s_force[i, 0] = 0.0
+            s_force[i, 1] = 0.0
+            s_force[i, 2] = 0.0
+            s_torque[i, 0] = 0.0
+            s_torque[i, 1] = 0.0
+            s_torque[i, 2] = 0.0
+            s_roll[i, 0] = 0.0
+            s_roll[i, 1] = 0.0
+            s_roll[i, 2] = 0.0
+            for k in range(n_walls):
+                s_wall_force[i, k, 0] = 0.0
+                s_wall_force[i, k, 1] = 0.0
+                s_wall_force[i, k, 2] = 0.0
+            continue
+        w = c_world[ci]
+        dt = world_dt[w]
+        pix = s_pos[i, 0]
+        piy = s_pos[i, 1]
+        piz = s_pos[i, 2]
+        ri = s_radius[i]
+        mat_i = s_material[i]
+        com_ix = c_pos[ci, 0]
+        com_iy = c_pos[ci, 1]
+        com_iz = c_pos[ci, 2]
+        oix = c_omega[ci, 0]
+        oiy = c_omega[ci, 1]
+        oiz = c_omega[ci, 2]
+        om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
+        use_c = rolling_model == ROLLING_C
+        n_nb = nb_count[i]
+        cap = nb_index.shape[1]
+        if n_nb > cap:
+            n_nb = cap
+        for k in range(n_nb):
+            j = nb_index[i, k]
+            cj = s_clump[j]
+            if c_state[cj] != ACTIVE:
+                nb_hist[i, k, 0] = 0.0
+                nb_hist[i, k, 1] = 0.0
+                nb_hist[i, k, 2] = 0.0
+                continue
+            # canonical orientation: a = lower index, b = higher index
+            if i < j:
+                a = i
+                b = j
+                ca = ci
+                cb = cj
+            else:
+                a = j
+                b = i
+                ca = cj
+                cb = ci
+            dx = s_pos[b, 0] - s_pos[a, 0]
+            dy = s_pos[b, 1] - s_pos[a, 1]
+            dz = s_pos[b, 2] - s_pos[a, 2]
+            ra = s_radius[a]
+            rb = s_radius[b]
+            rsum = ra + rb
+            dist2 = dx * dx + dy * dy + dz * dz
+            reach = rsum + contact_margin
+            if dist2 >= reach * reach:
+                nb_hist[i, k, 0] = 0.0
+                nb_hist[i, k, 1] = 0.0
+                nb_hist[i, k, 2] = 0.0
+                if use_c:
+                    nb_rhist[i, k, 0] = 0.0
+                    nb_rhist[i, k, 1] = 0.0
+                    nb_rhist[i, k, 2] = 0.0
+                continue
+            dist = math.sqrt(dist2)
+            nx = dx / dist
+            ny = dy / dist
+            nz = dz / dist
+            overlap = rsum - dist
+            mat_a = s_material[a]
+            mat_b = s_material[b]
+            estar = pair_params[w, mat_a, mat_b, P_ESTAR]
+            gstar = pair_params[w, mat_a, mat_b, P_GSTAR]
+            beta = pair_params[w, mat_a, mat_b, P_BETA]
+            mu_s = pair_params[w, mat_a, mat_b, P_MU_S]
+            mu_r = pair_params[w, mat_a, mat_b, P_MU_R]
+            gamma = pair_params[w, mat_a, mat_b, P_GAMMA]
+            reff = ra * rb / rsum
+            ma = c_mass[ca]
+            mb = c_mass[cb]
+            meff = ma * mb / (ma + mb)
+            # contact point and relative velocity (b w.r.t. a) there
+            lever = ra - 0.5 * overlap
+            cx = s_pos[a, 0] + nx * lever
+            cy = s_pos[a, 1] + ny * lever
+            cz = s_pos[a, 2] + nz * lever
+            pax = cx - c_pos[ca, 0]
+            pay = cy - c_pos[ca, 1]
+            paz = cz - c_pos[ca, 2]
+            pbx = cx - c_pos[cb, 0]
+            pby = cy - c_pos[cb, 1]
+            pbz = cz - c_pos[cb, 2]
+            wax = c_omega[ca, 0]
+            way = c_omega[ca, 1]
+            waz = c_omega[ca, 2]
+            wbx = c_omega[cb, 0]
+            wby = c_omega[cb, 1]
+            wbz = c_omega[cb, 2]
+            vx = (c_veval[cb, 0] + wby * pbz - wbz * pby) - (c_veval[ca, 0] + way * paz - waz * pay)
+            vy = (c_veval[cb, 1] + wbz * pbx - wbx * pbz) - (c_veval[ca, 1] + waz * pax - wax * paz)
+            vz = (c_veval[cb, 2] + wbx * pby - wby * pbx) - (c_veval[ca, 2] + wax * pay - way * pax)
+            vn = vx * nx + vy * ny + vz * nz
+            fn, frep, arad = normal_contact(overlap, vn, reff, estar, meff, beta, gamma)
+            if arad <= 0.0:
+                nb_hist[i, k, 0] = 0.0
+                nb_hist[i, k, 1] = 0.0
+                nb_hist[i, k, 2] = 0.0
+                if use_c:
+                    nb_rhist[i, k, 0] = 0.0
+                    nb_rhist[i, k, 1] = 0.0
+                    nb_rhist[i, k, 2] = 0.0
+                continue
+            if overlap > max_overlap_fraction * min(ra, rb):
+                flag_overlap[w] = 1
+            vtx = vx - vn * nx
+            vty = vy - vn * ny
+            vtz = vz - vn * nz
+            xi0, xi1, xi2, ftx, fty, ftz = tangential_contact(
+                nb_hist[i, k, 0], nb_hist[i, k, 1], nb_hist[i, k, 2], nx, ny, nz, vtx, vty, vtz,
+                dt, arad, gstar, meff, beta, mu_s, frep)
+            nb_hist[i, k, 0] = xi0
+            nb_hist[i, k, 1] = xi1
+            nb_hist[i, k, 2] = xi2
+            # force on b
+            fbx = fn * nx + ftx
+            fby = fn * ny + fty
+            fbz = fn * nz + ftz
+            if i == b:
+                sgn = 1.0
+                px = pbx
+                py = pby
+                pz = pbz
+            else:
+                sgn = -1.0
+                px = pax
+                py = pay
+                pz = paz
+            fix = sgn * fbx
+            fiy = sgn * fby
+            fiz = sgn * fbz
+            fx += fix
+            fy += fiy
+            fz += fiz
+            tx += py * fiz - pz * fiy
+            ty += pz * fix - px * fiz
+            tz += px * fiy - py * fix
+            if rolling_model == ROLLING_A:
+                if om_i > 0.0 and mu_r > 0.0:
+                    arm = math.sqrt(px * px + py * py + pz * pz)
+                    mag = mu_r * frep * arm / om_i
+                    rx -= mag * oix
+                    ry -= mag * oiy
+                    rz -= mag * oiz
+            elif use_c:
+                m0, m1, m2 = _rolling_c(nb_rhist[i, k, 0], nb_rhist[i, k, 1], nb_rhist[i, k, 2],
+                                        nx, ny, nz, wbx - wax, wby - way, wbz - waz, dt,
+                                        2.0 * estar * arad, reff, mu_r, frep)
+                nb_rhist[i, k, 0] = m0
+                nb_rhist[i, k, 1] = m1
+                nb_rhist[i, k, 2] = m2
+                tx += sgn * m0
+                ty += sgn * m1
+                tz += sgn * m2
+        # walls of this world: wall = a, sphere = b
+        vix = c_veval[ci, 0]
+        viy = c_veval[ci, 1]
+        viz = c_veval[ci, 2]
+        mass_i = c_mass[ci]
+        for k in range(n_walls):
+            wt = wall_type[w, k]
+            s_wall_force[i, k, 0] = 0.0
+            s_wall_force[i, k, 1] = 0.0
+            s_wall_force[i, k, 2] = 0.0
+            if wt == WALL_NONE:
+                continue
+            d, nx, ny, nz, _qx, _qy, _qz = closest_point(
+                wt, wall_origin[w, k, 0], wall_origin[w, k, 1], wall_origin[w, k, 2],
+                wall_geom[w, k], pix, piy, piz)
+            overlap = ri - d
+            if overlap <= -contact_margin:
+                w_hist[i, k, 0] = 0.0
+                w_hist[i, k, 1] = 0.0
+                w_hist[i, k, 2] = 0.0
+                if use_c:
+                    w_rhist[i, k, 0] = 0.0
+                    w_rhist[i, k, 1] = 0.0
+                    w_rhist[i, k, 2] = 0.0
+                continue
+            mat_w = wall_material[w, k]
+            estar = pair_params[w, mat_w, mat_i, P_ESTAR]
+            gstar = pair_params[w, mat_w, mat_i, P_GSTAR]
+            beta = pair_params[w, mat_w, mat_i, P_BETA]
+            mu_s = pair_params[w, mat_w, mat_i, P_MU_S]
+            mu_r = pair_params[w, mat_w, mat_i, P_MU_R]
+            gamma = pair_params[w, mat_w, mat_i, P_GAMMA]
+            lever = ri - 0.5 * overlap
+            cx = pix - nx * lever
+            cy = piy - ny * lever
+            cz = piz - nz * lever
+            px = cx - com_ix
+            py = cy - com_iy
+            pz = cz - com_iz
+            vx = vix + oiy * pz - oiz * py - wall_vel[w, k, 0]
+            vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
+            vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
+            vn = vx * nx + vy * ny + vz * nz
+            fn, frep, arad = normal_contact(overlap, vn, ri, estar, mass_i, beta, gamma)
+            if arad <= 0.0:
+                w_hist[i, k, 0] = 0.0
+                w_hist[i, k, 1] = 0.0
+                w_hist[i, k, 2] = 0.0
+                if use_c:
+                    w_rhist[i, k, 0] = 0.0
+                    w_rhist[i, k, 1] = 0.0
+                    w_rhist[i, k, 2] = 0.0
+                continue
+            if overlap > max_overlap_fraction * ri:
+                flag_overlap[w] = 1
+            vtx = vx - vn * nx
+            vty = vy - vn * ny
+            vtz = vz - vn * nz
+            xi0, xi1, xi2, ftx, fty, ftz = tangential_contact(
+                w_hist[i, k, 0], w_hist[i, k, 1], w_hist[i, k, 2], nx, ny, nz, vtx, vty, vtz,
+                dt, arad, gstar, mass_i, beta, mu_s, frep)
+            w_hist[i, k, 0] = xi0
+            w_hist[i, k, 1] = xi1
+            w_hist[i, k, 2] = xi2
+            fix = fn * nx + ftx
+            fiy = fn * ny + fty
+            fiz = fn * nz + ftz
+            fx += fix
+            fy += fiy
+            fz += fiz
+            tx += py * fiz - pz * fiy
+            ty += pz * fix - px * fiz
+            tz += px * fiy - py * fix
+            s_wall_force[i, k, 0] = -fix
+            s_wall_force[i, k, 1] = -fiy
+            s_wall_force[i, k, 2] = -fiz
+            if rolling_model == ROLLING_A:
+                if om_i > 0.0 and mu_r > 0.0:
+                    arm = math.sqrt(px * px + py * py + pz * pz)
+                    mag = mu_r * frep * arm / om_i
+                    rx -= mag * oix
+                    ry -= mag * oiy
+                    rz -= mag * oiz
+            elif use_c:
+                m0, m1, m2 = _rolling_c(w_rhist[i, k, 0], w_rhist[i, k, 1], w_rhist[i, k, 2],
+                                        nx, ny, nz, oix, oiy, oiz, dt, 2.0 * estar * arad, ri,
+                                        mu_r, frep)
+                w_rhist[i, k, 0] = m0
+                w_rhist[i, k, 1] = m1
+                w_rhist[i, k, 2] = m2
+                tx += m0
+                ty += m1
+                tz += m2
+        s_force[i, 0] = fx
+        s_force[i, 1] = fy
+        s_force[i, 2] = fz
+        s_torque[i, 0] = tx
+        s_torque[i, 1] = ty
+        s_torque[i, 2] = tz
+        s_roll[i, 0] = rx
+        s_roll[i, 1] = ry
+        s_roll[i, 2] = rz
+
+
+@njit(cache=True)
+def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass, c_inertia, c_world,
+               c_state, c_first, c_count, s_offset, s_pos, s_ref, s_force, s_torque, s_roll,
+               world_dt, world_gravity, world_active, world_lo, world_hi, half_skin,
+               flag_rebuild, flag_nan):
+    """Integrate clump ``c`` over one step and place its spheres.
+
+    Translation: leapfrog (velocities at half steps). Rotation: the space-frame angular
+    momentum is kicked by the contact torques, then by the type-A rolling torque, limited so
+    that rolling resistance can stop the body's rotation but never reverse it; the
+    orientation then follows the free-rotor splitting of :func:`free_rotation`. A clump whose
+    centre leaves its world's domain box is marked REMOVED; a non-finite state raises the
+    world's NaN flag; a sphere that moved more than half the skin since the last neighbour
+    build raises the rebuild flag.
+    """
+    for c in range(lo, hi):
+        if c_state[c] != ACTIVE:
+            continue
+        w = c_world[c]
+        if world_active[w] == 0:
+            continue
+        dt = world_dt[w]
+        first = c_first[c]
+        last = first + c_count[c]
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        jx = 0.0
+        jy = 0.0
+        jz = 0.0
+        for s in range(first, last):
+            fx += s_force[s, 0]
+            fy += s_force[s, 1]
+            fz += s_force[s, 2]
+            tx += s_torque[s, 0]
+            ty += s_torque[s, 1]
+            tz += s_torque[s, 2]
+            jx += s_roll[s, 0]
+            jy += s_roll[s, 1]
+            jz += s_roll[s, 2]
+        m = c_mass[c]
+        ax_ = fx / m + world_gravity[w, 0]
+        ay_ = fy / m + world_gravity[w, 1]
+        az_ = fz / m + world_gravity[w, 2]
+        vx = c_vel[c, 0] + ax_ * dt
+        vy = c_vel[c, 1] + ay_ * dt
+        vz = c_vel[c, 2] + az_ * dt
+        x = c_pos[c, 0] + vx * dt
+        y = c_pos[c, 1] + vy * dt
+        z = c_pos[c, 2] + vz * dt
+        qw = c_quat[c, 0]
+        qx = c_quat[c, 1]
+        qy = c_quat[c, 2]
+        qz = c_quat[c, 3]
+        i0 = c_inertia[c, 0]
+        i1 = c_inertia[c, 1]
+        i2 = c_inertia[c, 2]
+        lx = c_angmom[c, 0] + tx * dt
+        ly = c_angmom[c, 1] + ty * dt
+        lz = c_angmom[c, 2] + tz * dt
+        l0, l1, l2 = quat_rotate_inv(qw, qx, qy, qz, lx, ly, lz)
+        scale = 0.0
+        if jx != 0.0 or jy != 0.0 or jz != 0.0:
+            j0, j1, j2 = quat_rotate_inv(qw, qx, qy, qz, jx * dt, jy * dt, jz * dt)
+            lal = l0 * l0 / i0 + l1 * l1 / i1 + l2 * l2 / i2
+            jal = j0 * l0 / i0 + j1 * l1 / i1 + j2 * l2 / i2
+            scale = 1.0
+            if jal < 0.0 and lal + jal < 0.0:
+                scale = -lal / jal
+            l0 += scale * j0
+            l1 += scale * j1
+            l2 += scale * j2
+        l0, l1, l2, qw, qx, qy, qz = free_rotation(dt, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)
+        lx, ly, lz = quat_rotate(qw, qx, qy, qz, l0, l1, l2)
+        # on-step estimates for the next force evaluation: v(t+dt) ~ v(t+dt/2) + a(t) dt/2
+        # (second order; removes the half-step lag of the damping forces)
+        ex = lx + 0.5 * dt * (tx + scale * jx)
+        ey = ly + 0.5 * dt * (ty + scale * jy)
+        ez = lz + 0.5 * dt * (tz + scale * jz)
+        e0, e1, e2 = quat_rotate_inv(qw, qx, qy, qz, ex, ey, ez)
+        ox, oy, oz = quat_rotate(qw, qx, qy, qz, e0 / i0, e1 / i1, e2 / i2)
+        c_veval[c, 0] = vx + 0.5 * dt * ax_
+        c_veval[c, 1] = vy + 0.5 * dt * ay_
+        c_veval[c, 2] = vz + 0.5 * dt * az_
+        c_vel[c, 0] = vx
+        c_vel[c, 1] = vy
+        c_vel[c, 2] = vz
+        c_pos[c, 0] = x
+        c_pos[c, 1] = y
+        c_pos[c, 2] = z
+        c_quat[c, 0] = qw
+        c_quat[c, 1] = qx
+        c_quat[c, 2] = qy
+        c_quat[c, 3] = qz
+        c_angmom[c, 0] = lx
+        c_angmom[c, 1] = ly
+        c_angmom[c, 2] = lz
+        c_omega[c, 0] = ox
+        c_omega[c, 1] = oy
+        c_omega[c, 2] = oz
+        hs2 = half_skin * half_skin
+        moved = False
+        for s in range(first, last):
+            bx, by, bz = quat_rotate(qw, qx, qy, qz, s_offset[s, 0], s_offset[s, 1], s_offset[s, 2])
+            sx = x + bx
+            sy = y + by
+            sz = z + bz
+            s_pos[s, 0] = sx
+            s_pos[s, 1] = sy
+            s_pos[s, 2] = sz
+            ddx = sx - s_ref[s, 0]
+            ddy = sy - s_ref[s, 1]
+            ddz = sz - s_ref[s, 2]
+            if ddx * ddx + ddy * ddy + ddz * ddz > hs2:
+                moved = True
+        if moved:
+            flag_rebuild[0] = 1
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(vx)
+                and math.isfinite(vy) and math.isfinite(vz) and math.isfinite(lx)
+                and math.isfinite(ly) and math.isfinite(lz)):
+            flag_nan[w] = 1
+            c_state[c] = REMOVED
+            flag_rebuild[0] = 1
+            continue
+        if (x < world_lo[w, 0] or y < world_lo[w, 1] or z < world_lo[w, 2] or x > world_hi[w, 0]
+                or y > world_hi[w, 1] or z > world_hi[w, 2]):
+            c_state[c] = REMOVED
+            flag_rebuild[0] = 1
+
+
+@njit(cache=True)
+def place_spheres(lo, hi, c_pos, c_quat, c_first, c_count, s_offset, s_pos):
+    """Set the world positions of clump ``c``'s spheres from its pose."""
+    for c in range(lo, hi):
+        qw = c_quat[c, 0]
+        qx = c_quat[c, 1]
+        qy = c_quat[c, 2]
+        qz = c_quat[c, 3]
+        for s in range(c_first[c], c_first[c] + c_count[c]):
+            bx, by, bz = quat_rotate(qw, qx, qy, qz, s_offset[s, 0], s_offset[s, 1], s_offset[s, 2])
+            s_pos[s, 0] = c_pos[c, 0] + bx
+            s_pos[s, 1] = c_pos[c, 1] + by
+            s_pos[s, 2] = c_pos[c, 2] + bz
+
+
+@njit(cache=True)
+def cell_coords(w, x, y, z, grid_lo, inv_cell):
+    """Integer cell coordinates of a point in world ``w``'s grid (clamped to the key range)."""
+    ix = math.floor((x - grid_lo[w, 0]) * inv_cell)
+    iy = math.floor((y - grid_lo[w, 1]) * inv_cell)
+    iz = math.floor((z - grid_lo[w, 2]) * inv_cell)
+    ix = min(max(ix, 0), CELL_MAX)
+    iy = min(max(iy, 0), CELL_MAX)
+    iz = min(max(iz, 0), CELL_MAX)
+    return ix, iy, iz
+
+
+@njit(cache=True)
+def cell_key(w, ix, iy, iz):
+    """Exact packed key of a cell (world and integer coordinates), int64."""
+    return (((w << CELL_BITS) | ix) << (2 * CELL_BITS)) | (iy << CELL_BITS) | iz
+
+
+@njit(cache=True)
+def cell_bucket(w, ix, iy, iz, mask):
+    """Hash-grid bucket of a cell (Teschner et al. 2003 spatial hash)."""
+    h = (ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791) ^ (w * 2654435761)
+    return h & mask
+
+
+@njit(cache=True)
+def neighbor_search(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, s_cellkey, grid_lo,
+                    inv_cell, bucket_count, bucket_members, mask, extra,
+                    old_count, old_index, old_hist, old_rhist,
+                    new_count, new_index, new_hist, new_rhist, carry_rolling):
+    """Fill sphere ``i``'s neighbour slots and carry its contact history over.
+
+    Candidates are spheres of the same world, of another clump, whose centres are closer than
+    ``r_i + r_j + extra`` (``extra`` = skin + contact margin). Slots are sorted by neighbour
+    index, so the list (and the force summation order) does not depend on the binning order.
+    Writes the number of neighbours found to ``new_count[i]``, which may exceed the
+    capacity (then only the first ``capacity`` are stored and the host must grow it).
+    """
+    for i in range(lo, hi):
+        ci = s_clump[i]
+        cap = new_index.shape[1]
+        if c_state[ci] != ACTIVE:
+            new_count[i] = 0
+            continue
+        w = c_world[ci]
+        key = s_cellkey[i]
+        iz = key & CELL_MAX
+        iy = (key >> CELL_BITS) & CELL_MAX
+        ix = (key >> (2 * CELL_BITS)) & CELL_MAX
+        pix = s_pos[i, 0]
+        piy = s_pos[i, 1]
+        piz = s_pos[i, 2]
+        ri = s_radius[i]
+        bcap = bucket_members.shape[1]
+        cnt = 0
+        for ddz in range(-1, 2):
+            jz = iz + ddz
+            if jz < 0 or jz > CELL_MAX:
+                continue
+            for ddy in range(-1, 2):
+                jy = iy + ddy
+                if jy < 0 or jy > CELL_MAX:
+                    continue
+                for ddx in range(-1, 2):
+                    jx = ix + ddx
+                    if jx < 0 or jx > CELL_MAX:
+                        continue
+                    want = cell_key(w, jx, jy, jz)
+                    bkt = cell_bucket(w, jx, jy, jz, mask)
+                    m = bucket_count[bkt]
+                    if m > bcap:
+                        m = bcap
+                    for t in range(m):
+                        j = bucket_members[bkt, t]
+                        if j == i or s_cellkey[j] != want or s_clump[j] == ci:
+                            continue
+                        dx = s_pos[j, 0] - pix
+                        dy = s_pos[j, 1] - piy
+                        dz = s_pos[j, 2] - piz
+                        cut = ri + s_radius[j] + extra
+                        if dx * dx + dy * dy + dz * dz < cut * cut:
+                            if cnt < cap:
+                                new_index[i, cnt] = j
+                            cnt += 1
+        new_count[i] = cnt
+        stored = cnt if cnt < cap else cap
+        # insertion sort of the stored slots by neighbour index
+        for p in range(1, stored):
+            v = new_index[i, p]
+            q = p - 1
+            while q >= 0 and new_index[i, q] > v:
+                new_index[i, q + 1] = new_index[i, q]
+                q -= 1
+            new_index[i, q + 1] = v
+        # carry the history over (old slots are sorted too: binary search)
+        n_old = old_count[i]
+        if n_old > old_index.shape[1]:
+            n_old = old_index.shape[1]
+        for p in range(stored):
+            j = new_index[i, p]
+            lo = 0
+            hi = n_old
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if old_index[i, mid] < j:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            if lo < n_old and old_index[i, lo] == j:
+                new_hist[i, p, 0] = old_hist[i, lo, 0]
+                new_hist[i, p, 1] = old_hist[i, lo, 1]
+                new_hist[i, p, 2] = old_hist[i, lo, 2]
+                if carry_rolling:
+                    new_rhist[i, p, 0] = old_rhist[i, lo, 0]
+                    new_rhist[i, p, 1] = old_rhist[i, lo, 1]
+                    new_rhist[i, p, 2] = old_rhist[i, lo, 2]
+            else:
+                new_hist[i, p, 0] = 0.0
+                new_hist[i, p, 1] = 0.0
+                new_hist[i, p, 2] = 0.0
+                if carry_rolling:
+                    new_rhist[i, p, 0] = 0.0
+                    new_rhist[i, p, 1] = 0.0
+                    new_rhist[i, p, 2] = 0.0

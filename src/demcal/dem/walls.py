@@ -1,0 +1,286 @@
+"""Wall geometry: finite planes (rectangles) and finite thick cylinders (tubes), with motion.
+
+Host side: :class:`PlaneWall` and :class:`TubeWall` describe walls in SI units. Device side:
+walls are packed into ``wall_type`` (int32), ``wall_origin`` (3 floats, moves with the wall's
+velocity) and ``wall_geom`` (:data:`GEOM_SIZE` floats), and :func:`closest_point` gives the
+distance from a sphere centre to the wall's surface.
+
+A tube is the solid of revolution of the rectangle ``[r_in, r_out] x [0, length]`` in the
+``(rho, z)`` plane around its axis, so its inner surface, outer surface, rims and edges are all
+handled by one closest-point query in that plane. Its curvature is ignored in the contact
+(R* = sphere radius), as for a flat wall.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from demcal.errors import InputError
+
+__all__ = ["GEOM_SIZE", "WALL_NONE", "WALL_PLANE", "WALL_TUBE", "PlaneWall", "TubeWall",
+           "closest_point", "pack_walls"]
+
+WALL_NONE = 0
+WALL_PLANE = 1
+WALL_TUBE = 2
+GEOM_SIZE = 12
+
+
+def _unit(vec, name: str) -> np.ndarray:
+    v = np.asarray(vec, dtype=np.float64)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise InputError(f"{name} must be 3 finite numbers; got {vec!r}")
+    n = float(np.linalg.norm(v))
+    if n == 0.0:
+        raise InputError(f"{name} must be a non-zero vector")
+    return v / n
+
+
+def _vec3(vec, name: str) -> np.ndarray:
+    v = np.asarray(vec, dtype=np.float64)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise InputError(f"{name} must be 3 finite numbers; got {vec!r}")
+    return v
+
+
+@dataclass
+class PlaneWall:
+    """A flat rectangle (or an infinite plane), two-sided.
+
+    Parameters
+    ----------
+    origin : (3,) array_like
+        Centre of the rectangle, m.
+    normal : (3,) array_like
+        Normal vector (need not be unit).
+    half_size : (2,) array_like
+        Half-lengths along the in-plane axes ``u`` and ``v = normal x u``, m; ``inf`` for an
+        infinite plane.
+    u_axis : (3,) array_like, optional
+        First in-plane axis (projected onto the plane); chosen automatically if omitted.
+    material : str
+        Name of the wall's material.
+    velocity : (3,) array_like
+        Translation velocity, m/s.
+    name : str
+        Label (used in wall-force reports).
+    """
+
+    origin: np.ndarray
+    normal: np.ndarray
+    half_size: tuple[float, float] = (math.inf, math.inf)
+    u_axis: np.ndarray | None = None
+    material: str = "wall"
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    name: str = "plane"
+
+    def packed(self) -> tuple[int, np.ndarray, np.ndarray]:
+        n = _unit(self.normal, f"wall {self.name!r} normal")
+        if self.u_axis is None:
+            trial = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        else:
+            trial = _unit(self.u_axis, f"wall {self.name!r} u_axis")
+        u = trial - np.dot(trial, n) * n
+        if np.linalg.norm(u) < 1e-12:
+            raise InputError(f"wall {self.name!r} u_axis must not be parallel to its normal")
+        u /= np.linalg.norm(u)
+        v = np.cross(n, u)
+        hu, hv = (float(h) for h in self.half_size)
+        if not (hu > 0 and hv > 0):
+            raise InputError(f"wall {self.name!r} half_size must be > 0; got {self.half_size}")
+        geom = np.zeros(GEOM_SIZE)
+        geom[0:3] = n
+        geom[3:6] = u
+        geom[6:9] = v
+        geom[9] = min(hu, 1e30)
+        geom[10] = min(hv, 1e30)
+        return WALL_PLANE, _vec3(self.origin, f"wall {self.name!r} origin"), geom
+
+
+@dataclass
+class TubeWall:
+    """A finite thick cylinder (tube) with open ends.
+
+    Parameters
+    ----------
+    base : (3,) array_like
+        Centre of the bottom rim, m.
+    axis : (3,) array_like
+        Axis direction (bottom to top).
+    inner_radius, thickness, length : float
+        Inner radius, wall thickness and length of the tube, m.
+    material, velocity, name
+        As for :class:`PlaneWall`.
+    """
+
+    base: np.ndarray
+    axis: np.ndarray
+    inner_radius: float
+    thickness: float
+    length: float
+    material: str = "wall"
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    name: str = "tube"
+
+    def packed(self) -> tuple[int, np.ndarray, np.ndarray]:
+        a = _unit(self.axis, f"wall {self.name!r} axis")
+        for label, val in (("inner_radius", self.inner_radius), ("thickness", self.thickness),
+                           ("length", self.length)):
+            if not (np.isfinite(val) and val > 0):
+                raise InputError(f"wall {self.name!r} {label} must be > 0 m; got {val}")
+        geom = np.zeros(GEOM_SIZE)
+        geom[0:3] = a
+        geom[3] = self.inner_radius
+        geom[4] = self.inner_radius + self.thickness
+        geom[5] = self.length
+        return WALL_TUBE, _vec3(self.base, f"wall {self.name!r} base"), geom
+
+
+def pack_walls(walls_per_world: list[list[PlaneWall | TubeWall]], max_walls: int):
+    """Pack walls of every world into device arrays.
+
+    Returns ``wall_type (n_worlds, max_walls) int32``, ``wall_origin (n_worlds, max_walls, 3)``,
+    ``wall_geom (n_worlds, max_walls, GEOM_SIZE)`` and ``wall_velocity (n_worlds, max_walls, 3)``.
+    """
+    n_worlds = len(walls_per_world)
+    wtype = np.zeros((n_worlds, max_walls), dtype=np.int32)
+    origin = np.zeros((n_worlds, max_walls, 3))
+    geom = np.zeros((n_worlds, max_walls, GEOM_SIZE))
+    vel = np.zeros((n_worlds, max_walls, 3))
+    for w, walls in enumerate(walls_per_world):
+        for k, wall in enumerate(walls):
+            t, o, g = wall.packed()
+            wtype[w, k] = t
+            origin[w, k] = o
+            geom[w, k] = g
+            vel[w, k] = _vec3(wall.velocity, f"wall {wall.name!r} velocity")
+    return wtype, origin, geom, vel
+
+
+@njit(cache=True)
+def closest_point(wtype, ox, oy, oz, geom, px, py, pz):
+    """Closest point of a wall's surface to a sphere centre.
+
+    Parameters
+    ----------
+    wtype : int
+        WALL_PLANE or WALL_TUBE.
+    ox, oy, oz : float
+        Wall origin (plane centre, tube bottom-rim centre), m.
+    geom : (GEOM_SIZE,) float64 array
+        Packed geometry.
+    px, py, pz : float
+        Sphere centre, m.
+
+    Returns
+    -------
+    dist : float
+        Signed distance from the surface to the centre, m (< 0: the centre is inside a tube's
+        solid wall).
+    nx, ny, nz : float
+        Unit normal pointing from the wall to the centre.
+    qx, qy, qz : float
+        Closest point on the surface, m.
+    """
+    sx = px - ox
+    sy = py - oy
+    sz = pz - oz
+    if wtype == WALL_PLANE:
+        n0 = geom[0]
+        n1 = geom[1]
+        n2 = geom[2]
+        cu = sx * geom[3] + sy * geom[4] + sz * geom[5]
+        cv = sx * geom[6] + sy * geom[7] + sz * geom[8]
+        hu = geom[9]
+        hv = geom[10]
+        cu = min(max(cu, -hu), hu)
+        cv = min(max(cv, -hv), hv)
+        qx = ox + cu * geom[3] + cv * geom[6]
+        qy = oy + cu * geom[4] + cv * geom[7]
+        qz = oz + cu * geom[5] + cv * geom[8]
+        dx = px - qx
+        dy = py - qy
+        dz = pz - qz
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if d > 1e-300:
+            return d, dx / d, dy / d, dz / d, qx, qy, qz
+        return 0.0, n0, n1, n2, qx, qy, qz
+    # tube
+    ax = geom[0]
+    ay = geom[1]
+    az = geom[2]
+    rin = geom[3]
+    rout = geom[4]
+    length = geom[5]
+    z = sx * ax + sy * ay + sz * az
+    rx = sx - z * ax
+    ry = sy - z * ay
+    rz = sz - z * az
+    rho = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if rho > 1e-300:
+        ex = rx / rho
+        ey = ry / rho
+        ez = rz / rho
+    else:
+        # on the axis: any radial direction (perpendicular to the axis)
+        if abs(ax) < 0.9:
+            ex, ey, ez = 0.0, az, -ay
+        else:
+            ex, ey, ez = -az, 0.0, ax
+        norm = math.sqrt(ex * ex + ey * ey + ez * ez)
+        ex /= norm
+        ey /= norm
+        ez /= norm
+    inside = rho > rin and rho < rout and z > 0.0 and z < length
+    if inside:
+        # deep penetration: leave through the nearest face
+        d_in = rho - rin
+        d_out = rout - rho
+        d_bot = z
+        d_top = length - z
+        best = d_in
+        rc = rin
+        zc = z
+        sr = -1.0
+        sz_ = 0.0
+        if d_out < best:
+            best = d_out
+            rc = rout
+            sr = 1.0
+        if d_bot < best:
+            best = d_bot
+            rc = rho
+            zc = 0.0
+            sr = 0.0
+            sz_ = -1.0
+        if d_top < best:
+            best = d_top
+            rc = rho
+            zc = length
+            sr = 0.0
+            sz_ = 1.0
+        nx = sr * ex + sz_ * ax
+        ny = sr * ey + sz_ * ay
+        nz = sr * ez + sz_ * az
+        qx = ox + zc * ax + rc * ex
+        qy = oy + zc * ay + rc * ey
+        qz = oz + zc * az + rc * ez
+        return -best, nx, ny, nz, qx, qy, qz
+    rc = min(max(rho, rin), rout)
+    zc = min(max(z, 0.0), length)
+    dr = rho - rc
+    dz = z - zc
+    d = math.sqrt(dr * dr + dz * dz)
+    qx = ox + zc * ax + rc * ex
+    qy = oy + zc * ay + rc * ey
+    qz = oz + zc * az + rc * ez
+    if d > 1e-300:
+        nx = (dr * ex + dz * ax) / d
+        ny = (dr * ey + dz * ay) / d
+        nz = (dr * ez + dz * az) / d
+        return d, nx, ny, nz, qx, qy, qz
+    return 0.0, -ex, -ey, -ez, qx, qy, qz
