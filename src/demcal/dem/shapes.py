@@ -449,6 +449,8 @@ def template_from_spheres(
     volume, com, inertia = union_mass_properties(c, r, resolution=resolution)
     moments, rot = _principal_frame(inertia)
     offsets = (c - com) @ rot
+    # round-off residue (e.g. 1e-21 m off the axis of a chain) is set to exactly zero
+    offsets[np.abs(offsets) < 1e-12 * float(np.max(np.abs(offsets) + r[:, None]))] = 0.0
     return ClumpTemplate(
         name=str(name),
         offsets=offsets,
