@@ -274,6 +274,26 @@ def test_template_is_independent_of_the_input_pose():
     np.testing.assert_allclose(t1.offsets * signs, t0.offsets, atol=2e-3 * t0.bounding_radius)
 
 
+def test_collinear_chain_in_any_direction_lies_exactly_on_body_x():
+    direction = np.array([1.0, -2.0, 0.5]) / np.linalg.norm([1.0, -2.0, 0.5])
+    centres = np.outer(np.linspace(-3e-3, 3e-3, 7), direction) + np.array([0.1, 0.2, 0.3])
+    t = template_from_spheres(centres, np.full(7, 2e-3))
+    assert np.all(t.offsets[:, 1:] == 0.0)
+    np.testing.assert_allclose(np.sort(t.offsets[:, 0]), np.linspace(-3e-3, 3e-3, 7), atol=1e-15)
+    assert t.inertia_per_density[1] == t.inertia_per_density[2]
+    v_ref, _, i_axis, i_trans = slicing_reference(np.linspace(-3e-3, 3e-3, 7), 2e-3)
+    np.testing.assert_allclose(t.inertia_per_density, [i_axis, i_trans, i_trans], rtol=1e-3)
+    assert t.volume == pytest.approx(v_ref, rel=1e-3)
+
+
+def test_sphere_inside_another_adds_nothing():
+    t = template_from_spheres([[0, 0, 0], [1e-3, 0, 0]], [3e-3, 0.5e-3])
+    v = 4.0 / 3.0 * math.pi * 27e-9
+    assert t.volume == pytest.approx(v, rel=2e-4)
+    np.testing.assert_allclose(t.inertia_per_density, 0.4 * v * 9e-6, rtol=5e-4)
+    np.testing.assert_allclose(t.offsets[0], 0.0, atol=1e-9)
+
+
 # ----------------------------------------------------------------------------- scaling
 def test_scaled_follows_length_volume_and_inertia_laws():
     centres, radii = asymmetric_spheres()

@@ -132,7 +132,7 @@ def physical(
     measurements: Annotated[
         Path,
         typer.Argument(
-            help="Measurements TOML (standalone, or a study file with a [measurements] table)."
+            help="Measurements TOML (standalone, or a study file with a \\[measurements] table)."
         ),
     ],
     json_out: Annotated[

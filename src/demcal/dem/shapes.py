@@ -385,37 +385,72 @@ def union_mass_properties(
 # --------------------------------------------------------------------------------------
 # principal frame
 # --------------------------------------------------------------------------------------
-def _principal_frame(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _positive_sign(vec: np.ndarray) -> np.ndarray:
+    """``vec`` with its largest-magnitude component made positive (a fixed sign convention)."""
+    return vec if vec[int(np.argmax(np.abs(vec)))] > 0 else -vec
+
+
+def _frame_around_axis(axis: np.ndarray, *, first: bool) -> np.ndarray:
+    """Right-handed rotation whose first (or last) column is ``axis``; the two others are
+    the input axes least aligned with it, projected (so a symmetric body is not spun)."""
+    eye = np.eye(3)
+    ref = eye[int(np.argmin(np.abs(axis)))]
+    u1 = ref - np.dot(ref, axis) * axis
+    u1 /= np.linalg.norm(u1)
+    if first:  # [axis, u1, axis x u1]
+        return np.column_stack([axis, u1, np.cross(axis, u1)])
+    return np.column_stack([u1, np.cross(axis, u1), axis])  # [u1, axis x u1, axis]
+
+
+def _principal_frame(
+    inertia: np.ndarray, *, symmetry_axis: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Ascending principal moments and a right-handed rotation (columns = body axes).
 
-    Degenerate moments (relative difference < ``_DEGENERATE_RTOL``) keep the body axes as
-    close as possible to the input axes, so a symmetric body is not spun arbitrarily.
+    With ``symmetry_axis`` (a body of revolution, e.g. spheres with collinear centres) that
+    axis is used exactly and the two transverse moments are averaged. Otherwise degenerate
+    moments (relative difference < ``_DEGENERATE_RTOL``) are averaged and the body axes kept
+    as close as possible to the input axes.
     """
+    eye = np.eye(3)
+    if symmetry_axis is not None:
+        axis = _positive_sign(symmetry_axis / np.linalg.norm(symmetry_axis))
+        i_axis = float(axis @ inertia @ axis)
+        i_trans = 0.5 * (float(np.trace(inertia)) - i_axis)
+        if abs(i_axis - i_trans) <= _DEGENERATE_RTOL * max(i_axis, i_trans):
+            return np.full(3, (i_axis + 2.0 * i_trans) / 3.0), eye
+        if i_axis < i_trans:
+            return np.array([i_axis, i_trans, i_trans]), _frame_around_axis(axis, first=True)
+        return np.array([i_trans, i_trans, i_axis]), _frame_around_axis(axis, first=False)
     moments, vecs = np.linalg.eigh(inertia)
     scale = float(np.max(np.abs(moments)))
     d01 = abs(moments[1] - moments[0]) <= _DEGENERATE_RTOL * scale
     d12 = abs(moments[2] - moments[1]) <= _DEGENERATE_RTOL * scale
-    eye = np.eye(3)
     if d01 and d12:  # spherical top: any frame is principal
-        return moments, eye
-    if d01 or d12:  # symmetric top: one distinct axis
-        k = 2 if d01 else 0
-        axis = vecs[:, k] * (1.0 if vecs[np.argmax(np.abs(vecs[:, k])), k] > 0 else -1.0)
-        ref = eye[int(np.argmin(np.abs(axis)))]
-        u1 = ref - np.dot(ref, axis) * axis
-        u1 /= np.linalg.norm(u1)
-        if k == 0:  # [axis, u1, axis x u1]
-            rot = np.column_stack([axis, u1, np.cross(axis, u1)])
-        else:  # [u0, axis x u0, axis]
-            rot = np.column_stack([u1, np.cross(axis, u1), axis])
-        return moments, rot
-    rot = vecs.copy()
-    for k in range(3):
-        if rot[np.argmax(np.abs(rot[:, k])), k] < 0:
-            rot[:, k] = -rot[:, k]
+        return np.full(3, float(np.mean(moments))), eye
+    if d01:  # symmetric top, distinct largest moment
+        pair = 0.5 * (moments[0] + moments[1])
+        axis = _positive_sign(vecs[:, 2])
+        return np.array([pair, pair, moments[2]]), _frame_around_axis(axis, first=False)
+    if d12:  # symmetric top, distinct smallest moment
+        pair = 0.5 * (moments[1] + moments[2])
+        axis = _positive_sign(vecs[:, 0])
+        return np.array([moments[0], pair, pair]), _frame_around_axis(axis, first=True)
+    rot = np.column_stack([_positive_sign(vecs[:, k]) for k in range(3)])
     if np.linalg.det(rot) < 0:
         rot[:, 2] = -rot[:, 2]
     return moments, rot
+
+
+def _collinear_axis(centres: np.ndarray) -> np.ndarray | None:
+    """Direction of the line through all centres, or None if they are not collinear (or all
+    coincide)."""
+    if centres.shape[0] < 2:
+        return None
+    _, sv, vt = np.linalg.svd(centres - centres.mean(axis=0), full_matrices=False)
+    if sv[0] == 0.0 or (sv.shape[0] > 1 and sv[1] > 1e-9 * sv[0]):
+        return None
+    return vt[0]
 
 
 def template_from_spheres(
@@ -447,7 +482,7 @@ def template_from_spheres(
     """
     c, r = _as_spheres(centres, radii)
     volume, com, inertia = union_mass_properties(c, r, resolution=resolution)
-    moments, rot = _principal_frame(inertia)
+    moments, rot = _principal_frame(inertia, symmetry_axis=_collinear_axis(c))
     offsets = (c - com) @ rot
     # round-off residue (e.g. 1e-21 m off the axis of a chain) is set to exactly zero
     offsets[np.abs(offsets) < 1e-12 * float(np.max(np.abs(offsets) + r[:, None]))] = 0.0
