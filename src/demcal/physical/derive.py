@@ -68,9 +68,11 @@ class FixedParameter:
 
     @property
     def info(self) -> ParameterInfo:
+        """The parameter's description (symbol, unit, bounds)."""
         return PARAMETERS[self.name]
 
     def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON form (SI units)."""
         return {
             "name": self.name,
             "symbol": self.info.symbol,
@@ -93,9 +95,11 @@ class FactorRange:
 
     @property
     def info(self) -> ParameterInfo:
+        """The parameter's description (symbol, unit, bounds)."""
         return PARAMETERS[self.name]
 
     def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON form (SI units)."""
         return {
             "name": self.name,
             "symbol": self.info.symbol,
@@ -140,6 +144,7 @@ class TemplateChoice:
     density_for_equal_mass: float | None
 
     def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON form (SI units), with the template itself under ``"template"``."""
         meta = self.template.metadata
         return {
             "name": self.template.name,
@@ -178,6 +183,7 @@ class RayleighStep:
         return self.fraction * self.time_step
 
     def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON form (SI units)."""
         return {
             "rayleigh_time_step_s": self.time_step,
             "suggested_time_step_s": self.suggested_step,
