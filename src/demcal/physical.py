@@ -1,1 +1,0 @@
-"""Physical (bench) measurements in, model parameters out."""
