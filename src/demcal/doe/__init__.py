@@ -35,6 +35,12 @@ from demcal.doe.designs import (
 )
 from demcal.doe.factors import Factor, FactorSpace, as_factor_space, load_factors
 from demcal.doe.model import ResponseSurface, fit
+from demcal.doe.optimize import (
+    OptimizationResult,
+    Solution,
+    optimize_target,
+    target_desirability,
+)
 from demcal.doe.terms import MODELS, model_matrix, model_terms, parse_term, term_name
 
 __all__ = [
@@ -47,7 +53,9 @@ __all__ = [
     "Factor",
     "FactorSpace",
     "FitStatistics",
+    "OptimizationResult",
     "ResponseSurface",
+    "Solution",
     "anova_table",
     "as_factor_space",
     "backward_elimination",
@@ -59,11 +67,13 @@ __all__ = [
     "load_factors",
     "model_matrix",
     "model_terms",
+    "optimize_target",
     "parse_term",
     "plackett_burman",
     "screening_effects",
     "significance",
     "sobol",
     "steepest_path",
+    "target_desirability",
     "term_name",
 ]
