@@ -19,7 +19,7 @@ app = typer.Typer(
     add_completion=False,
 )
 
-COMMAND_MODULES: tuple[str, ...] = ()
+COMMAND_MODULES: tuple[str, ...] = ("doe_cmds",)
 
 
 @app.callback()
