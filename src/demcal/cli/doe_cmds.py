@@ -629,20 +629,17 @@ def optimize_cmd(
     )
     frame = res.to_frame()
     t = Table(title=f"Settings predicted to give {response} = {target:g} ({rs.model} model)")
-    show = [
-        "rank",
-        *rs.names,
-        "predicted",
-        "desirability",
-        "ci_low",
-        "ci_high",
-        "pi_low",
-        "pi_high",
-    ]
-    for c in show:
+    for c in ("rank", *rs.names, "predicted", "desirability", "95% CI", "95% PI"):
         t.add_column(c, justify="right")
     for _, row in frame.iterrows():
-        t.add_row(*[_fmt(row[c], 5) for c in show])
+        t.add_row(
+            str(row["rank"]),
+            *[_fmt(row[n], 4) for n in rs.names],
+            _fmt(row["predicted"], 5),
+            f"{row['desirability']:.3f}",
+            f"{row['ci_low']:.4g}-{row['ci_high']:.4g}",
+            f"{row['pi_low']:.4g}-{row['pi_high']:.4g}",
+        )
     console.print(t)
     console.print(
         f"desirability limits: lower {res.lower:g}, target {res.target:g}, upper {res.upper:g}; "

@@ -138,6 +138,7 @@ class Design:
 
     def __post_init__(self) -> None:
         coded = np.array(self.coded, dtype=float)
+        coded = np.round(coded, 12) + 0.0  # drop float noise such as -2e-16 (and -0.0)
         coded.setflags(write=False)
         object.__setattr__(self, "coded", coded)
         n = coded.shape[0]
@@ -902,9 +903,6 @@ def steepest_path(
     space = None if factors is None else as_factor_space(factors)
     if space is not None:
         names = space.free.names
-        unknown = [n for n in coefs if n not in space]
-        if unknown:
-            raise InputError(f"coefficients name unknown factor(s): {', '.join(unknown)}")
     else:
         if units == "actual":
             raise InputError("units='actual' needs factors with low and high")
