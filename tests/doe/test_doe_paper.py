@@ -28,8 +28,9 @@ def pb_fit() -> doe.ResponseSurface:
 @pytest.fixture(scope="module")
 def bbd_fit() -> doe.ResponseSurface:
     t7 = pd.read_csv(REF / "table7_bbd.csv").set_index("run")
-    return doe.fit(t7[BBD_NAMES], t7["aor_deg"], model="quadratic", factors=BBD_FACTORS,
-                   units="coded")
+    return doe.fit(
+        t7[BBD_NAMES], t7["aor_deg"], model="quadratic", factors=BBD_FACTORS, units="coded"
+    )
 
 
 # ------------------------------------------------------------------------------- Table 4 / PB
@@ -63,9 +64,7 @@ def test_table5_sums_of_squares_f_and_p(pb_fit):
         assert table.loc[term, "p"] == pytest.approx(ref.loc[term, "p"], abs=1e-3)
         assert table.loc[term, "df"] == ref.loc[term, "df"]
     assert table.loc["Residual", "df"] == 3
-    assert [table.loc[t, "significance"] for t in PB_NAMES] == [
-        "", "", "*", "**", "", "", "", "**"
-    ]
+    assert [table.loc[t, "significance"] for t in PB_NAMES] == ["", "", "*", "**", "", "", "", "**"]
 
 
 def test_table5_ranking_and_effects(pb_fit):
@@ -179,8 +178,18 @@ def test_adeq_precision_is_design_experts_formula(bbd_fit):
 
 # ------------------------------------------------------------------------------ the optimum
 def _eq9(x3, x4, x8):
-    return (41.77 + 2.43 * x3 + 1.48 * x4 + 3.18 * x8 - 0.69 * x3 * x4 - 0.40 * x3 * x8
-            + 0.19 * x4 * x8 + 1.25 * x3**2 + 0.37 * x4**2 - 1.22 * x8**2)
+    return (
+        41.77
+        + 2.43 * x3
+        + 1.48 * x4
+        + 3.18 * x8
+        - 0.69 * x3 * x4
+        - 0.40 * x3 * x8
+        + 0.19 * x4 * x8
+        + 1.25 * x3**2
+        + 0.37 * x4**2
+        - 1.22 * x8**2
+    )
 
 
 def test_papers_rounded_optimum_predicts_44_69_not_44_12(bbd_fit):

@@ -239,7 +239,10 @@ def optimize_target(
         from the solutions (e.g. a classifier of runs that formed no pile).
     near : mapping str -> float, optional
         Preferred settings (in ``units``): a small penalty ``near_weight * mean((x - near)^2)``
-        (coded) pulls solutions towards it, and ties in desirability are ranked by distance.
+        (coded) pulls the search towards it, each solution that hits the target is then slid
+        along the target surface to the point nearest ``near`` (SLSQP), and ties in
+        desirability are ranked by distance (solutions that slide to the same point merge,
+        so fewer than ``n_solutions`` may remain).
     near_weight : float, optional
         Weight of that penalty (>= 0).
     n_starts : int, optional
@@ -354,6 +357,33 @@ def optimize_target(
 
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     lo_f, hi_f = lo[free], hi[free]
+
+    def _polish_towards(z: np.ndarray) -> np.ndarray:
+        """Slide a solution that hits the target to the nearest such point to ``near``."""
+        if desir(full(z.reshape(1, -1)))[0] < 0.999:
+            return z
+        w = near_mask[free]
+        nz = near_c[free]  # type: ignore[index]
+        res = sopt.minimize(
+            lambda v: float(np.sum(w * (v - nz) ** 2)),
+            z,
+            method="SLSQP",
+            jac=lambda v: 2 * w * (v - nz),
+            bounds=list(zip(lo_f, hi_f, strict=True)),
+            constraints=[
+                {
+                    "type": "eq",
+                    "fun": lambda v: rs.predict(full(v.reshape(1, -1)), units="coded")[0] - target,
+                }
+            ],
+            options={"ftol": 1e-12, "maxiter": 200},
+        )
+        v = np.clip(res.x, lo_f, hi_f)
+        x = full(v.reshape(1, -1))
+        if res.success and desir(x)[0] >= 0.999 and feasible(x)[0]:
+            return v
+        return z
+
     if free:
         n_cand = max(4 * n_starts, 64)
         u = qmc.LatinHypercube(len(free), rng=rng).random(n_cand)
@@ -376,6 +406,10 @@ def optimize_target(
                 options={"xatol": 1e-7, "fatol": 1e-10, "maxiter": 400 * len(free)},
             )
             found.append(np.clip(res.x, lo_f, hi_f))
+        if near_c is not None:  # polish the best few (SLSQP is the costly part)
+            best_first = np.argsort(-desir(full(np.array(found))), kind="stable")
+            for i in best_first[: 3 * n_solutions]:
+                found[i] = _polish_towards(found[i])
         points = full(np.array(found))
     else:
         points = base.reshape(1, -1)
