@@ -232,3 +232,33 @@ def test_bad_input_is_one_line_and_exit_code_2(workdir, args, message):
     assert result.exit_code == 2, result.output
     line = _error_line(result)
     assert line.startswith("error:") and message in line
+
+
+def test_analyze_reduce_gives_a_hierarchical_model_of_significant_terms(workdir):
+    args = ["analyze", "table7_bbd.csv", "--response", "aor_deg", "--reduce", "0.1"]
+    result = _invoke([*args, "--json", "r.json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads((workdir / "r.json").read_text())
+    terms = doc["terms"]
+    assert "x4*x8" not in terms and {"x3", "x4", "x8", "x3*x4", "x3^2", "x8^2"} <= set(terms)
+    rows = {r["term"]: r for r in doc["anova"]}
+    # x4 may stay for hierarchy (x3*x4); every other remaining term is significant at 0.1
+    for t in terms[1:]:
+        contained = any(t != o and set(t.split("*")) < set(o.split("*")) for o in terms)
+        if not contained:
+            assert rows[t]["p"] <= 0.1, t
+
+
+def test_steepest_from_given_coefficients_proportional(workdir):
+    result = _invoke(
+        ["design", "steepest", "--factors", "factors_table1.toml", "--coef", "x3=1.0,x4=0.5",
+         "--step", "0.1", "--points", "3", "--out", "p.csv"]
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    p = pd.read_csv(workdir / "p.csv")
+    # x3 (largest) moves 0.1 per run from its centre 0.55; x4 half as far in coded units:
+    # 0.5 * (0.1 / 0.2) coded * 0.06 half range = 0.015 per run from 0.09
+    np.testing.assert_allclose(p["x3"], [0.55, 0.65, 0.75])
+    np.testing.assert_allclose(p["x4"], [0.09, 0.105, 0.12])
+    bad = runner.invoke(app, ["design", "steepest", "--factors", "factors_table1.toml"])
+    assert bad.exit_code == 2 and "--from-runs" in _error_line(bad)

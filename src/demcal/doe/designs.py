@@ -432,7 +432,8 @@ def plackett_burman(
     )
 
 
-def _parse_generators(generators: Any, k: int) -> list[tuple[int, frozenset[int]]]:
+def _parse_generators(generators: Any, k: int) -> list[tuple[int, frozenset[int], int]]:
+    """Parse ``'D=ABC'`` strings into (generated factor, word of basic factors, sign)."""
     if isinstance(generators, str):
         generators = generators.replace(",", " ").split()
     letters = _LETTERS[:k]
@@ -461,7 +462,7 @@ def _parse_generators(generators: Any, k: int) -> list[tuple[int, frozenset[int]
     for _, word, _ in out:
         if word & set(targets):
             raise InputError("generators: a right side must use only basic (not generated) factors")
-    return out  # type: ignore[return-value]
+    return out
 
 
 def _word(word: frozenset[int]) -> str:
