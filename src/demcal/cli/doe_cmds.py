@@ -1,0 +1,662 @@
+"""``demcal design``, ``demcal analyze`` and ``demcal optimize``: the DoE statistics on files.
+
+Run sheets are CSV files. Columns ``run``, ``std``, ``point_type`` and ``block`` are
+bookkeeping; every other column but the response is a factor unless ``--columns`` names the
+factors. Factor values are coded (-1 .. +1) unless a factors file is given (then actual; say
+``--units coded`` for a coded sheet with a factors file, to get actual-unit coefficients).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import pandas as pd
+import typer
+from rich.table import Table
+
+from demcal import doe
+from demcal.cli import app
+from demcal.cli._common import cli_errors, console, log
+from demcal.errors import InputError
+
+BOOKKEEPING = ("run", "std", "point_type", "block")
+
+design_app = typer.Typer(
+    name="design",
+    help="Write a run sheet (CSV: run order, actual and coded columns) for a design.",
+    no_args_is_help=True,
+)
+app.add_typer(design_app, name="design")
+
+FactorsOpt = Annotated[
+    Path, typer.Option("--factors", help="Factors TOML file ([factors.NAME] low/high).")
+]
+OutOpt = Annotated[Path | None, typer.Option("--out", help="Write the run sheet to this CSV file.")]
+SeedOpt = Annotated[int | None, typer.Option("--seed", help="Seed of the random run order.")]
+RandOpt = Annotated[
+    bool, typer.Option("--randomize/--no-randomize", help="Randomise the run order.")
+]
+
+
+# ------------------------------------------------------------------------------------ helpers
+def _fmt(v: Any, digits: int = 4) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float | np.floating):
+        if not math.isfinite(v):
+            return ""
+        return f"{v:.{digits}g}" if abs(v) >= 1e-3 or v == 0 else f"{v:.3e}"
+    return str(v)
+
+
+def _fmt_p(p: float) -> str:
+    if p is None or not math.isfinite(p):
+        return ""
+    return "< 0.0001" if p < 1e-4 else f"{p:.4f}"
+
+
+def _parse_assignments(text: str | None, option: str) -> dict[str, float]:
+    """``"x3=0.1,x4=0.03"`` -> {"x3": 0.1, "x4": 0.03}."""
+    out: dict[str, float] = {}
+    if not text:
+        return out
+    for item in text.split(","):
+        item = item.strip()
+        if not item:
+            continue
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise InputError(
+                f"{option}: expected NAME=VALUE pairs separated by commas; got {item!r}"
+            )
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise InputError(
+                f"{option}: value of {name.strip()!r} must be a number; got {value!r}"
+            ) from None
+    return out
+
+
+def _parse_ranges(text: str | None, option: str) -> dict[str, tuple[float, float]]:
+    """``"x3=0.55:0.65,x4=0.1:0.15"`` -> {"x3": (0.55, 0.65), ...}."""
+    out: dict[str, tuple[float, float]] = {}
+    if not text:
+        return out
+    for item in text.split(","):
+        name, sep, value = item.strip().partition("=")
+        lo, sep2, hi = value.partition(":")
+        try:
+            if not sep or not sep2:
+                raise ValueError
+            out[name.strip()] = (float(lo), float(hi))
+        except ValueError:
+            raise InputError(
+                f"{option}: expected NAME=LOW:HIGH pairs; got {item.strip()!r}"
+            ) from None
+    return out
+
+
+def _write_sheet(design: doe.Design, out: Path | None) -> None:
+    frame = design.to_frame()
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        frame.to_csv(out, index=False, float_format="%.10g")
+        log.info("wrote %s", out)
+    table = Table(title=f"{design.kind.replace('_', ' ')}: {design.n_runs} runs")
+    for c in frame.columns:
+        table.add_column(str(c), justify="right")
+    for _, row in frame.iterrows():
+        table.add_row(*[_fmt(v, 6) for v in row.tolist()])
+    console.print(table)
+    for key, value in design.info.items():
+        if key in ("aliases", "letters") or value is None:
+            continue
+        console.print(f"{key}: {value}", highlight=False)
+    aliases = design.info.get("aliases")
+    if aliases:
+        console.print("aliases (effects of order <= 3):", highlight=False)
+        for eff, al in aliases.items():
+            console.print(
+                f"  [{eff}] = [{eff}] + " + " + ".join(f"[{a}]" for a in al)
+                if al
+                else f"  [{eff}]",
+                highlight=False,
+            )
+    if out is not None:
+        console.print(f"run sheet written to {out}", highlight=False)
+
+
+def _read_csv(path: Path) -> pd.DataFrame:
+    if not path.exists():
+        raise InputError(f"runs file {str(path)!r} does not exist")
+    try:
+        frame = pd.read_csv(path, skipinitialspace=True)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise InputError(f"runs file {str(path)!r} is not a readable CSV: {exc}") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    if frame.empty:
+        raise InputError(f"runs file {str(path)!r} has no rows")
+    return frame
+
+
+def _load_surface(
+    runs: Path,
+    response: str,
+    model: str,
+    factors_path: Path | None,
+    columns: str | None,
+    units: str | None,
+    terms: str | None = None,
+) -> doe.ResponseSurface:
+    """Read a run sheet and fit the model (the shared front half of analyze and optimize)."""
+    frame = _read_csv(runs)
+    if response not in frame.columns:
+        raise InputError(
+            f"--response: column {response!r} not found in {runs.name}; columns: "
+            + ", ".join(frame.columns)
+        )
+    y = pd.to_numeric(frame[response], errors="coerce")
+    bad = y.isna() & frame[response].notna() & (frame[response].astype(str).str.strip() != "")
+    if bad.any():
+        raise InputError(
+            f"--response: column {response!r} is not numeric "
+            f"(row {int(np.flatnonzero(bad)[0]) + 1}: "
+            f"{frame[response][bad].iloc[0]!r}); leave a cell empty for a run without a result"
+        )
+    space = doe.load_factors(factors_path) if factors_path is not None else None
+    if columns:
+        names = [c.strip() for c in columns.split(",") if c.strip()]
+    elif space is not None:
+        names = [n for n in space.free.names]
+    else:
+        coded_cols = [c for c in frame.columns if c.endswith("_coded")]
+        if coded_cols:
+            names = coded_cols
+        else:
+            names = [c for c in frame.columns if c != response and c not in BOOKKEEPING]
+    if not names:
+        raise InputError("--columns: no factor columns left in the runs file")
+    missing = [n for n in names if n not in frame.columns]
+    if missing:
+        raise InputError(
+            f"--columns: column(s) {', '.join(missing)} not found in {runs.name}; columns: "
+            + ", ".join(frame.columns)
+        )
+    if response in names:
+        raise InputError(f"--columns: the response {response!r} cannot be a factor")
+    x = frame[names].copy()
+    renamed = {c: c[: -len("_coded")] for c in names if c.endswith("_coded")}
+    x = x.rename(columns=renamed)
+    if renamed and units is None:
+        units = "coded"
+    if "run" in frame.columns and frame["run"].notna().all():
+        labels = frame["run"].tolist()
+        x.index = pd.Index(labels)
+    else:
+        x.index = pd.RangeIndex(1, len(frame) + 1)
+    if units not in (None, "coded", "actual"):
+        raise InputError(f"--units must be 'coded' or 'actual'; got {units!r}")
+    term_list = [t.strip() for t in terms.split(",")] if terms else None
+    if model not in doe.MODELS:
+        raise InputError(f"--model must be one of {', '.join(doe.MODELS)}; got {model!r}")
+    return doe.fit(
+        x,
+        y.to_numpy(dtype=float),
+        model=model,
+        terms=(
+            ["intercept", *term_list] if term_list and "intercept" not in term_list else term_list
+        ),
+        factors=space,
+        units=units,  # type: ignore[arg-type]
+        response_name=response,
+    )
+
+
+def _is_two_level(rs: doe.ResponseSurface) -> bool:
+    return bool(np.all(np.isclose(np.abs(rs.coded), 1.0)))
+
+
+def _clean(v: Any) -> Any:
+    if isinstance(v, float | np.floating):
+        return float(v) if math.isfinite(v) else None
+    if isinstance(v, np.integer):
+        return int(v)
+    return v
+
+
+def analysis_dict(rs: doe.ResponseSurface) -> dict[str, Any]:
+    """The JSON document of ``demcal analyze`` (also used by the tests)."""
+    table = rs.anova()
+    coded = {k: _clean(v) for k, v in rs.coefficients_coded.items()}
+    if rs.factors is not None:
+        actual = {k: _clean(v) for k, v in rs.coefficients_actual.items()}
+    else:  # no levels: the columns' own units are the coded ones
+        actual = dict(coded)
+    out: dict[str, Any] = {
+        "response": rs.response_name,
+        "model": rs.model,
+        "factors": list(rs.names),
+        "terms": list(rs.term_names),
+        "n_runs": rs.n_runs,
+        "excluded_runs": [_clean(v) for v in rs.excluded_runs],
+        "coefficients_coded": coded,
+        "coefficients_actual": actual,
+        "standard_errors": {k: _clean(v) for k, v in rs.bse.items()},
+        "vif": {k: _clean(v) for k, v in rs.vif.items()},
+        "anova": table.to_records(),
+        "fit": {
+            "std_dev": _clean(rs.std_dev),
+            "mean": _clean(rs.mean),
+            "cv_percent": _clean(rs.cv_percent),
+            "press": _clean(rs.press),
+            "r2": _clean(rs.r2),
+            "adj_r2": _clean(rs.adj_r2),
+            "pred_r2": _clean(rs.pred_r2),
+            "adeq_precision": _clean(rs.adeq_precision),
+        },
+        "equation_coded": rs.equation(units="coded"),
+    }
+    if rs.factors is not None:
+        out["equation_actual"] = rs.equation(units="actual")
+    if rs.model == "linear" and _is_two_level(rs):
+        eff = rs.effects()
+        out["effects"] = [
+            {
+                "term": str(t),
+                "effect": _clean(r["effect"]),
+                "ss": _clean(r["ss"]),
+                "contribution_percent": _clean(r["contribution_percent"]),
+                "f": _clean(r["f"]),
+                "p": _clean(r["p"]),
+                "rank": int(r["rank"]),
+            }
+            for t, r in eff.iterrows()
+        ]
+    return out
+
+
+def _print_analysis(rs: doe.ResponseSurface) -> None:
+    table = rs.anova()
+    if rs.excluded_runs:
+        console.print(
+            f"excluded {len(rs.excluded_runs)} run(s) without a response: "
+            + ", ".join(str(v) for v in rs.excluded_runs),
+            highlight=False,
+        )
+    t = Table(title=f"ANOVA, {rs.model} model of {rs.response_name} (partial SS, Type III)")
+    for c in ("Source", "Sum of Squares", "df", "Mean Square", "F Value", "p-value", ""):
+        t.add_column(c, justify="left" if c == "Source" else "right")
+    for r in table.rows:
+        t.add_row(
+            r.source,
+            _fmt(r.ss, 6),
+            str(r.df),
+            _fmt(r.ms, 6),
+            _fmt(r.f),
+            _fmt_p(r.p),
+            r.significance,
+        )
+    console.print(t)
+    console.print("** p < 0.01, * p < 0.05", highlight=False)
+    f = table.fit
+    s = Table(title="Fit statistics", show_header=False)
+    s.add_column("statistic")
+    s.add_column("value", justify="right")
+    for label, v in (
+        ("Std. Dev.", f.std_dev),
+        ("Mean", f.mean),
+        ("C.V. %", f.cv_percent),
+        ("PRESS", f.press),
+        ("R-Squared", f.r2),
+        ("Adj R-Squared", f.adj_r2),
+        ("Pred R-Squared", f.pred_r2),
+        ("Adeq Precision", f.adeq_precision),
+    ):
+        s.add_row(label, _fmt(v, 5))
+    console.print(s)
+    c = Table(title="Coefficients")
+    c.add_column("Term")
+    c.add_column("Coded", justify="right")
+    c.add_column("Std. Error", justify="right")
+    c.add_column("VIF", justify="right")
+    if rs.factors is not None:
+        c.add_column("Actual", justify="right")
+        actual = rs.coefficients_actual
+    vif = rs.vif
+    for name, b in rs.coefficients_coded.items():
+        row = [str(name), _fmt(b, 5), _fmt(rs.bse[name], 4), _fmt(vif.get(name, float("nan")), 4)]
+        if rs.factors is not None:
+            row.append(_fmt(actual[name], 6))
+        c.add_row(*row)
+    console.print(c)
+    if rs.model == "linear" and _is_two_level(rs):
+        eff = rs.effects()
+        e = Table(title="Screening effects (Pareto order)")
+        for col in ("Rank", "Term", "Effect", "SS", "% Contribution", "p-value", ""):
+            e.add_column(col, justify="right")
+        for term, r in eff.iterrows():
+            e.add_row(
+                str(r["rank"]),
+                str(term),
+                _fmt(r["effect"]),
+                _fmt(r["ss"]),
+                _fmt(r["contribution_percent"]),
+                _fmt_p(r["p"]),
+                r["significance"],
+            )
+        console.print(e)
+
+
+# ----------------------------------------------------------------------------------- designs
+@design_app.command("pb")
+@cli_errors
+def design_pb(
+    factors: FactorsOpt,
+    runs: Annotated[int | None, typer.Option("--runs", help="Runs: multiple of 4, 8-48.")] = None,
+    out: OutOpt = None,
+    seed: SeedOpt = None,
+    randomize: RandOpt = True,
+) -> None:
+    """Plackett-Burman screening design (unused columns are dummies)."""
+    space = doe.load_factors(factors)
+    _write_sheet(doe.plackett_burman(space, n_runs=runs, randomize=randomize, seed=seed), out)
+
+
+@design_app.command("bbd")
+@cli_errors
+def design_bbd(
+    factors: FactorsOpt,
+    center_points: Annotated[
+        int | None,
+        typer.Option("--center-points", help="Centre runs (default 5; 6 for 6-7 factors)."),
+    ] = None,
+    out: OutOpt = None,
+    seed: SeedOpt = None,
+    randomize: RandOpt = True,
+) -> None:
+    """Box-Behnken design (3-7 varied factors)."""
+    space = doe.load_factors(factors)
+    d = doe.box_behnken(space, center_points=center_points, randomize=randomize, seed=seed)
+    _write_sheet(d, out)
+
+
+@design_app.command("ccd")
+@cli_errors
+def design_ccd(
+    factors: FactorsOpt,
+    kind: Annotated[
+        str, typer.Option("--kind", help="circumscribed, inscribed or face.")
+    ] = "circumscribed",
+    alpha: Annotated[
+        str, typer.Option("--alpha", help="rotatable, orthogonal or a number.")
+    ] = "rotatable",
+    center_points: Annotated[
+        int | None, typer.Option("--center-points", help="Centre runs.")
+    ] = None,
+    generators: Annotated[
+        str | None, typer.Option("--generators", help="Fractional core, e.g. 'E=ABCD'.")
+    ] = None,
+    out: OutOpt = None,
+    seed: SeedOpt = None,
+    randomize: RandOpt = True,
+) -> None:
+    """Central composite design."""
+    space = doe.load_factors(factors)
+    a: Any = alpha
+    if alpha not in ("rotatable", "orthogonal"):
+        try:
+            a = float(alpha)
+        except ValueError:
+            raise InputError(
+                f"--alpha must be rotatable, orthogonal or a number; got {alpha!r}"
+            ) from None
+    d = doe.central_composite(
+        space,
+        kind=kind,  # type: ignore[arg-type]
+        alpha=a,
+        center_points=center_points,
+        generators=generators,
+        randomize=randomize,
+        seed=seed,
+    )
+    _write_sheet(d, out)
+
+
+@design_app.command("factorial")
+@cli_errors
+def design_factorial(
+    factors: FactorsOpt,
+    fraction: Annotated[int, typer.Option("--fraction", help="p of a 2^(k-p) fraction.")] = 0,
+    generators: Annotated[
+        str | None, typer.Option("--generators", help="e.g. 'E=ABC F=BCD' (letters A, B, ...).")
+    ] = None,
+    center_points: Annotated[int, typer.Option("--center-points", help="Centre runs.")] = 0,
+    out: OutOpt = None,
+    seed: SeedOpt = None,
+    randomize: RandOpt = True,
+) -> None:
+    """Two-level full or fractional factorial (resolution and aliases are printed)."""
+    space = doe.load_factors(factors)
+    d = doe.factorial(
+        space,
+        fraction=fraction,
+        generators=generators,
+        center_points=center_points,
+        randomize=randomize,
+        seed=seed,
+    )
+    _write_sheet(d, out)
+
+
+@design_app.command("lhs")
+@cli_errors
+def design_lhs(
+    factors: FactorsOpt,
+    runs: Annotated[int, typer.Option("--runs", help="Number of points.")],
+    out: OutOpt = None,
+    seed: SeedOpt = None,
+) -> None:
+    """Latin hypercube sample of the factor box."""
+    _write_sheet(doe.latin_hypercube(doe.load_factors(factors), runs, seed=seed), out)
+
+
+@design_app.command("sobol")
+@cli_errors
+def design_sobol(
+    factors: FactorsOpt,
+    runs: Annotated[int, typer.Option("--runs", help="Number of points (power of 2 best).")],
+    out: OutOpt = None,
+    seed: SeedOpt = None,
+) -> None:
+    """Scrambled Sobol sequence over the factor box."""
+    _write_sheet(doe.sobol(doe.load_factors(factors), runs, seed=seed), out)
+
+
+@design_app.command("steepest")
+@cli_errors
+def design_steepest(
+    factors: FactorsOpt,
+    from_runs: Annotated[
+        Path | None,
+        typer.Option("--from-runs", help="Screening run sheet to fit a first-order model on."),
+    ] = None,
+    response: Annotated[
+        str | None, typer.Option("--response", help="Response column of --from-runs.")
+    ] = None,
+    runs_factors: Annotated[
+        Path | None,
+        typer.Option("--runs-factors", help="Factors of --from-runs if its values are actual."),
+    ] = None,
+    coef: Annotated[
+        str | None, typer.Option("--coef", help="Coded coefficients instead: 'x3=1.29,x4=1.83'.")
+    ] = None,
+    move: Annotated[
+        str | None, typer.Option("--move", help="Factors that move, e.g. 'x3,x4,x8'.")
+    ] = None,
+    steps: Annotated[
+        str | None, typer.Option("--steps", help="Per-factor steps: 'x3=0.1,x4=0.03'.")
+    ] = None,
+    step: Annotated[
+        float, typer.Option("--step", help="Step of the largest-effect factor (proportional).")
+    ] = 1.0,
+    start: Annotated[
+        str | None, typer.Option("--start", help="First point: 'x3=0.35,x4=0.03'.")
+    ] = None,
+    points: Annotated[int, typer.Option("--points", help="Runs on the path.")] = 5,
+    units: Annotated[
+        str, typer.Option("--units", help="Units of steps/start: coded or actual.")
+    ] = "actual",
+    direction: Annotated[str, typer.Option("--direction", help="ascent or descent.")] = "ascent",
+    out: OutOpt = None,
+) -> None:
+    """Path of steepest ascent/descent from a screening fit or given coefficients."""
+    space = doe.load_factors(factors)
+    if (from_runs is None) == (coef is None):
+        raise InputError("give either --from-runs (with --response) or --coef")
+    if from_runs is not None:
+        if not response:
+            raise InputError("--response is required with --from-runs")
+        rs = _load_surface(from_runs, response, "linear", runs_factors, None, None)
+        coefficients: Any = {k: v for k, v in rs.coefficients_coded.items() if k in rs.names}
+    else:
+        coefficients = _parse_assignments(coef, "--coef")
+    d = doe.steepest_path(
+        coefficients,
+        factors=space,
+        n_points=points,
+        step=step,
+        steps=_parse_assignments(steps, "--steps") or None,
+        move=[m.strip() for m in move.split(",")] if move else None,
+        start=_parse_assignments(start, "--start") or None,
+        direction=direction,  # type: ignore[arg-type]
+        units=units,  # type: ignore[arg-type]
+    )
+    _write_sheet(d, out)
+
+
+# ------------------------------------------------------------------------- analyze / optimize
+ResponseOpt = Annotated[str, typer.Option("--response", help="Response column.")]
+ModelOpt = Annotated[str, typer.Option("--model", help="linear, 2fi or quadratic.")]
+FactorsFileOpt = Annotated[
+    Path | None,
+    typer.Option("--factors", help="Factors TOML: factor columns and actual units."),
+]
+ColumnsOpt = Annotated[
+    str | None, typer.Option("--columns", help="Factor columns, e.g. 'x3,x4,x8'.")
+]
+UnitsOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--units",
+        help="Units of the factor columns: coded or actual (default: actual with --factors).",
+    ),
+]
+JsonOpt = Annotated[Path | None, typer.Option("--json", help="Write the results as JSON here.")]
+
+
+@app.command("analyze")
+@cli_errors
+def analyze(
+    runs: Annotated[Path, typer.Argument(help="Run sheet (CSV) with a response column.")],
+    response: ResponseOpt,
+    model: ModelOpt = "quadratic",
+    factors: FactorsFileOpt = None,
+    columns: ColumnsOpt = None,
+    units: UnitsOpt = None,
+    reduce: Annotated[
+        float | None,
+        typer.Option("--reduce", help="Backward elimination (hierarchical) with this alpha out."),
+    ] = None,
+    json_out: JsonOpt = None,
+) -> None:
+    """Fit a model to a run sheet and print Design-Expert's ANOVA and fit statistics."""
+    rs = _load_surface(runs, response, model, factors, columns, units)
+    if reduce is not None:
+        rs = rs.reduce(alpha_out=reduce)
+    _print_analysis(rs)
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(analysis_dict(rs), indent=2))
+        console.print(f"results written to {json_out}", highlight=False)
+
+
+@app.command("optimize")
+@cli_errors
+def optimize_cmd(
+    runs: Annotated[Path, typer.Argument(help="Run sheet (CSV) with a response column.")],
+    response: ResponseOpt,
+    target: Annotated[float, typer.Option("--target", help="Target response value.")],
+    model: ModelOpt = "quadratic",
+    factors: FactorsFileOpt = None,
+    columns: ColumnsOpt = None,
+    units: UnitsOpt = None,
+    fix: Annotated[
+        str | None, typer.Option("--fix", help="Hold factors: 'x3=0.55' (actual with --factors).")
+    ] = None,
+    ranges: Annotated[
+        str | None, typer.Option("--range", help="Search ranges: 'x4=0.1:0.15'.")
+    ] = None,
+    near: Annotated[
+        str | None, typer.Option("--near", help="Prefer solutions near 'x3=0.6,x4=0.12'.")
+    ] = None,
+    lower: Annotated[
+        float | None, typer.Option("--lower", help="Desirability lower limit.")
+    ] = None,
+    upper: Annotated[
+        float | None, typer.Option("--upper", help="Desirability upper limit.")
+    ] = None,
+    solutions: Annotated[int, typer.Option("--solutions", help="Distinct solutions to list.")] = 5,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the starting points.")] = 0,
+    json_out: JsonOpt = None,
+) -> None:
+    """Propose factor settings whose predicted response hits --target (ranked)."""
+    rs = _load_surface(runs, response, model, factors, columns, units)
+    res = doe.optimize_target(
+        rs,
+        target,
+        lower=lower,
+        upper=upper,
+        fixed=_parse_assignments(fix, "--fix") or None,
+        bounds=_parse_ranges(ranges, "--range") or None,
+        near=_parse_assignments(near, "--near") or None,
+        n_solutions=solutions,
+        seed=seed,
+    )
+    frame = res.to_frame()
+    t = Table(title=f"Settings predicted to give {response} = {target:g} ({rs.model} model)")
+    for c in ("rank", *rs.names, "predicted", "desirability", "95% CI", "95% PI"):
+        t.add_column(c, justify="right")
+    for _, row in frame.iterrows():
+        t.add_row(
+            str(row["rank"]),
+            *[_fmt(row[n], 4) for n in rs.names],
+            _fmt(row["predicted"], 5),
+            f"{row['desirability']:.3f}",
+            f"{row['ci_low']:.4g}-{row['ci_high']:.4g}",
+            f"{row['pi_low']:.4g}-{row['pi_high']:.4g}",
+        )
+    console.print(t)
+    console.print(
+        f"desirability limits: lower {res.lower:g}, target {res.target:g}, upper {res.upper:g}; "
+        f"95 % CI of the mean and PI of one run",
+        highlight=False,
+    )
+    if json_out is not None:
+        doc = {
+            "response": response,
+            "model": rs.model,
+            "target": target,
+            "lower": res.lower,
+            "upper": res.upper,
+            "excluded_runs": [_clean(v) for v in rs.excluded_runs],
+            "solutions": [
+                {k: _clean(v) for k, v in rec.items()} for rec in frame.to_dict(orient="records")
+            ],
+        }
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(doc, indent=2))
