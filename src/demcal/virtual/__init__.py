@@ -1,1 +1,25 @@
-"""Virtual lab tests on the DEM engine (the cylinder-lifting angle-of-repose test)."""
+"""Virtual lab tests on the DEM engine: the cylinder-lifting angle-of-repose test.
+
+``run_aor`` runs a batch of tests (one engine world each) and returns :class:`AoRResult`
+objects with a typed :class:`Outcome`; ``fidelity_config`` and ``preset_parameters`` give the
+paper's and the quick configurations and the corn-stalk material.
+"""
+
+from demcal.virtual.aor import AoRResult, run_aor
+from demcal.virtual.config import AoRTestConfig, fidelity_config
+from demcal.virtual.outcome import Outcome
+from demcal.virtual.parameters import PARAMETERS, check_parameters, parse_assignments
+from demcal.virtual.presets import PRESETS, preset_parameters
+
+__all__ = [
+    "PARAMETERS",
+    "PRESETS",
+    "AoRResult",
+    "AoRTestConfig",
+    "Outcome",
+    "check_parameters",
+    "fidelity_config",
+    "parse_assignments",
+    "preset_parameters",
+    "run_aor",
+]

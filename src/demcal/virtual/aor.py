@@ -1,0 +1,430 @@
+"""The cylinder-lifting angle-of-repose test, many runs at once as batched engine worlds.
+
+Each run goes through the phases of the paper's test: **fill** (a dynamic factory at the top of
+the tube, or a loose packing dropped from rest), **settle**, **lift** the tube at constant speed
+until it clears the material, **settle**, **measure**. Every run ends in one typed
+:class:`~demcal.virtual.outcome.Outcome`: ``pile`` (with the angle), ``column``, ``plug``,
+``unsettled`` or ``unstable`` (see :mod:`demcal.virtual.outcome` for the criteria).
+
+All runs of a batch share one :class:`~demcal.dem.simulation.Simulation` (one world each, with
+its own parameters, seed and time step); a finished world is paused, so the batch costs what
+its live runs cost.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from demcal.dem.materials import Interaction, Material, MaterialTable
+from demcal.dem.simulation import Simulation
+from demcal.dem.state import ClumpGroup, World
+from demcal.dem.walls import PlaneWall, TubeWall
+from demcal.errors import InputError
+from demcal.virtual.config import AoRTestConfig
+from demcal.virtual.factory import SphereGrid, draw_scales, make_template, place_in_cylinder
+from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled
+from demcal.virtual.parameters import check_parameters
+from demcal.virtual.pile import measure_pile
+
+__all__ = ["AoRResult", "run_aor"]
+
+log = logging.getLogger("demcal.virtual")
+
+PLATE = 0
+TUBE = 1
+
+#: progress callback: (run index, phase name, simulated time s, wall time s)
+Progress = Callable[[int, str, float, float], None]
+
+
+@dataclass
+class AoRResult:
+    """What one virtual angle-of-repose test measured (SI units, angles in degrees)."""
+
+    outcome: str
+    aor_deg: float | None
+    aor_left_deg: float | None
+    aor_right_deg: float | None
+    aor_std_deg: float | None
+    aor_profile_deg: float | None
+    n_particles: int
+    particles_lost: int
+    mass_on_plate_kg: float
+    pile_height_m: float | None
+    base_diameter_m: float | None
+    fill_height_m: float | None
+    settled: bool
+    time_step_s: float
+    sim_time_s: float
+    wall_time_s: float
+    seed: int
+    params: dict[str, float]
+    reason: str | None = None
+    views_deg: list[dict[str, float]] = field(default_factory=list)
+    phase_times_s: dict[str, float] = field(default_factory=dict)
+    artefacts: dict[str, str] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (``aor_deg`` is None unless the outcome is ``pile``)."""
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+def _materials(p: Mapping[str, float]) -> MaterialTable:
+    particle = Material("particle", p["particle.density"], p["particle.shear_modulus"],
+                        p["particle.poisson"])
+    wall = Material("wall", p["wall.density"], p["wall.shear_modulus"], p["wall.poisson"])
+    return MaterialTable([particle, wall], {
+        ("particle", "particle"): Interaction(p["pp.restitution"], p["pp.static_friction"],
+                                             p["pp.rolling_friction"], p["pp.surface_energy"]),
+        ("particle", "wall"): Interaction(p["pw.restitution"], p["pw.static_friction"],
+                                          p["pw.rolling_friction"], p["pw.surface_energy"]),
+    })
+
+
+@dataclass
+class _Run:
+    """Host-side state of one run (world) during the batch."""
+
+    index: int
+    params: dict[str, float]
+    seed: int
+    rng: np.random.Generator
+    scales: np.ndarray
+    capacity: int
+    phase: str = "fill"
+    phase_start: float = 0.0
+    inserted: int = 0
+    fill_height: float | None = None
+    done: bool = False
+    result: AoRResult | None = None
+    phase_times: dict[str, float] = field(default_factory=dict)
+    wall_time: float = 0.0
+
+
+def _capacity(config: AoRTestConfig, template) -> int:
+    fill = config.fill
+    if fill.method == "packing":
+        return int(fill.count)
+    g = config.geometry
+    p = config.particle
+    mean_s3 = (p.size_max**4 - p.size_min**4) / (4 * (p.size_max - p.size_min)) \
+        if p.size_max > p.size_min else p.size_min**3
+    vol = math.pi * (0.5 * g.cylinder_inner_diameter) ** 2 * g.cylinder_height
+    fits = math.ceil(0.6 * vol / (template.volume * mean_s3))
+    n = math.ceil(fill.rate * fill.filling_time)
+    if fill.count is not None:
+        n = min(n, fill.count)
+    return max(1, min(n, fits))
+
+
+def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestConfig,
+            seeds: Sequence[int], backend: str = "auto", progress: Progress | None = None,
+            vtk_dir: str | Path | None = None) -> list[AoRResult]:
+    """Run a batch of cylinder-lifting tests as worlds of one engine.
+
+    Parameters
+    ----------
+    parameter_sets : sequence of mapping
+        Complete parameter sets (every name of :data:`demcal.virtual.parameters.PARAMETERS`,
+        SI units), one per run; see :func:`demcal.virtual.presets.preset_parameters`.
+    config : AoRTestConfig
+        The test (geometry, particles, fill, phases, measurement, outcome criteria).
+    seeds : sequence of int
+        One seed per run (particle sizes, orientations and positions).
+    backend : {"auto", "cpu", "cuda"}
+        Engine backend.
+    progress : callable, optional
+        Called as ``progress(run, phase, sim_time_s, wall_time_s)`` at every check.
+    vtk_dir : path, optional
+        If given, VTK snapshots of every run at the end of each phase are written there.
+
+    Returns
+    -------
+    list of AoRResult
+        One per run, in order.
+    """
+    if len(parameter_sets) != len(seeds):
+        raise InputError(f"need one seed per parameter set; got {len(seeds)} seeds for "
+                         f"{len(parameter_sets)} sets")
+    if not parameter_sets:
+        return []
+    template = make_template(config.particle)
+    cap = _capacity(config, template)
+    g = config.geometry
+    r_in = 0.5 * g.cylinder_inner_diameter
+    half = 0.5 * g.plate_size
+    z_top = g.cylinder_height + (config.phases.lift_height or g.cylinder_height) + 0.1
+    runs: list[_Run] = []
+    worlds: list[World] = []
+    for i, (pset, seed) in enumerate(zip(parameter_sets, seeds, strict=True)):
+        params = check_parameters(dict(pset))
+        missing = set(_required()) - set(params)
+        if missing:
+            raise InputError(f"parameter set {i} lacks {', '.join(sorted(missing))}")
+        rng = np.random.default_rng(int(seed))
+        scales = draw_scales(cap, config.particle, rng)
+        runs.append(_Run(i, params, int(seed), rng, scales, cap))
+        walls = [
+            PlaneWall(origin=[0.0, 0.0, 0.0], normal=[0.0, 0.0, 1.0], half_size=(half, half),
+                      material="wall", name="plate"),
+            TubeWall(base=[0.0, 0.0, 0.0], axis=[0.0, 0.0, 1.0], inner_radius=r_in,
+                     thickness=g.cylinder_wall_thickness, length=g.cylinder_height,
+                     material="wall", name="cylinder"),
+        ]
+        worlds.append(World(
+            _materials(params), [ClumpGroup(template, "particle", cap, scales=scales)], walls,
+            domain_lo=(-half - 0.02, -half - 0.02, -0.05), domain_hi=(half + 0.02, half + 0.02,
+                                                                      z_top)))
+    sim = Simulation(worlds, backend=backend, dt_fraction=config.dt_fraction,
+                     rolling_friction=config.rolling_model, raise_on_unstable=False)
+    t_start = time.perf_counter()
+    for run in runs:
+        _start_fill(sim, run, config, template)
+    snap = _Snapshots(vtk_dir) if vtk_dir is not None else None
+    while not all(r.done for r in runs):
+        live = [r for r in runs if not r.done]
+        dt = min(float(sim.dt[r.index]) for r in live)
+        n = max(1, round(config.phases.check_interval / dt))
+        sim.advance(n)
+        times = sim.time
+        for run in live:
+            w = run.index
+            t = float(times[w])
+            if sim.world_errors[w] is not None:
+                _finish(sim, run, config, Outcome.UNSTABLE, t, reason=sim.world_errors[w])
+            else:
+                _step_phase(sim, run, config, template, t, snap)
+            run.wall_time = time.perf_counter() - t_start
+            if run.done:
+                sim.set_world_enabled(w, False)
+                run.result.wall_time_s = run.wall_time
+            if progress is not None:
+                progress(w, run.phase, t, run.wall_time)
+    return [r.result for r in runs]  # type: ignore[misc]
+
+
+def _required() -> list[str]:
+    from demcal.virtual.parameters import PARAMETERS
+
+    return list(PARAMETERS)
+
+
+def _start_fill(sim: Simulation, run: _Run, config: AoRTestConfig, template) -> None:
+    fill = config.fill
+    if fill.method == "packing":
+        g = config.geometry
+        r_in = 0.5 * g.cylinder_inner_diameter
+        mean_vol = template.volume * float(np.mean(run.scales**3))
+        height = run.capacity * mean_vol / (fill.packing_fraction * math.pi * r_in**2)
+        z_low = float(run.scales.max() * template.bounding_radius)
+        grid = SphereGrid(2.0 * float(template.radii.max() * run.scales.max()))
+        todo = np.arange(run.capacity)
+        for _ in range(20):
+            idx, pos, quat = place_in_cylinder(template, run.scales[todo], radius=r_in,
+                                               z_low=z_low, z_high=z_low + height,
+                                               rng=run.rng, grid=grid, attempts=30)
+            if len(idx):
+                sim.place_clumps(run.index, todo[idx], pos, quat)
+            todo = np.delete(todo, idx)
+            if len(todo) == 0:
+                break
+            height *= 1.25
+        if len(todo):
+            raise InputError(f"could not place {len(todo)} of {run.capacity} particles in the "
+                             "cylinder; lower fill.count")
+        run.inserted = run.capacity
+        _enter(run, "fill_settle", 0.0)
+
+
+def _enter(run: _Run, phase: str, t: float) -> None:
+    run.phase_times[run.phase] = t
+    run.phase = phase
+    run.phase_start = t
+
+
+def _settled(sim: Simulation, w: int, config: AoRTestConfig) -> tuple[bool, float, float]:
+    v = sim.clump_velocities(w)
+    if len(v) == 0:
+        return True, 0.0, 0.0
+    speed2 = np.sum(v * v, axis=1)
+    rms = float(math.sqrt(speed2.mean()))
+    vmax = float(math.sqrt(speed2.max()))
+    ph = config.phases
+    return (rms < ph.settle_rms_speed and vmax < ph.settle_max_speed), rms, vmax
+
+
+def _material_top(sim: Simulation, w: int) -> float:
+    centres, radii, _ = sim.spheres(w)
+    if len(radii) == 0:
+        return 0.0
+    return float(np.max(centres[:, 2] + radii))
+
+
+def _step_phase(sim: Simulation, run: _Run, config: AoRTestConfig, template, t: float,
+                snap) -> None:
+    w = run.index
+    ph = config.phases
+    g = config.geometry
+    if run.phase == "fill":
+        _factory_insert_slots(sim, run, config, template, t)
+        if t >= config.fill.filling_time or run.inserted >= run.capacity:
+            _enter(run, "fill_settle", t)
+        return
+    if run.phase == "fill_settle":
+        elapsed = t - run.phase_start
+        ok, rms, vmax = _settled(sim, w, config)
+        if ok and elapsed >= ph.min_settle_time:
+            run.fill_height = _material_top(sim, w)
+            if snap is not None:
+                snap.write(sim, run, "filled")
+            sim.set_wall_velocity(w, TUBE, [0.0, 0.0, ph.lift_speed])
+            _enter(run, "lift", t)
+        elif elapsed > ph.fill_settle_max_time:
+            _finish(sim, run, config, Outcome.UNSETTLED, t,
+                    reason=f"the fill did not settle within {ph.fill_settle_max_time} s "
+                           f"(rms speed {rms:.3g} m/s, max {vmax:.3g} m/s)")
+        return
+    if run.phase == "lift":
+        z_b = float(sim.wall_origin(w, TUBE)[2])
+        limit = ph.lift_height if ph.lift_height is not None else g.cylinder_height
+        clearance = 0.5 * config.particle.diameter
+        cleared = ph.lift_height is None and z_b > _material_top(sim, w) + clearance
+        if cleared or z_b >= limit:
+            sim.set_wall_velocity(w, TUBE, [0.0, 0.0, 0.0])
+            if snap is not None:
+                snap.write(sim, run, "lifted")
+            pos = sim.clump_positions(w)
+            mass = sim.clump_masses(w)
+            outcome, reason = classify_after_lift(pos, mass, tube_bottom=z_b,
+                                                  tube_height=g.cylinder_height,
+                                                  tube_radius=0.5 * g.cylinder_inner_diameter,
+                                                  criteria=config.outcome)
+            if outcome is not None:
+                _finish(sim, run, config, outcome, t, reason=reason)
+                return
+            _enter(run, "pile_settle", t)
+        return
+    if run.phase == "pile_settle":
+        elapsed = t - run.phase_start
+        ok, rms, vmax = _settled(sim, w, config)
+        if ok and elapsed >= ph.min_settle_time:
+            if snap is not None:
+                snap.write(sim, run, "settled")
+            _finish(sim, run, config, None, t)
+        elif elapsed > ph.pile_settle_max_time:
+            _finish(sim, run, config, Outcome.UNSETTLED, t,
+                    reason=f"the pile did not settle within {ph.pile_settle_max_time} s "
+                           f"(rms speed {rms:.3g} m/s, max {vmax:.3g} m/s)")
+
+
+def _factory_insert_slots(sim: Simulation, run: _Run, config: AoRTestConfig, template,
+                          t: float) -> None:
+    """Dynamic factory: generate the particles due by time t into free world slots."""
+    fill = config.fill
+    due = min(run.capacity, math.floor(fill.rate * min(t, fill.filling_time)))
+    n_want = due - run.inserted
+    if n_want <= 0:
+        return
+    g = config.geometry
+    r_in = 0.5 * g.cylinder_inner_diameter
+    z_f = fill.factory_height if fill.factory_height is not None else g.cylinder_height
+    reach = float(run.scales.max() * template.bounding_radius)
+    centres, radii, _ = sim.spheres(run.index)
+    near = np.abs(centres[:, 2] - z_f) < 4 * reach
+    grid = SphereGrid(2.0 * float(template.radii.max() * run.scales.max()))
+    grid.add(centres[near], radii[near])
+    # world slots are used in order; each slot keeps the size drawn for it
+    slots = np.arange(run.inserted, run.inserted + n_want)
+    idx, pos, quat = place_in_cylinder(template, run.scales[slots], radius=r_in,
+                                       z_low=z_f - reach, z_high=z_f, rng=run.rng, grid=grid,
+                                       attempts=5)
+    if len(idx) == 0:
+        return
+    # a slot that did not fit now is tried again at the next event: place the ones that did,
+    # in slot order, and leave the rest for later
+    placed_slots = slots[idx]
+    order = np.argsort(placed_slots)
+    placed_slots = placed_slots[order]
+    # keep slots contiguous: only the leading run of placed slots is committed
+    lead = 0
+    while lead < len(placed_slots) and placed_slots[lead] == run.inserted + lead:
+        lead += 1
+    if lead == 0:
+        return
+    sel = order[:lead]
+    sim.place_clumps(run.index, placed_slots[:lead], pos[sel], quat[sel],
+                     velocities=np.tile([0.0, 0.0, -fill.drop_speed], (lead, 1)))
+    run.inserted += lead
+
+
+def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome | None,
+            t: float, reason: str | None = None) -> None:
+    """Classify (if not yet), measure a pile, and store the result."""
+    w = run.index
+    g = config.geometry
+    run.phase_times[run.phase] = t
+    centres, radii, _clump_ids = sim.spheres(w)
+    pos = sim.clump_positions(w)
+    mass = sim.clump_masses(w)
+    settled = outcome is None
+    if outcome is None:
+        outcome, reason = classify_settled(
+            pos, mass, fill_height=run.fill_height or 0.0,
+            material_top=float(np.max(centres[:, 2] + radii)) if len(radii) else 0.0,
+            tube_radius=0.5 * g.cylinder_inner_diameter,
+            particle_length=config.particle.length * config.particle.size_max,
+            criteria=config.outcome)
+    measured: dict[str, Any] = {}
+    if outcome == Outcome.PILE:
+        measured = measure_pile(centres, radii, config.measurement)
+        if measured.get("error"):
+            outcome = Outcome.SCATTERED
+            reason = measured["error"]
+    lost = sim.n_removed(w)
+    run.result = AoRResult(
+        outcome=outcome.value,
+        aor_deg=measured.get("aor_deg") if outcome == Outcome.PILE else None,
+        aor_left_deg=measured.get("aor_left_deg") if outcome == Outcome.PILE else None,
+        aor_right_deg=measured.get("aor_right_deg") if outcome == Outcome.PILE else None,
+        aor_std_deg=measured.get("aor_std_deg") if outcome == Outcome.PILE else None,
+        aor_profile_deg=measured.get("aor_profile_deg") if outcome == Outcome.PILE else None,
+        n_particles=run.inserted,
+        particles_lost=lost,
+        mass_on_plate_kg=float(mass.sum()),
+        pile_height_m=measured.get("pile_height_m",
+                                   float(np.max(centres[:, 2] + radii)) if len(radii) else None),
+        base_diameter_m=measured.get("base_diameter_m"),
+        fill_height_m=run.fill_height,
+        settled=settled and outcome in (Outcome.PILE, Outcome.COLUMN, Outcome.SCATTERED),
+        time_step_s=float(sim.dt[w]),
+        sim_time_s=t,
+        wall_time_s=0.0,
+        seed=run.seed,
+        params=dict(run.params),
+        reason=reason,
+        views_deg=measured.get("views", []),
+        phase_times_s=dict(run.phase_times),
+    )
+    run.done = True
+
+
+class _Snapshots:
+    """Writes VTK snapshots of runs at the end of phases (if the output module is present)."""
+
+    def __init__(self, folder: str | Path):
+        self.folder = Path(folder)
+        self.folder.mkdir(parents=True, exist_ok=True)
+
+    def write(self, sim: Simulation, run: _Run, label: str) -> None:
+        from demcal.dem import output
+
+        path = self.folder / f"run{run.index:03d}_{label}"
+        output.write_vtk(sim, path, worlds=[run.index])
