@@ -127,7 +127,8 @@ def _capacity(config: AoRTestConfig, template) -> int:
 
 def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestConfig,
             seeds: Sequence[int], backend: str = "auto", progress: Progress | None = None,
-            vtk_dir: str | Path | None = None) -> list[AoRResult]:
+            vtk_dir: str | Path | None = None,
+            on_result: Callable[[int, AoRResult], None] | None = None) -> list[AoRResult]:
     """Run a batch of cylinder-lifting tests as worlds of one engine.
 
     Parameters
@@ -145,6 +146,9 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
         Called as ``progress(run, phase, sim_time_s, wall_time_s)`` at every check.
     vtk_dir : path, optional
         If given, VTK snapshots of every run at the end of each phase are written there.
+    on_result : callable, optional
+        Called as ``on_result(run, result)`` the moment a run ends (before the batch ends), so
+        a caller can store it at once.
 
     Returns
     -------
@@ -206,6 +210,8 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
             if run.done:
                 sim.set_world_enabled(w, False)
                 run.result.wall_time_s = run.wall_time
+                if on_result is not None:
+                    on_result(w, run.result)
             if progress is not None:
                 progress(w, run.phase, t, run.wall_time)
     return [r.result for r in runs]  # type: ignore[misc]
