@@ -226,23 +226,13 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             n_nb = cap
         for k in range(n_nb):
             j = nb_index[i, k]
-            cj = s_clump[j]
-            if c_state[cj] != ACTIVE:
-                nb_hist[i, k, 0] = 0.0
-                nb_hist[i, k, 1] = 0.0
-                nb_hist[i, k, 2] = 0.0
-                continue
             # canonical orientation: a = lower index, b = higher index
             if i < j:
                 a = i
                 b = j
-                ca = ci
-                cb = cj
             else:
                 a = j
                 b = i
-                ca = cj
-                cb = ci
             dx = s_pos[b, 0] - s_pos[a, 0]
             dy = s_pos[b, 1] - s_pos[a, 1]
             dz = s_pos[b, 2] - s_pos[a, 2]
@@ -251,7 +241,9 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             rsum = ra + rb
             dist2 = dx * dx + dy * dy + dz * dz
             reach = rsum + contact_margin
-            if dist2 >= reach * reach:
+            # the clump of j is looked up only for pairs within reach
+            cj = s_clump[j] if dist2 < reach * reach else ci
+            if dist2 >= reach * reach or c_state[cj] != ACTIVE:
                 nb_hist[i, k, 0] = 0.0
                 nb_hist[i, k, 1] = 0.0
                 nb_hist[i, k, 2] = 0.0
@@ -260,6 +252,12 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
                     nb_rhist[i, k, 1] = 0.0
                     nb_rhist[i, k, 2] = 0.0
                 continue
+            if i < j:
+                ca = ci
+                cb = cj
+            else:
+                ca = cj
+                cb = ci
             dist = math.sqrt(dist2)
             nx = dx / dist
             ny = dy / dist
@@ -614,9 +612,9 @@ def place_spheres(lo, hi, c_pos, c_quat, c_first, c_count, s_offset, s_pos):
 @njit(cache=True)
 def cell_coords(w, x, y, z, grid_lo, inv_cell):
     """Integer cell coordinates of a point in world ``w``'s grid (clamped to the key range)."""
-    ix = math.floor((x - grid_lo[w, 0]) * inv_cell)
-    iy = math.floor((y - grid_lo[w, 1]) * inv_cell)
-    iz = math.floor((z - grid_lo[w, 2]) * inv_cell)
+    ix = int(math.floor((x - grid_lo[w, 0]) * inv_cell))  # noqa: RUF046 (float on CUDA)
+    iy = int(math.floor((y - grid_lo[w, 1]) * inv_cell))  # noqa: RUF046 (float on CUDA)
+    iz = int(math.floor((z - grid_lo[w, 2]) * inv_cell))  # noqa: RUF046 (float on CUDA)
     ix = min(max(ix, 0), CELL_MAX)
     iy = min(max(iy, 0), CELL_MAX)
     iz = min(max(iz, 0), CELL_MAX)

@@ -1,15 +1,18 @@
 """CUDA backend: numba.cuda kernels around the shared bodies, replayed as a CUDA graph.
 
-One time step is eight small kernels, one thread per element:
+One time step is six small kernels, one thread per element:
 
-1. ``zero``: clear the hash grid (only when the rebuild flag is set);
-2. ``bin``: put each active sphere in its bucket (atomic), remember its reference position;
-3. ``search``: fill each sphere's neighbour slots into the scratch buffer ("b"), sorted, with
+1. ``bin``: put each active sphere in its bucket (atomic), remember its reference position
+   (only when the rebuild flag is set; buckets are emptied by ``commit`` after each build);
+2. ``search``: fill each sphere's neighbour slots into the scratch buffer ("b"), sorted, with
    the history carried over from the current buffer ("a");
-4. ``commit``: copy scratch to current (unless a buffer overflowed);
-5. ``finish``: one thread clears the rebuild flag, or raises the halt flag on overflow;
-6. ``forces`` and 7. ``clumps``: the shared bodies of :mod:`demcal.dem.kernels`;
-8. ``worlds``: move the walls, advance each world's clock, count the step.
+3. ``commit``: copy scratch to current (unless a buffer overflowed), empty the used buckets;
+4. ``finish``: one thread clears the rebuild flag, or raises the halt flag on overflow;
+5. ``forces`` and 6. ``clumps``: the shared bodies of :mod:`demcal.dem.kernels`; the first
+   threads of ``clumps`` also move their world's walls and advance its clock.
+
+Neighbour-slot arrays live on the device in column-major (Fortran) order, so that consecutive
+threads read consecutive addresses (coalesced) while the kernel bodies index them as usual.
 
 Every kernel returns at once when the halt flag is set, so an overflow mid-chunk makes the rest
 of the chunk a no-op; the host then grows the arrays and continues: nothing is lost. The rebuild
@@ -36,6 +39,8 @@ from numba import cuda
 from demcal.dem import _config
 from demcal.dem.kernels import (
     ACTIVE,
+    CELL_BITS,
+    CELL_MAX,
     cell_bucket,
     cell_coords,
     cell_key,
@@ -73,11 +78,13 @@ if _simulator():
     neighbor_search = _unwrapping(neighbor_search)
     sphere_forces = _unwrapping(sphere_forces)
 
-THREADS = 128
+THREADS = 64
 #: steps captured in one CUDA graph (the graph is replayed ceil(n / GRAPH_STEPS) times)
 GRAPH_STEPS = 20
 
 _KERNELS = None
+#: optional register cap of the force kernel (``DEMCAL_CUDA_MAXREG``), for tuning
+_MAXREG = int(os.environ.get("DEMCAL_CUDA_MAXREG", "0"))
 
 
 def _build_kernels():
@@ -85,17 +92,6 @@ def _build_kernels():
     global _KERNELS
     if _KERNELS is not None:
         return _KERNELS
-
-    @cuda.jit
-    def k_zero(halt, flag_rebuild, bucket_count, stats):
-        if halt[0] != 0 or flag_rebuild[0] == 0:
-            return
-        i = cuda.grid(1)
-        if i < bucket_count.shape[0]:
-            bucket_count[i] = 0
-        if i == 0:
-            stats[0] = 0
-            stats[1] = 0
 
     @cuda.jit
     def k_bin(halt, flag_rebuild, s_pos, s_clump, c_state, c_world, grid_lo, inv_cell,
@@ -141,7 +137,8 @@ def _build_kernels():
 
     @cuda.jit
     def k_commit(halt, flag_rebuild, stats, bucket_cap, src_count, src_index, src_hist,
-                 src_rhist, dst_count, dst_index, dst_hist, dst_rhist, carry_rolling):
+                 src_rhist, dst_count, dst_index, dst_hist, dst_rhist, carry_rolling,
+                 s_cellkey, bucket_count, mask):
         if halt[0] != 0 or flag_rebuild[0] == 0:
             return
         cap = dst_index.shape[1]
@@ -150,6 +147,14 @@ def _build_kernels():
         i = cuda.grid(1)
         if i >= dst_count.shape[0]:
             return
+        # empty this sphere's bucket for the next build (idempotent writes of 0)
+        key = s_cellkey[i]
+        if key >= 0:
+            iz = key & CELL_MAX
+            iy = (key >> CELL_BITS) & CELL_MAX
+            ix = (key >> (2 * CELL_BITS)) & CELL_MAX
+            w = key >> (3 * CELL_BITS)
+            bucket_count[cell_bucket(w, ix, iy, iz, mask)] = 0
         n = src_count[i]
         dst_count[i] = n
         for k in range(min(n, cap)):
@@ -173,8 +178,10 @@ def _build_kernels():
         else:
             flag_rebuild[0] = 0
             stats[2] += 1
+            stats[0] = 0
+            stats[1] = 0
 
-    @cuda.jit
+    @cuda.jit(**({"max_registers": _MAXREG} if _MAXREG else {}))
     def k_forces(halt, s_pos, s_radius, s_clump, s_material, c_pos, c_veval, c_omega, c_mass,
                  c_world, c_state, nb_count, nb_index, nb_hist, nb_rhist, wall_type,
                  wall_origin, wall_geom, wall_vel, wall_material, w_hist, w_rhist, pair_params,
@@ -196,34 +203,27 @@ def _build_kernels():
     def k_clumps(halt, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass, c_inertia,
                  c_world, c_state, c_first, c_count, s_offset, s_pos, s_ref, s_force, s_torque,
                  s_roll, world_dt, world_gravity, world_active, world_lo, world_hi, half_skin,
-                 flag_rebuild, flag_nan):
+                 flag_rebuild, flag_nan, wall_origin, wall_vel, world_time, world_steps, stats):
         if halt[0] != 0:
             return
         c = cuda.grid(1)
+        # the first threads also move their world's walls and clock (read next step only)
+        if c == 0:
+            stats[3] += 1
+        if c < world_dt.shape[0] and world_active[c] != 0:
+            dt = world_dt[c]
+            for k in range(wall_origin.shape[1]):
+                wall_origin[c, k, 0] += wall_vel[c, k, 0] * dt
+                wall_origin[c, k, 1] += wall_vel[c, k, 1] * dt
+                wall_origin[c, k, 2] += wall_vel[c, k, 2] * dt
+            world_time[c] += dt
+            world_steps[c] += 1
         if c >= c_pos.shape[0]:
             return
         clump_step(c, c + 1, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
                    c_inertia, c_world, c_state, c_first, c_count, s_offset, s_pos, s_ref,
                    s_force, s_torque, s_roll, world_dt, world_gravity, world_active, world_lo,
                    world_hi, half_skin, flag_rebuild, flag_nan)
-
-    @cuda.jit
-    def k_worlds(halt, wall_origin, wall_vel, world_dt, world_active, world_time, world_steps,
-                 stats):
-        if halt[0] != 0:
-            return
-        w = cuda.grid(1)
-        if w == 0:
-            stats[3] += 1
-        if w >= world_dt.shape[0] or world_active[w] == 0:
-            return
-        dt = world_dt[w]
-        for k in range(wall_origin.shape[1]):
-            wall_origin[w, k, 0] += wall_vel[w, k, 0] * dt
-            wall_origin[w, k, 1] += wall_vel[w, k, 1] * dt
-            wall_origin[w, k, 2] += wall_vel[w, k, 2] * dt
-        world_time[w] += dt
-        world_steps[w] += 1
 
     class K:
         pass
@@ -270,11 +270,27 @@ class CudaRunner:
         if a["nb_index_b"].shape[1] != cap:
             sim._alloc_neighbors("b", cap)
         a["halt"] = np.zeros(1, dtype=np.int32)
+        self._to_device_layout()
+        a["bucket_count"][:] = 0
         self.upload_all()
+
+    def _to_device_layout(self) -> None:
+        """Slot arrays (sphere x neighbour/wall slot) in Fortran order on the device.
+
+        A thread walks its own sphere's slots, so slot k of consecutive spheres should be
+        adjacent (coalesced). Per-sphere and per-clump vectors stay row-major: their x, y, z
+        share a cache line, which matters for the random gathers of neighbour data.
+        """
+        sim = self.sim
+        for name, arr in sim.arrays.items():
+            if arr.ndim >= 2 and name.split("_")[0] in ("nb", "w") and \
+                    arr.shape[0] == sim.n_spheres:
+                sim.arrays[name] = np.asfortranarray(arr)
 
     # ---------------------------------------------------------------- transfers
     def upload_all(self) -> None:
-        self.dev = {k: self.cuda.to_device(np.ascontiguousarray(v), stream=self.stream)
+        self._to_device_layout()
+        self.dev = {k: self.cuda.to_device(v, stream=self.stream)
                     for k, v in self.sim.arrays.items()}
         self.stream.synchronize()
         self._graph = None
@@ -291,11 +307,18 @@ class CudaRunner:
     def push(self, *names: str) -> None:
         for n in names:
             host = self.sim.arrays[n]
-            if host.shape != self.dev[n].shape:
-                self.dev[n] = self.cuda.to_device(np.ascontiguousarray(host), stream=self.stream)
+            dev = self.dev[n]
+            if host.shape != dev.shape:
+                self._to_device_layout()
+                self.dev[n] = self.cuda.to_device(self.sim.arrays[n], stream=self.stream)
                 self._graph = None
+                continue
+            if dev.is_f_contiguous() and not dev.is_c_contiguous():
+                host = np.asfortranarray(host)
             else:
-                self.dev[n].copy_to_device(np.ascontiguousarray(host), stream=self.stream)
+                host = np.ascontiguousarray(host)
+            self.sim.arrays[n] = host
+            dev.copy_to_device(host, stream=self.stream)
         self.stream.synchronize()
 
     # ---------------------------------------------------------------- stepping
@@ -313,8 +336,6 @@ class CudaRunner:
         carry = sim.rolling_model == 2
         nb_cap = d["nb_index_a"].shape[1]
         bcap = d["bucket_members"].shape[1]
-        k.k_zero[_blocks(len(sim.arrays["bucket_count"])), THREADS, s](
-            d["halt"], d["flag_rebuild"], d["bucket_count"], d["stats"])
         k.k_bin[nb, THREADS, s](
             d["halt"], d["flag_rebuild"], d["s_pos"], d["s_clump"], d["c_state"], d["c_world"],
             d["grid_lo"], inv_cell, d["bucket_count"], d["bucket_members"], mask,
@@ -328,7 +349,7 @@ class CudaRunner:
         k.k_commit[nb, THREADS, s](
             d["halt"], d["flag_rebuild"], d["stats"], bcap, d["nb_count_b"], d["nb_index_b"],
             d["nb_hist_b"], d["nb_rhist_b"], d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"],
-            d["nb_rhist_a"], carry)
+            d["nb_rhist_a"], carry, d["s_cellkey"], d["bucket_count"], mask)
         k.k_finish[1, 32, s](d["halt"], d["flag_rebuild"], d["stats"], nb_cap, bcap)
         k.k_forces[nb, THREADS, s](
             d["halt"], d["s_pos"], d["s_radius"], d["s_clump"], d["s_material"], d["c_pos"],
@@ -338,15 +359,13 @@ class CudaRunner:
             d["w_rhist"], d["pair_params"], d["world_dt"], d["world_active"],
             sim.rolling_model, sim.contact_margin, float(_config.MAX_OVERLAP_FRACTION),
             d["s_force"], d["s_torque"], d["s_roll"], d["s_wall_force"], d["flag_overlap"])
-        k.k_clumps[_blocks(n_c), THREADS, s](
+        k.k_clumps[_blocks(max(n_c, sim.n_worlds)), THREADS, s](
             d["halt"], d["c_pos"], d["c_quat"], d["c_vel"], d["c_veval"], d["c_angmom"],
             d["c_omega"], d["c_mass"], d["c_inertia"], d["c_world"], d["c_state"],
             d["c_first"], d["c_count"], d["s_offset"], d["s_pos"], d["s_ref"], d["s_force"],
             d["s_torque"], d["s_roll"], d["world_dt"], d["world_gravity"], d["world_active"],
-            d["world_lo"], d["world_hi"], 0.5 * sim.skin, d["flag_rebuild"], d["flag_nan"])
-        k.k_worlds[_blocks(sim.n_worlds), THREADS, s](
-            d["halt"], d["wall_origin"], d["wall_vel"], d["world_dt"], d["world_active"],
-            d["world_time"], d["world_steps"], d["stats"])
+            d["world_lo"], d["world_hi"], 0.5 * sim.skin, d["flag_rebuild"], d["flag_nan"],
+            d["wall_origin"], d["wall_vel"], d["world_time"], d["world_steps"], d["stats"])
 
     def _capture(self):
         """Capture GRAPH_STEPS steps into an executable CUDA graph (driver API)."""
@@ -377,31 +396,32 @@ class CudaRunner:
         while done < n_steps:
             a["stats"][3] = 0
             self.push("stats")
-            want = n_steps - done
-            if self.use_graphs and want >= GRAPH_STEPS:
-                if self._graph is None:
-                    try:
-                        self._capture()
-                    except Exception as exc:  # fall back to plain launches
-                        log.warning("CUDA graph capture failed (%s); using plain launches", exc)
-                        self.use_graphs = False
-                        self._graph = None
-                if self._graph is not None:
-                    self._replay(want // GRAPH_STEPS)
-                    want = (want // GRAPH_STEPS) * GRAPH_STEPS
-                else:
-                    for _ in range(want):
-                        self._launch_step()
-            else:
-                for _ in range(want):
-                    self._launch_step()
+            remaining = n_steps - done
+            launched = 0
+            if self.use_graphs and self._graph is None and remaining > GRAPH_STEPS:
+                # compile and load every kernel outside the capture, as one ordinary step
+                self._launch_step()
+                launched += 1
+                try:
+                    self._capture()
+                except Exception as exc:  # fall back to plain launches
+                    log.warning("CUDA graph capture failed (%s); using plain launches", exc)
+                    self.use_graphs = False
+                    self._graph = None
+            if self._graph is not None and remaining - launched >= GRAPH_STEPS:
+                k = (remaining - launched) // GRAPH_STEPS
+                self._replay(k)
+                launched += k * GRAPH_STEPS
+            for _ in range(remaining - launched):
+                self._launch_step()
+            launched = remaining
             self.pull("stats", "halt")
             executed = int(a["stats"][3])
             done += executed
             if a["halt"][0] != 0:
                 self._grow()
-            elif executed < want:
-                raise RuntimeError(f"CUDA chunk ran {executed} of {want} steps without halting")
+            elif executed != launched:
+                raise RuntimeError(f"CUDA chunk ran {executed} of {launched} steps")
 
     def _grow(self) -> None:
         """Grow the neighbour or bucket arrays after an overflow and clear the halt flag."""
@@ -426,6 +446,8 @@ class CudaRunner:
             sim._grow_buckets(need_b)
         a["halt"][0] = 0
         a["flag_rebuild"][0] = 1
+        a["bucket_count"][:] = 0
+        a["stats"][:2] = 0
         self.upload_all()
 
 
