@@ -19,7 +19,7 @@ app = typer.Typer(
     add_completion=False,
 )
 
-COMMAND_MODULES: tuple[str, ...] = ("doe_cmds", "physical_cmd")
+COMMAND_MODULES: tuple[str, ...] = ("doe_cmds", "physical_cmd", "simulate_cmd")
 
 
 @app.callback()

@@ -26,8 +26,9 @@ def format_validation_error(exc: Exception) -> str:
     """One line per bad field of a pydantic ``ValidationError``: ``a.b.c: message``."""
     lines = []
     for err in exc.errors():  # type: ignore[attr-defined]
-        loc = ".".join(str(p) for p in err.get("loc", ())) or "(root)"
-        lines.append(f"{loc}: {err.get('msg', 'invalid value')}")
+        loc = ".".join(str(p) for p in err.get("loc", ()))
+        msg = str(err.get("msg", "invalid value")).removeprefix("Value error, ")
+        lines.append(f"{loc}: {msg}" if loc else msg)
     return "\n".join(lines)
 
 

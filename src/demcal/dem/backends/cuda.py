@@ -261,6 +261,7 @@ class CudaRunner:
         self.use_graphs = (not _simulator()) and os.environ.get("DEMCAL_CUDA_GRAPHS", "1") != "0"
         self._graph = None
         self.dev: dict = {}
+        self._fresh: set[str] = set()  # arrays whose host copy equals the device copy
         self.sim.parity = 0
         # both neighbour buffers share one capacity on the GPU
         a = sim.arrays
@@ -294,15 +295,20 @@ class CudaRunner:
                     for k, v in self.sim.arrays.items()}
         self.stream.synchronize()
         self._graph = None
+        self._fresh = set(self.dev)
 
     def push_all(self) -> None:
         self.sim.parity = 0
         self.upload_all()
 
     def pull(self, *names: str) -> None:
-        for n in names:
+        """Copy arrays device -> host; an array already copied since the last step is skipped."""
+        todo = [n for n in names if n not in self._fresh]
+        for n in todo:
             self.dev[n].copy_to_host(self.sim.arrays[n], stream=self.stream)
-        self.stream.synchronize()
+        if todo:
+            self.stream.synchronize()
+        self._fresh.update(todo)
 
     def push(self, *names: str) -> None:
         for n in names:
@@ -312,6 +318,7 @@ class CudaRunner:
                 self._to_device_layout()
                 self.dev[n] = self.cuda.to_device(self.sim.arrays[n], stream=self.stream)
                 self._graph = None
+                self._fresh.add(n)
                 continue
             if dev.is_f_contiguous() and not dev.is_c_contiguous():
                 host = np.asfortranarray(host)
@@ -319,6 +326,7 @@ class CudaRunner:
                 host = np.ascontiguousarray(host)
             self.sim.arrays[n] = host
             dev.copy_to_device(host, stream=self.stream)
+            self._fresh.add(n)
         self.stream.synchronize()
 
     # ---------------------------------------------------------------- stepping
@@ -415,6 +423,7 @@ class CudaRunner:
             for _ in range(remaining - launched):
                 self._launch_step()
             launched = remaining
+            self._fresh.clear()  # the steps changed the device arrays
             self.pull("stats", "halt")
             executed = int(a["stats"][3])
             done += executed

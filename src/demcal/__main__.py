@@ -1,0 +1,5 @@
+"""``python -m demcal`` runs the command line."""
+
+from demcal.cli import main
+
+main()

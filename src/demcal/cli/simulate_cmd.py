@@ -1,0 +1,167 @@
+"""``demcal simulate aor``: one virtual angle-of-repose test (with replicates) on the engine."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from demcal.cli import app
+from demcal.cli._common import EXIT_FAILURE, cli_errors, console
+from demcal.errors import InputError
+
+simulate_app = typer.Typer(help="Run virtual tests on demcal's DEM engine.",
+                           no_args_is_help=True)
+app.add_typer(simulate_app, name="simulate")
+
+
+def summarize_runs(results: list) -> dict:
+    """Aggregate replicate runs: mean angle over views and seeds (piles only), spreads."""
+    piles = [r for r in results if r.outcome == "pile" and r.aor_deg is not None]
+    outcomes = [r.outcome for r in results]
+    if len(piles) == len(results):
+        outcome = "pile"
+    else:
+        outcome = max(set(outcomes), key=outcomes.count)
+    out: dict = {"outcome": outcome, "outcomes": outcomes, "n_runs": len(results),
+                 "n_piles": len(piles)}
+    if piles and outcome == "pile":
+        means = np.array([r.aor_deg for r in piles])
+        views = [v for r in piles for v in _view_angles(r)] or list(means)
+        out.update(
+            aor_deg=float(means.mean()),
+            aor_left_deg=float(np.mean([r.aor_left_deg for r in piles])),
+            aor_right_deg=float(np.mean([r.aor_right_deg for r in piles])),
+            aor_std_deg=float(np.std(views, ddof=1)) if len(views) > 1 else 0.0,
+            aor_seed_std_deg=float(means.std(ddof=1)) if len(means) > 1 else None,
+            aor_profile_deg=float(np.mean([r.aor_profile_deg for r in piles
+                                           if r.aor_profile_deg is not None] or [math.nan])),
+        )
+    else:
+        out.update(aor_deg=None, aor_left_deg=None, aor_right_deg=None, aor_std_deg=None,
+                   aor_seed_std_deg=None, aor_profile_deg=None)
+    first = results[0]
+    out.update(
+        n_particles=int(np.mean([r.n_particles for r in results])),
+        particles_lost=int(sum(r.particles_lost for r in results)),
+        settled=all(r.settled for r in results),
+        time_step_s=first.time_step_s,
+        sim_time_s=float(np.mean([r.sim_time_s for r in results])),
+        wall_time_s=float(max(r.wall_time_s for r in results)),
+        params=first.params,
+    )
+    return out
+
+
+def parse_test_overrides(items: list[str]) -> dict:
+    """``a.b=value`` strings -> nested dict of test-config overrides (values parsed as JSON)."""
+    out: dict = {}
+    for item in items:
+        key, sep, raw = item.partition("=")
+        if not sep or not key.strip():
+            raise InputError(f"--test expects KEY=VALUE (e.g. fill.count=300); got {item!r}")
+        try:
+            value = json.loads(raw)
+        except json.JSONDecodeError:
+            value = raw
+        node = out
+        parts = key.strip().split(".")
+        for p in parts[:-1]:
+            node = node.setdefault(p, {})
+        node[parts[-1]] = value
+    return out
+
+
+def _view_angles(result) -> list[float]:
+    angles = []
+    for v in result.views_deg or []:
+        for key in ("left_deg", "right_deg"):
+            if v.get(key) is not None:
+                angles.append(float(v[key]))
+    return angles
+
+
+@simulate_app.command("aor")
+@cli_errors
+def simulate_aor(
+    preset: Annotated[str, typer.Option(help="Material preset (corn_stalk, corn_stalk_dry).")]
+    = "corn_stalk",
+    fidelity: Annotated[str, typer.Option(help="Test fidelity: quick or paper.")] = "quick",
+    set_: Annotated[list[str] | None, typer.Option(
+        "--set", help="Override a parameter: NAME=VALUE (SI units), repeatable.")] = None,
+    test: Annotated[list[str] | None, typer.Option(
+        "--test", help="Override a test setting: KEY=VALUE with a dotted key, e.g. "
+        "geometry.cylinder_inner_diameter=0.05 or fill.count=300 (SI units), repeatable.")]
+    = None,
+    seeds: Annotated[int, typer.Option(help="Replicates with seeds 0..N-1 (batched).")] = 1,
+    seed0: Annotated[int, typer.Option("--seed", help="First seed.")] = 0,
+    vtk: Annotated[Path | None, typer.Option(help="Write VTK snapshots to this folder.")] = None,
+    plot: Annotated[Path | None, typer.Option(help="Save a side view of the pile (PNG).")]
+    = None,
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON.")]
+    = None,
+    backend: Annotated[str, typer.Option(help="Engine backend: auto, cpu or cuda.")] = "auto",
+) -> None:
+    """Run the cylinder-lifting angle-of-repose test and report the angle (degrees)."""
+    from demcal.virtual import fidelity_config, parse_assignments, preset_parameters, run_aor
+
+    if seeds < 1:
+        raise InputError(f"--seeds must be >= 1; got {seeds}")
+    overrides = parse_assignments(set_ or [])
+    params = preset_parameters(preset, overrides)
+    config = fidelity_config(fidelity, **parse_test_overrides(test or []))
+    seed_list = [seed0 + k for k in range(seeds)]
+    with Progress(TextColumn("[bold]run {task.fields[run]}"), TextColumn("{task.fields[phase]}"),
+                  BarColumn(), TextColumn("t = {task.fields[t]:.3f} s"), TimeElapsedColumn(),
+                  console=console, transient=True) as progress:
+        tasks = [progress.add_task("", total=None, run=k, phase="start", t=0.0)
+                 for k in range(seeds)]
+
+        def on_progress(run: int, phase: str, t: float, wall: float) -> None:
+            progress.update(tasks[run], phase=phase, t=t)
+
+        results = run_aor([params] * seeds, config=config, seeds=seed_list, backend=backend,
+                          progress=on_progress, vtk_dir=vtk)
+    summary = summarize_runs(results)
+    summary["runs"] = [r.to_dict() for r in results]
+    summary["fidelity"] = fidelity
+    summary["preset"] = preset
+    table = Table(title=f"angle of repose ({preset}, {fidelity})")
+    for col in ("seed", "outcome", "AoR (deg)", "left", "right", "spread", "particles", "lost",
+                "sim time (s)", "wall (s)"):
+        table.add_column(col)
+    for r in results:
+        def f(x):
+            return "-" if x is None else f"{x:.2f}"
+        table.add_row(str(r.seed), r.outcome, f(r.aor_deg), f(r.aor_left_deg),
+                      f(r.aor_right_deg), f(r.aor_std_deg), str(r.n_particles),
+                      str(r.particles_lost), f"{r.sim_time_s:.3f}", f"{r.wall_time_s:.1f}")
+    console.print(table)
+    if summary["aor_deg"] is not None:
+        console.print(f"AoR = {summary['aor_deg']:.2f} deg (spread {summary['aor_std_deg']:.2f})"
+                      f", time step {summary['time_step_s']:.3g} s")
+    else:
+        reasons = {r.reason for r in results if r.reason}
+        console.print(f"outcome: [bold]{summary['outcome']}[/bold] (no angle). "
+                      + "; ".join(sorted(reasons)))
+    if plot is not None:
+        _plot_pile(results[0], plot)
+    if json_out is not None:
+        json_out.write_text(json.dumps(summary, indent=1, default=float))
+    if any(r.outcome == "unstable" for r in results):
+        raise typer.Exit(EXIT_FAILURE)
+
+
+def _plot_pile(result, path: Path) -> None:
+    """Side view of the pile with fitted flank lines (from the measurement's artefact)."""
+    fig_path = result.artefacts.get("side_view_png")
+    if fig_path is None:
+        console.print("[yellow]no pile picture: the test formed no pile[/yellow]")
+        return
+    Path(path).write_bytes(Path(fig_path).read_bytes())

@@ -1,0 +1,60 @@
+"""Validation of the virtual test's parameters and configuration (before anything runs)."""
+
+import pytest
+from pydantic import ValidationError
+
+from demcal.errors import InputError
+from demcal.virtual import fidelity_config, parse_assignments, preset_parameters
+
+
+@pytest.mark.parametrize(("item", "field"), [
+    ("pp.static_friction=-0.1", "pp.static_friction"),
+    ("pw.static_friction=-1", "pw.static_friction"),
+    ("pp.restitution=0", "pp.restitution"),
+    ("pw.restitution=1.2", "pw.restitution"),
+    ("particle.poisson=0.5", "particle.poisson"),
+    ("pp.surface_energy=-0.01", "pp.surface_energy"),
+    ("pp.rolling_friction=abc", "pp.rolling_friction"),
+])
+def test_bad_parameters_are_refused_naming_the_field(item, field):
+    with pytest.raises(InputError, match=field.replace(".", r"\.")):
+        parse_assignments([item])
+
+
+def test_unknown_parameter_lists_known_names():
+    with pytest.raises(InputError, match="unknown parameter 'pp.friction'.*pp.static_friction"):
+        parse_assignments(["pp.friction=0.5"])
+
+
+def test_preset_overrides_apply():
+    p = preset_parameters("corn_stalk", {"pp.static_friction": 0.7})
+    assert p["pp.static_friction"] == 0.7 and p["particle.density"] == 114.36
+
+
+def test_cylinder_narrower_than_a_particle_is_refused():
+    with pytest.raises(ValidationError, match="cylinder_inner_diameter"):
+        fidelity_config("quick", geometry={"cylinder_inner_diameter": 0.008})
+
+
+def test_time_step_fraction_above_one_is_refused():
+    with pytest.raises(ValidationError, match="dt_fraction"):
+        fidelity_config("quick", dt_fraction=1.2)
+
+
+def test_packing_needs_a_count():
+    with pytest.raises(ValidationError, match="fill.count is required"):
+        fidelity_config("paper", fill={"method": "packing"})
+
+
+def test_fidelities_share_time_step_and_plate():
+    quick, paper = fidelity_config("quick"), fidelity_config("paper")
+    assert quick.dt_fraction == paper.dt_fraction == 0.2
+    assert quick.geometry.plate_size == paper.geometry.plate_size
+    assert quick.phases == paper.phases
+    assert paper.geometry.cylinder_inner_diameter == 0.050
+    assert paper.fill.rate == 5000 and paper.fill.filling_time == 0.6
+
+
+def test_unknown_fidelity():
+    with pytest.raises(InputError, match="fidelity must be one of"):
+        fidelity_config("medium")

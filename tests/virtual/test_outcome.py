@@ -1,0 +1,81 @@
+"""Outcome criteria of the virtual AoR test, on constructed particle states."""
+
+import numpy as np
+import pytest
+
+from demcal.virtual.config import OutcomeCriteria
+from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled
+
+CRIT = OutcomeCriteria()
+R_TUBE = 0.015
+
+
+def _cloud(n, rho_max, z_lo, z_hi, seed=0):
+    rng = np.random.default_rng(seed)
+    rho = rho_max * np.sqrt(rng.random(n))
+    phi = rng.uniform(0, 2 * np.pi, n)
+    return np.stack([rho * np.cos(phi), rho * np.sin(phi), rng.uniform(z_lo, z_hi, n)], 1)
+
+
+def test_plug_when_most_mass_rose_with_the_tube():
+    pos = _cloud(200, 0.9 * R_TUBE, 0.05, 0.10)  # inside a tube lifted to z = 0.04
+    out, reason = classify_after_lift(pos, np.ones(200), tube_bottom=0.04, tube_height=0.15,
+                                      tube_radius=R_TUBE, criteria=CRIT)
+    assert out is Outcome.PLUG and "rose with the cylinder" in reason
+
+
+def test_no_plug_when_material_left_the_tube():
+    pos = _cloud(200, 0.05, 0.0, 0.02)  # spread on the plate, tube above it
+    out, _ = classify_after_lift(pos, np.ones(200), tube_bottom=0.04, tube_height=0.15,
+                                 tube_radius=R_TUBE, criteria=CRIT)
+    assert out is None
+
+
+def test_plug_threshold_is_the_mass_fraction():
+    inside = _cloud(30, 0.9 * R_TUBE, 0.05, 0.1)
+    outside = _cloud(70, 0.05, 0.0, 0.02, seed=1)
+    pos = np.vstack([inside, outside])
+    masses = np.ones(100)
+    args = dict(tube_bottom=0.04, tube_height=0.15, tube_radius=R_TUBE)
+    assert classify_after_lift(pos, masses, criteria=OutcomeCriteria(plug_mass_fraction=0.25),
+                               **args)[0] is Outcome.PLUG
+    assert classify_after_lift(pos, masses, criteria=OutcomeCriteria(plug_mass_fraction=0.35),
+                               **args)[0] is None
+
+
+def test_column_when_material_stands_in_the_footprint():
+    pos = _cloud(300, R_TUBE, 0.0, 0.06)
+    out, reason = classify_settled(pos, np.ones(300), fill_height=0.062, material_top=0.061,
+                                   tube_radius=R_TUBE, particle_length=0.0125, criteria=CRIT)
+    assert out is Outcome.COLUMN and "still stands" in reason
+
+
+def test_pile_when_material_spread():
+    # a cone of base radius 45 mm: most of the mass lies outside the tube footprint
+    rng = np.random.default_rng(3)
+    rho = 0.045 * np.sqrt(rng.random(3000))
+    keep = rng.random(3000) < (1 - rho / 0.045)  # denser near the axis, like a cone
+    pos = np.stack([rho, np.zeros_like(rho), 0.5 * (0.045 - rho)], 1)[keep]
+    out, _ = classify_settled(pos, np.ones(len(pos)), fill_height=0.06, material_top=0.025,
+                              tube_radius=R_TUBE, particle_length=0.0125, criteria=CRIT)
+    assert out is Outcome.PILE
+
+
+def test_low_standing_material_is_not_a_column():
+    pos = _cloud(300, R_TUBE, 0.0, 0.02)  # all inside the footprint but slumped to a third
+    out, _ = classify_settled(pos, np.ones(300), fill_height=0.06, material_top=0.02,
+                              tube_radius=R_TUBE, particle_length=0.0125, criteria=CRIT)
+    assert out is Outcome.PILE
+
+
+def test_empty_plate_is_scattered():
+    out, reason = classify_settled(np.zeros((0, 3)), np.zeros(0), fill_height=0.06,
+                                   material_top=0.0, tube_radius=R_TUBE, particle_length=0.01,
+                                   criteria=CRIT)
+    assert out is Outcome.SCATTERED and "no material" in reason
+
+
+@pytest.mark.parametrize("value", [0.0, 1.5])
+def test_criteria_bounds(value):
+    with pytest.raises(ValueError, match="plug_mass_fraction"):
+        OutcomeCriteria(plug_mass_fraction=value)
