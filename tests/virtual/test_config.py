@@ -22,7 +22,7 @@ def test_bad_parameters_are_refused_naming_the_field(item, field):
 
 
 def test_unknown_parameter_lists_known_names():
-    with pytest.raises(InputError, match="unknown parameter 'pp.friction'.*pp.static_friction"):
+    with pytest.raises(InputError, match=r"unknown parameter 'pp.friction'.*pp.static_friction"):
         parse_assignments(["pp.friction=0.5"])
 
 
@@ -42,7 +42,7 @@ def test_time_step_fraction_above_one_is_refused():
 
 
 def test_packing_needs_a_count():
-    with pytest.raises(ValidationError, match="fill.count is required"):
+    with pytest.raises(ValidationError, match=r"fill\.count is required"):
         fidelity_config("paper", fill={"method": "packing"})
 
 
