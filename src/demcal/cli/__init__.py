@@ -1,13 +1,15 @@
 """The ``demcal`` command line: a thin layer over the Python API.
 
-Each sub-command lives in its own module, which registers itself on :data:`app` when
-imported; :data:`COMMAND_MODULES` lists them.
+Each sub-command lives in its own module (``*_cmd.py`` or ``*_cmds.py`` in this package),
+which registers itself on :data:`app` when imported; :data:`COMMAND_MODULES` lists them, found
+by name so that a new command is one new file.
 """
 
 from __future__ import annotations
 
 import importlib
 import logging
+import pkgutil
 
 import typer
 
@@ -19,7 +21,9 @@ app = typer.Typer(
     add_completion=False,
 )
 
-COMMAND_MODULES: tuple[str, ...] = ("doe_cmds", "physical_cmd", "simulate_cmd")
+COMMAND_MODULES: tuple[str, ...] = tuple(sorted(
+    m.name for m in pkgutil.iter_modules(__path__) if m.name.endswith(("_cmd", "_cmds"))
+))
 
 
 @app.callback()
