@@ -68,6 +68,7 @@ class AoRResult:
     seed: int
     params: dict[str, float]
     reason: str | None = None
+    sphere_steps: int = 0
     views_deg: list[dict[str, float]] = field(default_factory=list)
     phase_times_s: dict[str, float] = field(default_factory=dict)
     artefacts: dict[str, str] = field(default_factory=dict)
@@ -107,6 +108,7 @@ class _Run:
     result: AoRResult | None = None
     phase_times: dict[str, float] = field(default_factory=dict)
     wall_time: float = 0.0
+    sphere_steps: int = 0
 
 
 def _capacity(config: AoRTestConfig, template) -> int:
@@ -189,6 +191,7 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
                                                                       z_top)))
     sim = Simulation(worlds, backend=backend, dt_fraction=config.dt_fraction,
                      rolling_friction=config.rolling_model, raise_on_unstable=False)
+    n_template = len(template.radii)
     t_start = time.perf_counter()
     for run in runs:
         _start_fill(sim, run, config, template)
@@ -201,6 +204,7 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
         times = sim.time
         for run in live:
             w = run.index
+            run.sphere_steps += n * sim.n_active(w) * n_template
             t = float(times[w])
             if sim.world_errors[w] is not None:
                 _finish(sim, run, config, Outcome.UNSTABLE, t, reason=sim.world_errors[w])
@@ -210,6 +214,7 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
             if run.done:
                 sim.set_world_enabled(w, False)
                 run.result.wall_time_s = run.wall_time
+                run.result.sphere_steps = run.sphere_steps
                 if on_result is not None:
                     on_result(w, run.result)
             if progress is not None:
