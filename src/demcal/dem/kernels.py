@@ -530,9 +530,15 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
             j0, j1, j2 = quat_rotate_inv(qw, qx, qy, qz, jx * dt, jy * dt, jz * dt)
             lal = l0 * l0 / i0 + l1 * l1 / i1 + l2 * l2 / i2
             jal = j0 * l0 / i0 + j1 * l1 / i1 + j2 * l2 / i2
-            scale = 1.0
-            if jal < 0.0 and lal + jal < 0.0:
+            # the impulse may at most stop the rotation (about the current angular velocity):
+            # none if it would speed it up (a stale direction after a reversal or a stop),
+            # scaled down if it would overshoot past zero, in full otherwise
+            if jal >= 0.0:
+                scale = 0.0
+            elif lal + jal < 0.0:
                 scale = -lal / jal
+            else:
+                scale = 1.0
             l0 += scale * j0
             l1 += scale * j1
             l2 += scale * j2

@@ -6,6 +6,12 @@ parallel loop writes only its own rows, so results are bitwise identical for any
 
 from __future__ import annotations
 
+import os
+
+# idle OpenMP workers sleep instead of spinning (set before numba's threading layer starts);
+# spinning threads steal the cores of other processes on shared machines
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
 import numpy as np
 from numba import njit, prange
 
