@@ -2,45 +2,74 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
+from demcal import measure
 from demcal.errors import InputError
 from demcal.virtual.config import MeasurementOptions
 
 __all__ = ["measure_pile"]
 
 
+def _finite(value: float) -> float | None:
+    """``value`` as a float, or None when it is NaN or infinite (strict JSON)."""
+    v = float(value)
+    return v if math.isfinite(v) else None
+
+
 def measure_pile(centres: np.ndarray, radii: np.ndarray,
                  options: MeasurementOptions) -> dict[str, Any]:
     """Angle of repose of a settled pile on the plate z = 0 by both measure methods.
 
-    Returns a dict with ``aor_deg`` (the chosen method's mean over views), ``aor_left_deg``,
-    ``aor_right_deg``, ``aor_std_deg``, ``aor_profile_deg`` (surface-profile method),
-    ``pile_height_m``, ``base_diameter_m`` and ``views`` (per-view left/right angles); or
-    ``{"error": message}`` when no pile can be measured.
-    """
-    from demcal import measure
+    Parameters
+    ----------
+    centres : (n_spheres, 3) float ndarray
+        Sphere centres, m.
+    radii : (n_spheres,) float ndarray
+        Sphere radii, m.
+    options : MeasurementOptions
+        Views, the method whose angle is reported as ``aor_deg``, the fit window.
 
+    Returns a dict with ``aor_deg`` (the chosen method's mean over views), ``aor_left_deg``,
+    ``aor_right_deg``, ``aor_std_deg``, ``aor_silhouette_deg``, ``aor_profile_deg``,
+    ``pile_height_m``, ``base_diameter_m`` and ``views`` (per-view results of the chosen
+    method), every number finite or None; ``measure_errors`` (method -> message) when the
+    other method failed (the profile method may fail on a flat-topped column while the
+    silhouette still measures it); or ``{"error": message}`` when the chosen method cannot
+    measure the pile.
+    """
     kwargs: dict[str, Any] = {"plate_z": 0.0}
     if options.fit_window is not None:
         kwargs["fit_window"] = tuple(options.fit_window)
-    try:
-        sil = measure.pile_aor_silhouette(centres, radii, n_views=options.n_views, **kwargs)
-        prof = measure.pile_aor_profile(centres, radii, **kwargs)
-    except InputError as exc:
-        return {"error": f"no measurable pile: {exc}"}
-    main = sil if options.method == "silhouette" else prof
-    out = {
-        "aor_deg": float(main.mean_deg),
-        "aor_left_deg": float(main.left_deg),
-        "aor_right_deg": float(main.right_deg),
-        "aor_std_deg": float(main.std_deg),
-        "aor_silhouette_deg": float(sil.mean_deg),
-        "aor_profile_deg": float(prof.mean_deg),
-        "pile_height_m": float(main.pile_height),
-        "base_diameter_m": float(main.base_diameter),
-        "views": [v for v in main.views_as_dicts()] if hasattr(main, "views_as_dicts") else [],
+    results: dict[str, measure.PileAoR] = {}
+    errors: dict[str, str] = {}
+    for method in ("silhouette", "profile"):
+        try:
+            if method == "silhouette":
+                results[method] = measure.pile_aor_silhouette(
+                    centres, radii, n_views=options.n_views, **kwargs)
+            else:
+                results[method] = measure.pile_aor_profile(centres, radii, **kwargs)
+        except InputError as exc:
+            errors[method] = str(exc)
+    main = results.get(options.method)
+    if main is None:
+        return {"error": f"no measurable pile: {errors[options.method]}"}
+    sil, prof = results.get("silhouette"), results.get("profile")
+    out: dict[str, Any] = {
+        "aor_deg": _finite(main.mean_deg),
+        "aor_left_deg": _finite(main.left_deg),
+        "aor_right_deg": _finite(main.right_deg),
+        "aor_std_deg": _finite(main.std_deg),
+        "aor_silhouette_deg": _finite(sil.mean_deg) if sil is not None else None,
+        "aor_profile_deg": _finite(prof.mean_deg) if prof is not None else None,
+        "pile_height_m": _finite(main.pile_height),
+        "base_diameter_m": _finite(main.base_diameter),
+        "views": main.views_as_dicts(),
     }
+    if errors:
+        out["measure_errors"] = errors
     return out
