@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from demcal.dem.materials import Interaction, Material, MaterialTable
+from demcal.dem.output import VtkSeries
 from demcal.dem.simulation import Simulation
 from demcal.dem.state import ClumpGroup, World
 from demcal.dem.walls import PlaneWall, TubeWall
@@ -212,6 +213,8 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
                 _step_phase(sim, run, config, template, t, snap)
             run.wall_time = time.perf_counter() - t_start
             if run.done:
+                if snap is not None:
+                    run.result.artefacts["vtk_series"] = snap.close(sim, run)
                 sim.set_world_enabled(w, False)
                 run.result.wall_time_s = run.wall_time
                 run.result.sphere_steps = run.sphere_steps
@@ -428,14 +431,26 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
 
 
 class _Snapshots:
-    """Writes VTK snapshots of runs at the end of phases (if the output module is present)."""
+    """VTK snapshots of runs at the end of phases: one :class:`~demcal.dem.output.VtkSeries`
+    (``run<k>.pvd`` and its ``.vtp`` files) per run."""
 
     def __init__(self, folder: str | Path):
         self.folder = Path(folder)
-        self.folder.mkdir(parents=True, exist_ok=True)
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"vtk_dir {str(folder)!r}: {exc.strerror}") from None
+        self.series: dict[int, VtkSeries] = {}
 
     def write(self, sim: Simulation, run: _Run, label: str) -> None:
-        from demcal.dem import output
+        if run.index not in self.series:
+            self.series[run.index] = VtkSeries(self.folder, f"run{run.index:03d}")
+        self.series[run.index].add(sim, run.index, label=label)
 
-        path = self.folder / f"run{run.index:03d}_{label}"
-        output.write_vtk(sim, path, worlds=[run.index])
+    def close(self, sim: Simulation, run: _Run) -> str:
+        """Write the final state of a finished run (if not just written); the .pvd path."""
+        t = float(sim.time[run.index])
+        series = self.series.get(run.index)
+        if series is None or series.entries[-1][0] != t:
+            self.write(sim, run, "end")
+        return str(self.series[run.index].close())
