@@ -137,7 +137,7 @@ class Simulation:
                 quat = self._group_array(group.orientations, group.count, 4,
                                          f"world {w} group {g} orientations",
                                          np.array([1.0, 0, 0, 0]))
-                quat = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+                quat = self._unit_quaternions(quat, f"world {w} group {g} orientations")
                 vel = self._group_array(group.velocities, group.count, 3,
                                         f"world {w} group {g} velocities", np.zeros(3))
                 omg = self._group_array(group.angular_velocities, group.count, 3,
@@ -234,9 +234,12 @@ class Simulation:
         a["bucket_members"] = np.zeros((n_buckets, _config.BUCKET_CAPACITY), dtype=np.int32)
         a["pair_params"] = pair
         a["world_dt"] = world_dt
-        a["world_gravity"] = np.array([w.gravity for w in self.worlds], dtype=np.float64)
-        lo = np.array([w.domain_lo for w in self.worlds], dtype=np.float64)
-        hi = np.array([w.domain_hi for w in self.worlds], dtype=np.float64)
+        a["world_gravity"] = np.array([self._vec3(w.gravity, f"world {k} gravity (m/s^2)")
+                                       for k, w in enumerate(self.worlds)])
+        lo = np.array([self._vec3(w.domain_lo, f"world {k} domain_lo (m)")
+                       for k, w in enumerate(self.worlds)])
+        hi = np.array([self._vec3(w.domain_hi, f"world {k} domain_hi (m)")
+                       for k, w in enumerate(self.worlds)])
         if np.any(hi <= lo):
             raise InputError("every world's domain_hi must exceed domain_lo on each axis")
         a["world_lo"] = lo
@@ -257,6 +260,16 @@ class Simulation:
         self.max_walls = max_walls
 
     @staticmethod
+    def _vec3(value, label: str) -> np.ndarray:
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            arr = np.full(1, np.nan)
+        if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+            raise InputError(f"{label} must be 3 finite numbers; got {value!r}")
+        return arr
+
+    @staticmethod
     def _group_array(value, count: int, width: int, label: str, default):
         if value is None:
             if default is None:
@@ -267,6 +280,13 @@ class Simulation:
             raise InputError(f"{label} must be a finite ({count}, {width}) array; "
                              f"got shape {arr.shape}")
         return arr
+
+    @staticmethod
+    def _unit_quaternions(quat: np.ndarray, label: str) -> np.ndarray:
+        norm = np.linalg.norm(quat, axis=1, keepdims=True)
+        if np.any(norm < 1e-12):
+            raise InputError(f"{label} must be non-zero quaternions (w, x, y, z)")
+        return quat / norm
 
     @staticmethod
     def _angmom_from_omega(quat, inertia, omega):
@@ -459,7 +479,7 @@ class Simulation:
         g = idx + lo
         pos = self._group_array(positions, k, 3, "positions", None)
         quat = self._group_array(orientations, k, 4, "orientations", np.array([1.0, 0, 0, 0]))
-        quat = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+        quat = self._unit_quaternions(quat, "orientations")
         vel = self._group_array(velocities, k, 3, "velocities", np.zeros(3))
         omg = self._group_array(angular_velocities, k, 3, "angular_velocities", np.zeros(3))
         names = ("c_pos", "c_quat", "c_vel", "c_veval", "c_angmom", "c_omega", "c_state",
@@ -483,7 +503,11 @@ class Simulation:
     def remove_clumps(self, world: int, indices: Sequence[int] | np.ndarray) -> None:
         """Remove clumps of a world (they are counted as removed, like clumps leaving)."""
         self._check_world(world)
-        idx = np.asarray(indices, dtype=np.int64).reshape(-1) + self.clump_range[world, 0]
+        idx = np.asarray(indices, dtype=np.int64).reshape(-1)
+        lo, hi = self.clump_range[world]
+        if idx.size and (idx.min() < 0 or idx.max() >= hi - lo):
+            raise InputError(f"clump indices must be in [0, {hi - lo - 1}] for world {world}")
+        idx = idx + lo
         self._runner.pull("c_state", "flag_rebuild")
         self.arrays["c_state"][idx] = REMOVED
         self.arrays["flag_rebuild"][0] = 1
@@ -509,18 +533,21 @@ class Simulation:
 
     def wall_forces(self, world: int) -> np.ndarray:
         """Force exerted by the particles on each wall of a world, ``(n_walls, 3)``, N."""
+        self._check_world(world)
         self._runner.pull("s_wall_force")
         lo, hi = self.sphere_range[world]
         return self.arrays["s_wall_force"][lo:hi].sum(axis=0)[: len(self.worlds[world].walls)]
 
     # ------------------------------------------------------------------ queries
     def _clump_sel(self, world: int, states=(ACTIVE,)) -> np.ndarray:
+        self._check_world(world)
         self._runner.pull("c_state")
         lo, hi = self.clump_range[world]
         return lo + np.flatnonzero(np.isin(self.arrays["c_state"][lo:hi], states))
 
     def clump_state(self, world: int) -> np.ndarray:
         """State of each clump of a world: 0 inactive, 1 active, 2 removed, ``(n,)`` int."""
+        self._check_world(world)
         self._runner.pull("c_state")
         lo, hi = self.clump_range[world]
         return self.arrays["c_state"][lo:hi].copy()
@@ -542,6 +569,7 @@ class Simulation:
     def spheres(self, world: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Active spheres of a world: centres ``(n, 3)`` m, radii ``(n,)`` m, clump ids ``(n,)``
         (indices within the world)."""
+        self._check_world(world)
         self._runner.pull("s_pos", "c_state")
         a = self.arrays
         lo, hi = self.sphere_range[world]
