@@ -8,7 +8,7 @@ import pytest
 from worlds import PARTICLE, table
 
 from demcal.dem.materials import Interaction
-from demcal.dem.shapes import stalk_template, template_from_spheres
+from demcal.dem.shapes import cylinder_template, stalk_template, template_from_spheres
 from demcal.dem.simulation import Simulation
 from demcal.dem.state import ClumpGroup, World, random_quaternions, rotate_inverse
 from demcal.dem.walls import PlaneWall
@@ -60,6 +60,26 @@ def test_stalk_inertia_matches_an_independent_voxel_reference():
     rho = PARTICLE.density
     assert sim.arrays["c_mass"][0] == pytest.approx(rho * vol * 1.2**3, rel=0.01)
     assert np.sort(sim.arrays["c_inertia"][0]) == pytest.approx(rho * moments * 1.2**5, rel=0.01)
+
+
+@pytest.mark.parametrize("which", ["cylinder", "user"])
+def test_other_templates_match_the_voxel_reference(which):
+    """An automatic N-sphere cylinder (12 x 3 mm) and an irregular user list of overlapping
+    spheres: the template is in its principal frame, so its centres, rotated back, must give
+    the same voxel moments."""
+    if which == "cylinder":
+        tpl = cylinder_template(12e-3, 3e-3)
+    else:
+        tpl = template_from_spheres([[0, 0, 0], [2e-3, 0.5e-3, 0], [0.4e-3, 1.8e-3, 1.1e-3],
+                                     [-1e-3, -1e-3, 0.5e-3]], [1.2e-3, 0.9e-3, 0.8e-3, 0.6e-3])
+    vol, com, moments = _voxel_mass_properties(np.asarray(tpl.offsets), np.asarray(tpl.radii),
+                                               3e-5)
+    err_v = tpl.volume / vol - 1
+    err_i = np.sort(np.asarray(tpl.inertia_per_density)) / moments - 1
+    print(f"{which} ({tpl.n_spheres} spheres) vs voxels: volume {err_v:+.4%}, moments "
+          f"{', '.join(f'{e:+.4%}' for e in err_i)}")
+    assert abs(err_v) < 0.01 and np.all(np.abs(err_i) < 0.01)
+    assert np.linalg.norm(com) < 1e-3 * tpl.bounding_radius
 
 
 def _free_world(n: int, seed: int):
