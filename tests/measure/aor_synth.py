@@ -48,3 +48,4 @@ def skirt_and_strays(base_radius: float, radius: float, *, rng: np.random.Genera
                               np.full(n_strays, radius)])
     centres = np.vstack([skirt, strays])
     return centres, np.full(len(centres), radius)
+

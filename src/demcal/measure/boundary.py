@@ -16,7 +16,7 @@ from skimage import measure as skm
 
 from demcal.errors import InputError
 
-__all__ = ["Outline", "find_base_row", "largest_region", "outline"]
+__all__ = ["Outline", "find_base_row", "largest_region", "outline", "subpixel_edges"]
 
 
 def largest_region(mask: np.ndarray) -> np.ndarray:
@@ -134,6 +134,10 @@ def outline(mask: np.ndarray, *, base_row: int | None = None,
     region = largest_region(mask)
     if base_row is None:
         base_row = find_base_row(region)
+        if base_row >= region.shape[0]:
+            raise InputError(
+                "the pile reaches the bottom border of the image and no plate was found, so "
+                "the base line is not visible; frame the pile with its base, or give base_line")
     if not 0 < base_row <= region.shape[0]:
         raise InputError(f"base_line must be a row in 1..{region.shape[0]}; got {base_row}")
     region = region.copy()
@@ -158,3 +162,30 @@ def outline(mask: np.ndarray, *, base_row: int | None = None,
         raise InputError(f"the pile region is only {rows.size} pixel row(s) high; too small "
                          "to measure")
     return Outline(rows, left - 0.5, right + 0.5, int(base_row), region)
+
+
+def subpixel_edges(ol: Outline, gray: np.ndarray, threshold: np.ndarray | float,
+                   dark: bool) -> Outline:
+    """Refine an outline's edges to where the grey level crosses the threshold.
+
+    In each row, the edge between the outermost pile pixel and its outer neighbour is placed
+    by linear interpolation of the grey level (``gray``, same frame as the outline) at the
+    threshold (a scalar or a per-pixel array). Rows where the two pixels do not straddle the
+    threshold (e.g. after morphological clean-up) keep the pixel edge. Pixel quantisation
+    would otherwise bias a fit toward simple rational slopes (1, 1/2, ...).
+    """
+    t = np.broadcast_to(np.asarray(threshold, dtype=np.float64), gray.shape)
+    sign = -1.0 if dark else 1.0  # pile where sign * (gray - t) > 0
+    rows = ol.rows
+    ncol = gray.shape[1]
+
+    def refine(edge: np.ndarray, step: int) -> np.ndarray:
+        inner = np.clip(np.rint(edge - 0.5 * step).astype(np.int64), 0, ncol - 1)
+        outer = np.clip(inner + step, 0, ncol - 1)
+        gi = sign * (gray[rows, inner] - t[rows, inner])
+        go = sign * (gray[rows, outer] - t[rows, outer])
+        ok = (gi > 0) & (go <= 0) & (outer != inner)
+        frac = np.where(ok, gi / np.where(ok, gi - go, 1.0), 0.5)
+        return np.where(ok, inner + step * frac, edge)
+
+    return Outline(rows, refine(ol.left, -1), refine(ol.right, +1), ol.base_row, ol.region)

@@ -205,8 +205,8 @@ def _flank_points(raster: Raster) -> tuple[np.ndarray, np.ndarray, np.ndarray, f
     """Heights (m above the plate), left and right boundary (m) and height (m) of a raster."""
     ol = outline(raster.mask, base_row=raster.base_row, check_border=False)
     p = raster.pixel_size
-    return (ol.z() * p, np.asarray(raster.to_x(ol.left)), np.asarray(raster.to_x(ol.right)),
-            ol.height_px * p)
+    left, right = raster.exact_edges(ol.region, ol.rows)
+    return ol.z() * p, left, right, ol.height_px * p
 
 
 def _summarise(method: str, views: list[ViewAoR], base_diameters: list[float],

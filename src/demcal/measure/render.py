@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -24,12 +24,18 @@ class Raster:
         Height of the plate (the bottom edge of the grid), m.
     pixel_size : float
         Side of a square pixel, m.
+    chord_rows, chord_lo, chord_hi : (m,) ndarray
+        Each disc's chord through each pixel row it covers: the row and the chord's ends, m
+        (for exact, sub-pixel edges).
     """
 
     mask: np.ndarray
     u0: float
     plate_z: float
     pixel_size: float
+    chord_rows: np.ndarray = field(repr=False)
+    chord_lo: np.ndarray = field(repr=False)
+    chord_hi: np.ndarray = field(repr=False)
 
     @property
     def base_row(self) -> int:
@@ -39,6 +45,25 @@ class Raster:
     def to_x(self, col_edge: np.ndarray | float) -> np.ndarray | float:
         """Pixel-edge column coordinate (``col - 0.5`` convention) to horizontal position, m."""
         return self.u0 + (np.asarray(col_edge) + 0.5) * self.pixel_size
+
+    def exact_edges(self, region: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact left and right silhouette edges (m) of ``region`` in each of ``rows``.
+
+        The ends of the outermost disc chords whose pixels belong to ``region`` (a mask of
+        the raster's shape), free of pixel quantisation.
+        """
+        p = self.pixel_size
+        n_cols = self.mask.shape[1]
+        col = np.clip(np.ceil((self.chord_lo - self.u0) / p - 0.5).astype(np.int64), 0,
+                      n_cols - 1)
+        inside = region[self.chord_rows, col]
+        r, lo, hi = self.chord_rows[inside], self.chord_lo[inside], self.chord_hi[inside]
+        n_rows = self.mask.shape[0]
+        left = np.full(n_rows, np.inf)
+        right = np.full(n_rows, -np.inf)
+        np.minimum.at(left, r, lo)
+        np.maximum.at(right, r, hi)
+        return left[rows], right[rows]
 
 
 def render_discs(u: np.ndarray, z: np.ndarray, r: np.ndarray, *, pixel_size: float,
@@ -83,9 +108,10 @@ def render_discs(u: np.ndarray, z: np.ndarray, r: np.ndarray, *, pixel_size: flo
     c0 = np.ceil((uc - half - u0) / p - 0.5).astype(np.int64)
     c1 = np.floor((uc + half - u0) / p - 0.5).astype(np.int64)
     ok &= c1 >= c0
+    chord_lo, chord_hi = (uc - half)[ok], (uc + half)[ok]
     rows, c0, c1 = rows[ok], np.clip(c0[ok], 0, n_cols), np.clip(c1[ok] + 1, 0, n_cols)
     width = n_cols + 1
     diff = np.bincount(rows * width + c0, minlength=n_rows * width)
     diff -= np.bincount(rows * width + c1, minlength=n_rows * width)
     mask = np.cumsum(diff.reshape(n_rows, width), axis=1)[:, :n_cols] > 0
-    return Raster(mask, u0, float(plate_z), p)
+    return Raster(mask, u0, float(plate_z), p, rows, chord_lo, chord_hi)
