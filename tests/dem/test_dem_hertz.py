@@ -22,10 +22,12 @@ from worlds import (
 
 from demcal.dem.materials import Interaction
 from demcal.dem.simulation import Simulation
+from demcal.dem.walls import TubeWall
 
 R = 2.0e-3
 V0 = 0.5
 MASS = PARTICLE.density * 4.0 / 3.0 * np.pi * R**3
+TUBE_R = 0.01
 
 
 def _impact(kind: str, restitution: float, dt_fraction: float, trace: bool):
@@ -37,9 +39,14 @@ def _impact(kind: str, restitution: float, dt_fraction: float, trace: bool):
         pos = [[-R - gap, 0, 0], [R + gap, 0, 0]]
         vel = np.array([[0.5 * V0, 0, 0], [-0.5 * V0, 0, 0]])
         world = spheres_world(mats, R, pos, velocities=vel)
-    else:
+    elif kind == "wall":
         world = spheres_world(mats, R, [[0, 0, R + gap]], velocities=np.array([[0, 0, -V0]]),
                               walls=[floor()])
+    else:  # the inner surface of a tube (its curvature is ignored: R* = R, as for a plane)
+        tube = TubeWall(base=np.array([0.0, 0.0, -0.01]), axis=np.array([0.0, 0.0, 1.0]),
+                        inner_radius=TUBE_R, thickness=1e-3, length=0.02)
+        world = spheres_world(mats, R, [[TUBE_R - R - gap, 0, 0]],
+                              velocities=np.array([[V0, 0, 0]]), walls=[tube])
     sim = Simulation([world], dt_fraction=dt_fraction)
     dt = float(sim.dt[0])
 
@@ -47,6 +54,8 @@ def _impact(kind: str, restitution: float, dt_fraction: float, trace: bool):
         p = sim.arrays["s_pos"]
         if kind == "pair":
             return 2 * R - float(np.linalg.norm(p[1] - p[0]))
+        if kind == "tube":
+            return R - (TUBE_R - float(np.hypot(p[0, 0], p[0, 1])))
         return R - float(p[0, 2])
 
     times, overlaps = [0.0], [overlap()]
@@ -61,13 +70,16 @@ def _impact(kind: str, restitution: float, dt_fraction: float, trace: bool):
             if overlaps[-1] < 0 < max(overlaps):
                 break
     else:
-        _, t_c = hertz_peak_and_duration(V0, R if kind == "wall" else R / 2,
+        _, t_c = hertz_peak_and_duration(V0, R if kind != "pair" else R / 2,
                                          estar_of(PARTICLE, PARTICLE if kind == "pair" else STEEL),
-                                         MASS if kind == "wall" else MASS / 2)
+                                         MASS if kind != "pair" else MASS / 2)
         sim.advance(int((t_free + 2 * t_c) / dt))
         assert np.all(sim.arrays["s_force"] == 0.0)  # the contact is over
     v = sim.arrays["c_vel"]
-    v_sep = v[1, 0] - v[0, 0] if kind == "pair" else v[0, 2]
+    if kind == "pair":
+        v_sep = v[1, 0] - v[0, 0]
+    else:
+        v_sep = v[0, 2] if kind == "wall" else -v[0, 0]
     return np.array(times), np.array(overlaps), v_sep / V0
 
 
@@ -89,7 +101,7 @@ def _peak(d):
 
 
 @pytest.mark.parametrize("dt_fraction", [0.05, 0.2])
-@pytest.mark.parametrize("kind", ["pair", "wall"])
+@pytest.mark.parametrize("kind", ["pair", "wall", "tube"])
 def test_hertz_impact_duration_and_peak_overlap(kind, dt_fraction):
     t, d, _ = _impact(kind, 1.0, dt_fraction, trace=True)
     rstar = R / 2 if kind == "pair" else R
@@ -108,7 +120,7 @@ def test_hertz_impact_duration_and_peak_overlap(kind, dt_fraction):
 
 
 @pytest.mark.parametrize(("dt_fraction", "tol"), [(0.05, 0.02), (0.2, 0.07)])
-@pytest.mark.parametrize("kind", ["pair", "wall"])
+@pytest.mark.parametrize("kind", ["pair", "wall", "tube"])
 def test_restitution_is_recovered(kind, dt_fraction, tol):
     """e = 0.1 ... 0.9 is recovered within 2 % at 5 % of the Rayleigh step (~60 steps per
     contact; it converges to the input as the step shrinks: within 0.08 % at 1 %). At the
