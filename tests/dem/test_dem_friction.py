@@ -55,12 +55,12 @@ def test_clump_on_a_slowly_tilted_plane_slides_at_tan_alpha_equal_mu_s():
     assert abs(onset - expected) < 1.0
 
 
-def _sphere_on_floor(mu_r: float, mu_s: float = 0.5):
+def _sphere_on_floor(mu_r: float, mu_s: float = 0.5, model: str = "A"):
     mats = table(Interaction(0.5, mu_s), Interaction(0.5, mu_s, rolling_friction=mu_r))
     r = 2.0e-3
     group = ClumpGroup(sphere_template(r), "p", 1, positions=np.array([[0.0, 0.0, 0.999 * r]]))
     world = World(mats, [group], walls=[floor()], gravity=(0.0, 0.0, -G))
-    sim = Simulation([world], rolling_friction="A")
+    sim = Simulation([world], rolling_friction=model)
     sim.run(0.02)  # settle on the floor
     return sim, r
 
@@ -114,3 +114,31 @@ def test_spinning_sphere_decelerates_as_type_a_rolling_friction_implies(motion):
     else:  # rolling: the tangential (Mindlin) spring recoils a little at the stop, then decays
         assert omegas.min() >= -1e-4 * w0
     assert np.abs(after).max() < 1e-6 * w0
+
+
+def test_type_c_rolling_saturates_at_the_type_a_deceleration():
+    """Type C (EPSD): once the rolling spring saturates at mu_r R* F_n (R* = R on a wall),
+    a rolling sphere decelerates like type A with the arm R instead of R - delta/2."""
+    mu_r = 0.1
+    sim, r = _sphere_on_floor(mu_r, model="C")
+    a = sim.arrays
+    z = float(a["c_pos"][0, 2])
+    rho = 0.5 * (r + z)
+    mass = float(a["c_mass"][0])
+    inertia = float(a["c_inertia"][0, 0])
+    w0 = 50.0
+    sim.place_clumps(0, [0], a["c_pos"][:1].copy(), velocities=[[w0 * rho, 0.0, 0.0]],
+                     angular_velocities=[[0.0, w0, 0.0]])
+    # torque mu_r r m g about the centre; friction at lever rho: d omega/dt = M rho / ...
+    expected = mu_r * G * (r / rho) / (1.0 + inertia / (mass * rho**2)) / rho
+    times, omegas = [], []
+    for _ in range(25):
+        sim.advance(100)
+        times.append(float(sim.time[0]))
+        omegas.append(float(sim.arrays["c_omega"][0, 1]))
+    times, omegas = np.array(times), np.array(omegas)
+    moving = (omegas > 0.1 * w0) & (omegas < 0.9 * w0)
+    slope = -np.polyfit(times[moving], omegas[moving], 1)[0]
+    err = slope / expected - 1
+    print(f"type C: deceleration {slope:.5g} vs {expected:.5g} rad/s^2 ({err:+.3%})")
+    assert abs(err) < 0.03
