@@ -23,7 +23,9 @@ from demcal.measure.pile import (
     pile_aor_silhouette,
     pile_axis,
     render_view,
+    sector_spheres,
 )
+from demcal.measure.plot import plot_photo_aor, plot_pile_aor
 from demcal.measure.render import Raster, render_discs
 
 __all__ = [
@@ -50,7 +52,10 @@ __all__ = [
     "pile_aor_profile",
     "pile_aor_silhouette",
     "pile_axis",
+    "plot_photo_aor",
+    "plot_pile_aor",
     "render_discs",
     "render_view",
     "save_table",
+    "sector_spheres",
 ]

@@ -128,6 +128,10 @@ class PileAoR:
         Fit window used, fractions of the pile height.
     pixel_size : float
         Pixel side of the rendering, m.
+    plate_z : float
+        Height of the plate, m.
+    axis : (float, float) or None
+        Horizontal position of the pile axis, m (profile method only).
     """
 
     method: str
@@ -140,6 +144,8 @@ class PileAoR:
     views: tuple[ViewAoR, ...] = field(repr=False)
     fit_window: tuple[float, float] = DEFAULT_FIT_WINDOW
     pixel_size: float = math.nan
+    plate_z: float = 0.0
+    axis: tuple[float, float] | None = None
 
     def views_as_dicts(self) -> list[dict[str, Any]]:
         """Per-view results as JSON-ready dicts (NaN becomes None)."""
@@ -157,6 +163,8 @@ class PileAoR:
             "base_diameter_m": self.base_diameter,
             "fit_window": list(self.fit_window),
             "pixel_size_m": self.pixel_size,
+            "plate_z_m": self.plate_z,
+            "axis_m": list(self.axis) if self.axis is not None else None,
         }
         out = {k: _nan_to_none(v) for k, v in out.items()}
         out["views"] = self.views_as_dicts()
@@ -210,7 +218,8 @@ def _flank_points(raster: Raster) -> tuple[np.ndarray, np.ndarray, np.ndarray, f
 
 
 def _summarise(method: str, views: list[ViewAoR], base_diameters: list[float],
-               window: tuple[float, float], p: float) -> PileAoR:
+               window: tuple[float, float], p: float, plate_z: float,
+               axis: tuple[float, float] | None = None) -> PileAoR:
     angles = [a for v in views for a in v.angles]
     if not angles:
         errors = "; ".join(f"view {v.index}: {v.error}" for v in views if v.error)
@@ -228,6 +237,8 @@ def _summarise(method: str, views: list[ViewAoR], base_diameters: list[float],
         views=tuple(views),
         fit_window=window,
         pixel_size=p,
+        plate_z=plate_z,
+        axis=axis,
     )
 
 
@@ -286,7 +297,7 @@ def pile_aor_silhouette(centres: np.ndarray, radii: np.ndarray, *, n_views: int 
             continue
         views.append(ViewAoR(k, az, left, right, height))
         diameters.append(right.fit.intercept - left.fit.intercept)
-    return _summarise("silhouette", views, diameters, window, p)
+    return _summarise("silhouette", views, diameters, window, p, pz)
 
 
 def pile_axis(centres: np.ndarray, radii: np.ndarray, plate_z: float = 0.0) -> np.ndarray:
@@ -301,6 +312,15 @@ def pile_axis(centres: np.ndarray, radii: np.ndarray, plate_z: float = 0.0) -> n
     w = radii[body] ** 3
     return np.array([np.average(centres[body, 0], weights=w),
                      np.average(centres[body, 1], weights=w)])
+
+
+def sector_spheres(centres: np.ndarray, axis: tuple[float, float], n_sectors: int,
+                   k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Mask ``(n,)`` of the spheres in sector ``k`` and their distances ``(n,)`` m from the axis."""
+    dx, dy = centres[:, 0] - axis[0], centres[:, 1] - axis[1]
+    sector = np.floor(np.mod(np.arctan2(dy, dx), 2 * math.pi) / (2 * math.pi) * n_sectors)
+    sector = np.minimum(sector.astype(np.int64), n_sectors - 1)
+    return sector == k, np.hypot(dx, dy)
 
 
 def pile_aor_profile(centres: np.ndarray, radii: np.ndarray, *, plate_z: float = 0.0,
@@ -341,16 +361,12 @@ def pile_aor_profile(centres: np.ndarray, radii: np.ndarray, *, plate_z: float =
             1 <= n_sectors <= 360):
         raise InputError(f"n_sectors must be an integer in 1..360; got {n_sectors!r}")
     axis = pile_axis(c, r, pz)
-    dx, dy = c[:, 0] - axis[0], c[:, 1] - axis[1]
-    rho = np.hypot(dx, dy)
-    sector = np.floor(np.mod(np.arctan2(dy, dx), 2 * math.pi) / (2 * math.pi) * n_sectors)
-    sector = np.minimum(sector.astype(np.int64), n_sectors - 1)
     lo, hi = window
     views: list[ViewAoR] = []
     radii_at_plate: list[float] = []
     for k in range(int(n_sectors)):
         az = 360.0 * (k + 0.5) / n_sectors
-        sel = sector == k
+        sel, rho = sector_spheres(c, (axis[0], axis[1]), n_sectors, k)
         if not sel.any():
             views.append(ViewAoR(k, az, error="no sphere in this sector"))
             continue
@@ -370,4 +386,4 @@ def pile_aor_profile(centres: np.ndarray, radii: np.ndarray, *, plate_z: float =
             views.append(ViewAoR(k, az, right=flank, pile_height=height))
         radii_at_plate.append(flank.fit.intercept)
     diam = [2.0 * float(np.mean(radii_at_plate))] if radii_at_plate else []
-    return _summarise("profile", views, diam, window, p)
+    return _summarise("profile", views, diam, window, p, pz, (float(axis[0]), float(axis[1])))
