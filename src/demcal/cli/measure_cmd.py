@@ -1,0 +1,130 @@
+"""``demcal measure``: angle of repose from pile photos (each, mean, standard deviation)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from demcal.cli import app
+from demcal.cli._common import cli_errors, console, log
+from demcal.errors import InputError
+from demcal.measure import (
+    DEFAULT_FIT_WINDOW,
+    AoRTable,
+    photos_aor,
+    plot_photo_aor,
+    save_table,
+)
+
+
+def parse_threshold(text: str) -> str | float:
+    """``otsu``, ``adaptive`` or a grey level in (0, 1)."""
+    if text in ("otsu", "adaptive"):
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(
+            f"--threshold must be otsu, adaptive or a grey level in (0, 1); got {text!r}"
+        ) from None
+
+
+def _fmt(x: float, digits: int = 2) -> str:
+    return "-" if x is None or not math.isfinite(x) else f"{x:.{digits}f}"
+
+
+def aor_table(table: AoRTable) -> Table:
+    """A rich table: one row per photo, then the mean and standard deviation."""
+    out = Table(title="Angle of repose", title_justify="left")
+    out.add_column("#", justify="right")
+    out.add_column("Photo", overflow="fold")
+    for col in ("Left (°)", "± SE", "Right (°)", "± SE", "AoR (°)"):
+        out.add_column(col, justify="right")
+    for i, r in enumerate(table.results, 1):
+        out.add_row(str(i), Path(r.source).name, _fmt(r.left_deg), _fmt(r.left_stderr_deg),
+                    _fmt(r.right_deg), _fmt(r.right_stderr_deg), f"[bold]{_fmt(r.mean_deg)}")
+    out.add_section()
+    out.add_row("", "mean", "", "", "", "", f"[bold]{_fmt(table.mean_deg)}")
+    out.add_row("", "standard deviation", "", "", "", "", _fmt(table.std_deg))
+    return out
+
+
+@app.command("measure")
+@cli_errors
+def measure(
+    photos: Annotated[
+        list[Path],
+        typer.Argument(help="Front photos of piles (JPEG/PNG/TIFF/BMP), e.g. repeated tests."),
+    ],
+    threshold: Annotated[
+        str,
+        typer.Option("--threshold", "-t",
+                     help="otsu, adaptive (uneven lighting) or a grey level in (0, 1)."),
+    ] = "otsu",
+    fit_window: Annotated[
+        tuple[float, float],
+        typer.Option("--fit-window", help="Flank heights fitted, fractions of the pile height "
+                     "(LO HI, 0 <= LO < HI <= 1)."),
+    ] = DEFAULT_FIT_WINDOW,
+    fit: Annotated[
+        str,
+        typer.Option("--fit", help="Line fit: theil_sen, least_squares or ransac."),
+    ] = "theil_sen",
+    pile: Annotated[
+        str, typer.Option("--pile", help="Tone of the pile: auto, dark or light.")
+    ] = "auto",
+    base_row: Annotated[
+        int | None,
+        typer.Option("--base-row", help="Image row of the plate surface (default: found)."),
+    ] = None,
+    roll_deg: Annotated[
+        float, typer.Option("--roll-deg", help="Camera roll, deg (counter-clockwise).")
+    ] = 0.0,
+    pixel_aspect: Annotated[
+        float, typer.Option("--pixel-aspect", help="Pixel height / width.")
+    ] = 1.0,
+    plot: Annotated[
+        Path | None,
+        typer.Option("--plot", help="Diagnostic figure of the single photo given."),
+    ] = None,
+    plot_dir: Annotated[
+        Path | None,
+        typer.Option("--plot-dir", help="Write one diagnostic figure per photo here."),
+    ] = None,
+    csv: Annotated[
+        Path | None, typer.Option("--csv", help="Write the table as CSV here.")
+    ] = None,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Write the table as JSON here.")
+    ] = None,
+) -> None:
+    """Measure the angle of repose of each photo; print each, the mean and the std."""
+    if plot is not None and len(photos) != 1:
+        raise InputError(f"--plot takes one photo ({len(photos)} given); use --plot-dir")
+    log.info("measuring %d photo(s)", len(photos))
+    table = photos_aor(photos, threshold=parse_threshold(threshold), fit_window=fit_window,
+                       fit=fit, pile=pile, base_line=base_row, roll_deg=roll_deg,
+                       pixel_aspect=pixel_aspect)
+    console.print(aor_table(table))
+    targets = [(table.results[0], plot)] if plot is not None else []
+    if plot_dir is not None:
+        plot_dir.mkdir(parents=True, exist_ok=True)
+        stems = [Path(r.source).stem for r in table.results]
+        unique = len(set(stems)) == len(stems)
+        targets += [(r, plot_dir / (f"{stem}_aor.png" if unique else f"{i}_{stem}_aor.png"))
+                    for i, (r, stem) in enumerate(zip(table.results, stems, strict=True), 1)]
+    for res, path in targets:
+        plot_photo_aor(res, path)
+        console.print(f"wrote {path}", highlight=False)
+    for path in (csv, json_out):
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+    if csv is not None or json_out is not None:
+        save_table(table, csv=csv, json_path=json_out)
+        for path in (csv, json_out):
+            if path is not None:
+                console.print(f"wrote {path}", highlight=False)
