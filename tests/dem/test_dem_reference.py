@@ -165,7 +165,7 @@ def _run_cudasim(rolling: str) -> str:
     return proc.stdout.strip().splitlines()[-1]
 
 
-@pytest.mark.parametrize("rolling", ["A", pytest.param("C", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("rolling", ["A", "C"])
 def test_cuda_kernels_under_the_simulator_equal_the_naive_reference(rolling):
     out = json.loads(_run_cudasim(rolling))
     print(rolling, out)
