@@ -11,7 +11,7 @@ def pile_photo(left_deg: float, right_deg: float, *, rng: np.random.Generator,
                shape: tuple[int, int] = (260, 420), noise: float = 0.03, blur: float = 1.0,
                lighting: float = 0.0, texture: float = 0.0, clutter: bool = False,
                plate: str | None = "dark", dark_pile: bool = True, supersample: int = 4,
-               round_px: float = 3.0) -> tuple[np.ndarray, dict]:
+               round_px: float = 3.0, plate_span: float = 0.92) -> tuple[np.ndarray, dict]:
     """A grey photo (H, W) float in [0, 1] of a pile with known flank angles.
 
     The pile's height over column x is ``Hc - sqrt((tan(a) (x - xa))^2 + c^2)`` on each side
@@ -22,7 +22,7 @@ def pile_photo(left_deg: float, right_deg: float, *, rng: np.random.Generator,
     left-right and top-bottom brightness gradient), ``texture`` (amplitude of grain on the
     pile and of a blotchy background), ``clutter`` (dark objects in the background),
     ``plate`` ("dark": a plate of the pile's tone, wider than the pile; "light": lighter than
-    the pile; None: none). Returns the image and a dict with the base row and the apex.
+    the pile; None: none) spanning ``plate_span`` of the width. Returns the image and a dict with the base row and the apex.
     """
     from scipy import ndimage as ndi
 
@@ -48,7 +48,7 @@ def pile_photo(left_deg: float, right_deg: float, *, rng: np.random.Generator,
     img = np.full((h * s, w * s), tone_bg)
     img[pile_mask] = tone_pile
     if plate is not None:
-        p0, p1 = int(0.04 * w * s), int(0.96 * w * s)
+        p0, p1 = int(0.5 * (1 - plate_span) * w * s), int(0.5 * (1 + plate_span) * w * s)
         plate_rows = (z < 0) & (z >= -0.06 * h)
         img[np.ix_(plate_rows, np.arange(p0, p1))] = (
             tone_pile if plate == "dark" else 0.5 * (tone_pile + tone_bg) + 0.15)

@@ -19,6 +19,7 @@ DISTURBANCES = {
     "clutter": {"clutter": True},
     "light_plate": {"plate": "light"},
     "no_plate": {"plate": None},
+    "full_width_plate": {"plate_span": 1.0},
     "light_pile_dark_background": {"dark_pile": False},
 }
 
@@ -149,6 +150,7 @@ def _photo(**kw):
         (np.full((50, 50), np.nan), {}, "NaN"),
         (np.array([["a"]]), {}, "numeric"),
         (_photo(), {"threshold": 1.5}, "threshold"),
+        (_photo(), {"threshold": 0.01, "pile": "dark"}, "no pile found"),
         (_photo(), {"threshold": "median"}, "threshold"),
         (_photo(), {"fit_window": (0.5, 1.5)}, "fit_window"),
         (_photo(), {"fit_window": (0.6, 0.6)}, "fit_window"),
