@@ -22,7 +22,8 @@ def pile_photo(left_deg: float, right_deg: float, *, rng: np.random.Generator,
     left-right and top-bottom brightness gradient), ``texture`` (amplitude of grain on the
     pile and of a blotchy background), ``clutter`` (dark objects in the background),
     ``plate`` ("dark": a plate of the pile's tone, wider than the pile; "light": lighter than
-    the pile; None: none) spanning ``plate_span`` of the width. Returns the image and a dict with the base row and the apex.
+    the pile; None: none) spanning ``plate_span`` of the width. Returns the image and a dict
+    with the base row and the apex.
     """
     from scipy import ndimage as ndi
 

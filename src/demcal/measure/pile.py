@@ -278,6 +278,19 @@ def pile_aor_silhouette(centres: np.ndarray, radii: np.ndarray, *, n_views: int 
     ------
     InputError
         Bad arrays or options, or no view measurable.
+
+    Examples
+    --------
+    Spheres of radius 0.8 mm scattered through a 45-degree cone of base radius 20 mm:
+
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> pts = rng.uniform(-0.02, 0.02, (20000, 3))
+    >>> pts[:, 2] = rng.uniform(0, 0.02, 20000)
+    >>> cone = pts[pts[:, 2] <= 0.02 - np.hypot(pts[:, 0], pts[:, 1])]
+    >>> res = pile_aor_silhouette(cone, np.full(len(cone), 0.0008))
+    >>> abs(res.mean_deg - 45.0) < 0.5, len(res.views)
+    (True, 8)
     """
     c, r, pz, window, method, p = _common(centres, radii, plate_z, fit_window, fit, pixel_size)
     if isinstance(n_views, bool) or not isinstance(n_views, int | np.integer) or not (
