@@ -44,7 +44,8 @@ def test_measure_prints_table_and_writes_outputs(photos, tmp_path):
 def test_measure_single_plot_and_options(photos, tmp_path):
     fig = tmp_path / "one.png"
     res = CliRunner().invoke(app, ["measure", str(photos[0]), "--plot", str(fig),
-                                   "--threshold", "adaptive", "--fit", "ransac"])
+                                   "--threshold", "adaptive", "--fit", "ransac",
+                                   "--roi", "20", "260", "5", "415", "--base-row", "208"])
     assert res.exit_code == 0, res.output
     assert fig.stat().st_size > 5000
 
@@ -56,6 +57,7 @@ def test_measure_single_plot_and_options(photos, tmp_path):
         (["--fit-window", "0.5", "1.5"], "fit_window"),
         (["--fit", "huber"], "fit must be one of"),
         (["--pixel-aspect", "-1"], "pixel_aspect"),
+        (["--roi", "0", "10", "0", "10000"], "roi"),
     ],
 )
 def test_bad_options_exit_2(photos, extra, message):

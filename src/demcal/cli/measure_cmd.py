@@ -81,6 +81,10 @@ def measure(
         int | None,
         typer.Option("--base-row", help="Image row of the plate surface (default: found)."),
     ] = None,
+    roi: Annotated[
+        tuple[int, int, int, int] | None,
+        typer.Option("--roi", help="Region of interest: ROW0 ROW1 COL0 COL1 (pixels)."),
+    ] = None,
     roll_deg: Annotated[
         float, typer.Option("--roll-deg", help="Camera roll, deg (counter-clockwise).")
     ] = 0.0,
@@ -107,7 +111,7 @@ def measure(
         raise InputError(f"--plot takes one photo ({len(photos)} given); use --plot-dir")
     log.info("measuring %d photo(s)", len(photos))
     table = photos_aor(photos, threshold=parse_threshold(threshold), fit_window=fit_window,
-                       fit=fit, pile=pile, base_line=base_row, roll_deg=roll_deg,
+                       fit=fit, pile=pile, base_line=base_row, roi=roi, roll_deg=roll_deg,
                        pixel_aspect=pixel_aspect)
     console.print(aor_table(table))
     targets = [(table.results[0], plot)] if plot is not None else []
