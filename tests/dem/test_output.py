@@ -79,8 +79,9 @@ def _decode(da: ET.Element) -> np.ndarray:
     ncomp = int(da.get("NumberOfComponents", "1"))
     text = (da.text or "").strip()
     if da.get("format") == "binary":
-        nbytes = int(np.frombuffer(base64.b64decode(text[:12]), dtype="<u8")[0])
-        raw = base64.b64decode(text[12:])
+        blob = base64.b64decode(text, validate=True)
+        nbytes = int(np.frombuffer(blob[:8], dtype="<u8")[0])
+        raw = blob[8:]
         assert len(raw) == nbytes
         arr = np.frombuffer(raw, dtype=dtype)
     else:

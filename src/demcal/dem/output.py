@@ -141,8 +141,8 @@ def _data_array(name: str, arr: np.ndarray, encoding: str, indent: str) -> str:
             f'NumberOfComponents="{ncomp}" format="{encoding}">')
     if encoding == "binary":
         raw = arr.tobytes()
-        body = (base64.b64encode(np.array([len(raw)], dtype="<u8").tobytes())
-                + base64.b64encode(raw)).decode("ascii")
+        # uncompressed inline binary: one base64 stream of the UInt64 byte count + the data
+        body = base64.b64encode(np.array([len(raw)], dtype="<u8").tobytes() + raw).decode("ascii")
     else:
         fmt = "%.17g" if arr.dtype.kind == "f" else "%d"
         body = " ".join(fmt % x for x in arr.reshape(-1))
