@@ -37,6 +37,7 @@ import argparse
 import json
 import math
 import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -256,7 +257,11 @@ def main() -> None:
                 cases.append(_batch(backend, sim, 16, steps // 8 if backend == "cpu"
                                     else steps, args.repeat, args.cohesion))
             if backend == "cpu" and prefix is not None and n in lammps_sizes:
-                rates = lammps_bed.run_bed(sim, prefix, n_steps=steps, repeat=repeat)
+                try:
+                    rates = lammps_bed.run_bed(sim, prefix, n_steps=steps, repeat=repeat)
+                except (RuntimeError, OSError, subprocess.SubprocessError) as exc:
+                    print(f"LAMMPS failed on the {n} bed: {exc}", flush=True)
+                    continue
                 _report(f"LAMMPS {lammps_bed.n_procs()} ranks {n} clumps", rates,
                         sim.n_spheres, steps)
                 r = case["sphere_steps_per_s"] / max(rates)

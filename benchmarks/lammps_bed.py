@@ -43,11 +43,11 @@ def n_procs() -> int:
 
 
 def find_lammps(prefix: str | None = None) -> Path | None:
-    """A prefix holding ``bin/lmp`` and ``bin/mpirun`` (argument, $LAMMPS_PREFIX, /tmp/lmp, the
-    PATH's ``lmp``), or None."""
-    cands = [prefix, os.environ.get("LAMMPS_PREFIX"), "/tmp/lmp"]
+    """A prefix holding ``bin/lmp`` and ``bin/mpirun``: the argument if given, else
+    $LAMMPS_PREFIX, /tmp/lmp or the PATH's ``lmp``; None if there is none."""
+    cands = [prefix] if prefix else [os.environ.get("LAMMPS_PREFIX"), "/tmp/lmp"]
     lmp = shutil.which("lmp")
-    if lmp:
+    if lmp and not prefix:
         cands.append(str(Path(lmp).parent.parent))
     for c in cands:
         if c and (Path(c) / "bin" / "lmp").exists() and (Path(c) / "bin" / "mpirun").exists():
