@@ -1,1 +1,80 @@
-"""Calibration studies: the study file (TOML, pydantic), stages, and the runner."""
+"""Calibration studies: the study file (TOML, pydantic), the stages, the runner.
+
+``demcal calibrate STUDY.toml`` runs :func:`demcal.calibrate.pipeline.calibrate`: rangefind ->
+screening (Plackett-Burman) -> steepest ascent/descent -> response surface (BBD/CCD) ->
+optimisation -> verification, every run stored in the study's RunStore as it ends.
+
+Modules: :mod:`~demcal.calibrate.study` (schema, ``demcal init`` example),
+:mod:`~demcal.calibrate.runner` (keys, resume, retry), :mod:`~demcal.calibrate.stages`,
+:mod:`~demcal.calibrate.classifier` (pile region), :mod:`~demcal.calibrate.external`
+(run sheets), :mod:`~demcal.calibrate.pipeline`.
+
+Store contract (writer: this package; reader: demcal.report)
+============================================================
+
+The study folder holds `demcal.sqlite` (demcal.store.RunStore, STORE_NAME). The report is
+built from the store ALONE. Both sides code against this contract; the writer documents it in
+the `demcal.calibrate` package docstring. JSON values only (None for NaN). Angles in degrees,
+everything else SI. Parameter names are those of demcal.virtual.parameters.PARAMETERS
+(e.g. "pp.static_friction"). Factor "symbol" is the paper-style short name ("x3").
+
+## meta (RunStore.set_meta / meta)
+- "study": the validated study (pydantic model_dump(mode="json"))
+- "study_file": str, absolute path of the TOML;  "study_dir": str
+- "target": {"aor_deg": float, "std_deg": float|None, "n": int|None,
+             "source": "value"|"photos",
+             "photos": [{"file": str, "left_deg", "right_deg", "mean_deg",
+                         "figure": str|None (PNG path, diagnostic figure)}]}
+- "physical": dict|None — intrinsic properties if the study gives measurements
+  (e.g. {"density_kg_m3":..., "shear_modulus_pa":..., "poisson":..., "friction": {...}})
+- "fixed_params": {name: value}  (every parameter not a factor)
+- "factors": [{"name", "symbol", "low", "high", "unit"}]  (ranges as given in the study)
+- "versions": {"demcal", "python", "numpy", "engine_backend"}
+- "result": the final JSON (same as `demcal calibrate --json`), once the study is done
+
+## stages (RunStore.set_stage(name, status, summary)); status running|done|failed;
+## a failed stage's summary holds {"error": str}
+- "rangefind": {"factors": [{"name", "symbol", "low", "high", "new_low", "new_high",
+      "points": [{"value", "outcome", "aor_deg"|None}], "reason": str|None}],
+      "response_min_deg", "response_max_deg", "target_in_range": bool, "message": str}
+- "screening": {"design": "plackett_burman", "n_runs": int, "alpha": float,
+      "factors": [{"name","symbol","low","high","unit"}], "dummies": [str],
+      "runs": [{"point": int, "coded": {name: -1|1}, "actual": {name: value},
+                "aor_deg": float|None, "outcome": str}],
+      "anova": [AnovaTable.to_records() rows], "fit": FitStatistics.to_dict(),
+      "effects": [{"term", "effect", "contribution_percent", "f", "p", "rank"}],
+      "selected": [names], "excluded_points": [int], "message": str}
+- "steepest": {"factors": [names], "direction": {name: +1|-1},
+      "steps": [{"step": int, "actual": {name: value}, "aor_deg": float|None,
+                 "outcome": str, "relative_error_percent": float|None}],
+      "best_step": int, "centre": {name: value}, "levels": {name: [low, centre, high]}}
+- "rsm": {"design": "box_behnken"|"ccd", "factors": [{"name","symbol","low","high","unit"}],
+      "runs": [{"point","coded","actual","aor_deg","outcome"}],
+      "anova": [records], "fit": FitStatistics.to_dict(), "lack_of_fit_p": float|None,
+      "coefficients_coded": {term: value}, "coefficients_actual": {term: value},
+      "equation_coded": str, "equation_actual": str, "adequate": bool,
+      "warnings": [str], "excluded_points": [int]}
+- "optimize": {"target_aor_deg": float,
+      "candidates": [{"params": {name: value}, "predicted_aor_deg": float,
+                      "pi_low_deg": float|None, "pi_high_deg": float|None,
+                      "p_pile": float|None}],  (ranked, best first)
+      "chosen": {name: value}, "predicted_aor_deg": float}
+- "verification": {"params": {name: value (full set)}, "aor_deg": [float|None],
+      "outcomes": [str], "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n",
+      "pile_png": str|None (side view of a verification pile with fitted lines)}
+
+## runs (RunStore.record_run / runs(stage=...))
+Each RunRecord: stage, point (design row index), replicate, params (full set), seed,
+status done|failed, outcome (pile|column|plug|unsettled|unstable), aor_deg, result (the
+AoRResult.to_dict() or the stand-in's dict), reason, attempts, timings, artefacts.
+
+Also written (extra keys, readers may ignore them): optimize "classifier" and each candidate's
+"desirability"; verification "n_piles"; a retried run's result "first_attempt".
+"""
+
+from demcal.calibrate.pipeline import STAGES, calibrate, open_study
+from demcal.calibrate.runner import ExternalPending, Point, Runner
+from demcal.calibrate.study import EXAMPLE_STUDY, Study, load_study, parse_study
+
+__all__ = ["EXAMPLE_STUDY", "STAGES", "ExternalPending", "Point", "Runner", "Study",
+           "calibrate", "load_study", "open_study", "parse_study"]

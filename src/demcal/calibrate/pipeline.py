@@ -1,0 +1,202 @@
+"""One calibration study end to end: target, fixed parameters, the stages, the result.
+
+:func:`calibrate` opens (or resumes) the study's store ``<study dir>/demcal.sqlite``, writes
+the meta keys, runs the enabled stages and stores the final result under meta ``"result"``.
+Runs already stored are reused (see :mod:`demcal.calibrate.runner`), so calling it again
+after an interruption, or after editing the study, runs only what is missing.
+"""
+
+from __future__ import annotations
+
+import platform
+from collections.abc import Callable
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from demcal.calibrate import stages as st
+from demcal.calibrate.runner import Runner
+from demcal.calibrate.study import Study, load_study
+from demcal.errors import InputError
+from demcal.execute.local import default_workers
+from demcal.execute.tasks import TestDef
+from demcal.store import RunStore
+
+__all__ = ["STAGES", "calibrate", "open_study", "resolve_target", "test_def"]
+
+STAGES = ("rangefind", "screening", "steepest", "rsm", "optimize", "verification")
+
+
+def test_def(study: Study) -> TestDef:
+    """The executor's description of the study's virtual test."""
+    t = study.test
+    return TestDef(kind=t.kind, fidelity=t.fidelity, overrides=dict(t.overrides),
+                   analytic=dict(t.analytic), backend=study.backend)
+
+
+def resolve_target(study: Study) -> dict[str, Any]:
+    """The target AoR (deg) as the store's meta "target": from a value, photos or a file."""
+    t = study.target
+    if t.aor_deg is not None:
+        return {"aor_deg": float(t.aor_deg), "std_deg": t.std_deg, "n": t.n, "source": "value",
+                "photos": []}
+    if t.photos:
+        from demcal.measure import photos_aor
+
+        table = photos_aor(t.photos)
+        photos = [{"file": r.source, "left_deg": r.left_deg, "right_deg": r.right_deg,
+                   "mean_deg": r.mean_deg, "figure": None} for r in table.results]
+        std = table.std_deg
+        return {"aor_deg": table.mean_deg, "std_deg": None if not np.isfinite(std) else std,
+                "n": len(photos), "source": "photos", "photos": photos}
+    from demcal.physical import derive_parameters, load_measurements
+
+    res = derive_parameters(load_measurements(t.measurements))
+    if res.target_aor is None or res.target_aor.mean is None:
+        raise InputError(f"target.measurements: {t.measurements} has no [measurements.aor] "
+                         "angle_deg repeats")
+    a = res.target_aor
+    return {"aor_deg": float(a.mean), "std_deg": a.std, "n": a.n_repeats, "source": "value",
+            "photos": []}
+
+
+def _fixed(study: Study) -> tuple[dict[str, float], dict[str, Any] | None]:
+    from demcal.virtual import PARAMETERS, preset_parameters
+
+    params = preset_parameters(study.material.preset)
+    physical = None
+    if study.material.measurements:
+        from demcal.physical import derive_parameters, load_measurements
+
+        res = derive_parameters(load_measurements(study.material.measurements))
+        physical = res.to_dict()
+        params.update({k: v for k, v in res.fixed_values().items() if k in PARAMETERS})
+    params.update(study.material.overrides)
+    for f in study.factors:
+        params[f.name] = 0.5 * (f.low + f.high)
+    return params, physical
+
+
+def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any = None,
+               external: bool = False,
+               progress: Callable[[str, int, int], None] | None = None) -> st.Context:
+    """Load the study, open its store, write the meta keys and build the stage context."""
+    path = Path(study_file).resolve()
+    study = load_study(path)
+    store = RunStore(path.parent)
+    target = resolve_target(study)
+    fixed, physical = _fixed(study)
+    factors = [{"name": f.name, "symbol": f.symbol, "low": f.low, "high": f.high,
+                "unit": f.unit} for f in study.factors]
+    store.set_meta("study", study.model_dump(mode="json"))
+    store.set_meta("study_file", str(path))
+    store.set_meta("study_dir", str(path.parent))
+    store.set_meta("target", target)
+    store.set_meta("physical", physical)
+    store.set_meta("fixed_params", {k: v for k, v in fixed.items()
+                                    if k not in {f.name for f in study.factors}})
+    store.set_meta("factors", factors)
+    try:
+        dv = version("demcal")
+    except PackageNotFoundError:  # pragma: no cover
+        dv = "unknown"
+    store.set_meta("versions", {"demcal": dv, "python": platform.python_version(),
+                                "numpy": np.__version__, "engine_backend": study.backend})
+    ex = study.executor
+    runner = Runner(store, test_def(study),
+                    workers=workers or ex.workers or default_workers(),
+                    dask=dask if dask is not None else ex.dask, chunk=ex.chunk,
+                    progress=progress, external=external)
+    return st.Context(study, store, runner, fixed, float(target["aor_deg"]),
+                      [dict(f) for f in factors])
+
+
+def _stage_json(ctx: st.Context) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for name in STAGES:
+        s = ctx.results.get(name)
+        if s is None:
+            continue
+        if name == "rangefind":
+            out[name] = {"design": "one factor at a time",
+                         "responses": [p for f in s["factors"] for p in f["points"]],
+                         "ranges": {f["name"]: [f["new_low"], f["new_high"]]
+                                    for f in s["factors"]}, "message": s["message"]}
+        elif name in ("screening", "rsm"):
+            out[name] = {"design": s["design"], "factors": [f["name"] for f in s["factors"]],
+                         "responses": [{"point": r["point"], "actual": r["actual"],
+                                        "aor_deg": r["aor_deg"], "outcome": r["outcome"]}
+                                       for r in s["runs"]],
+                         "excluded_points": s["excluded_points"]}
+            if name == "screening":
+                out[name]["selected"] = s["selected"]
+            else:
+                out[name].update(adequate=s["adequate"], warnings=s["warnings"],
+                                 equation_actual=s["equation_actual"])
+        elif name == "steepest":
+            out[name] = {"design": "steepest path", "factors": s["factors"],
+                         "responses": s["steps"], "best_step": s["best_step"],
+                         "levels": s["levels"]}
+        elif name == "optimize":
+            out[name] = {"candidates": s["candidates"]}
+        elif name == "verification":
+            out[name] = {"aor_deg": s["aor_deg"], "outcomes": s["outcomes"]}
+    return out
+
+
+def calibrate(study_file: str | Path, *, workers: int | None = None, dask: Any = None,
+              external: bool = False,
+              progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
+    """Run (or resume) the study; return the result JSON (also stored as meta "result").
+
+    Raises :class:`demcal.calibrate.runner.ExternalPending` in external mode when a stage
+    needs runs done outside demcal.
+    """
+    ctx = open_study(study_file, workers=workers, dask=dask, external=external,
+                     progress=progress)
+    try:
+        return run_stages(ctx)
+    finally:
+        ctx.store.close()
+
+
+def run_stages(ctx: st.Context) -> dict[str, Any]:
+    """The stages in order (disabled ones skipped), then the result."""
+    s = ctx.study.stages
+    for name in ("rangefind", "screening", "steepest"):
+        if name == "rangefind" and not s.rangefind.enabled:
+            ctx.store.delete_stage(name)
+            continue
+        if name == "screening" and not s.screening.enabled:
+            raise InputError("stages.screening.enabled: screening cannot be skipped (it "
+                             "selects the factors); give stages.screening.factors instead")
+        if name == "steepest" and not s.steepest.enabled:
+            sel = ctx.results["screening"]["selected"]
+            ctx.results["steepest"] = {"levels": {
+                n: [ctx.factor(n)["low"], 0.5 * (ctx.factor(n)["low"] + ctx.factor(n)["high"]),
+                    ctx.factor(n)["high"]] for n in sel}}
+            ctx.store.delete_stage(name)
+            continue
+        getattr(st, name)(ctx)
+    st.rsm(ctx)
+    st.optimize(ctx)
+    st.verification(ctx)
+    opt, ver = ctx.results["optimize"], ctx.results["verification"]
+    result = {
+        "study": ctx.study.name,
+        "optimum": opt["chosen"],
+        "optimum_full": ver["params"],
+        "predicted_aor_deg": opt["predicted_aor_deg"],
+        "target_aor_deg": ctx.target,
+        "verification": {k: ver[k] for k in ("aor_mean_deg", "aor_std_deg",
+                                             "relative_error_percent", "n")},
+        "n_runs": ctx.store.count(),
+        "n_runs_executed": ctx.runner.executed,
+        "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
+        "rsm_adequate": ctx.results["rsm"]["adequate"],
+        "stages": _stage_json(ctx),
+    }
+    ctx.store.set_meta("result", result)
+    return result

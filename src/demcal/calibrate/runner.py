@@ -1,0 +1,180 @@
+"""The runner: turns design points into stored runs, skipping those already done.
+
+Every run is keyed by :func:`demcal.store.run_key` (stage, full parameter set, seed, hash of
+the virtual test) and written to the store the moment it ends, so a second call with the same
+points runs nothing, an interrupted call loses no finished run, and a changed study re-runs
+only the points whose key changed. A run ending ``unstable`` or ``unsettled`` is stored with
+its reason and retried once with half the time-step fraction (``attempts`` = 2).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from demcal.execute.local import run_local
+from demcal.execute.tasks import RunTask, TestDef
+from demcal.store import RunRecord, RunStore, params_hash, run_key
+
+__all__ = ["RETRY_DT_SCALE", "RETRY_OUTCOMES", "ExternalPending", "Point", "Runner"]
+
+RETRY_OUTCOMES = ("unstable", "unsettled")
+RETRY_DT_SCALE = 0.5
+
+
+class ExternalPending(Exception):
+    """External mode: ``stage`` needs ``points`` run outside demcal before it can go on."""
+
+    def __init__(self, stage: str, points: list[Point]) -> None:
+        super().__init__(f"{stage}: {len(points)} runs to do externally")
+        self.stage = stage
+        self.points = points
+
+
+@dataclass(frozen=True)
+class Point:
+    """One run to do: design row ``point``, ``replicate``, full parameters (SI) and seed."""
+
+    point: int
+    replicate: int
+    params: dict[str, float]
+    seed: int
+
+
+class Runner:
+    """Runs points of a stage through an executor and stores each run as it ends.
+
+    Parameters
+    ----------
+    store : RunStore
+    test : TestDef
+        The virtual test (its identity enters every run key).
+    workers : int
+        Local worker processes (1 = in this process).
+    dask : str or Client, optional
+        A Dask scheduler; replaces the local pool.
+    chunk : int
+        Runs per task (batched worlds of one engine).
+    progress : callable, optional
+        ``progress(stage, done, total)`` after each run.
+    external : bool
+        Run nothing: :meth:`run` returns the missing points instead (external mode).
+    """
+
+    def __init__(self, store: RunStore, test: TestDef, *, workers: int = 1, dask: Any = None,
+                 chunk: int = 1, progress: Callable[[str, int, int], None] | None = None,
+                 external: bool = False) -> None:
+        self.store = store
+        self.test = test
+        self.test_hash = params_hash(test.identity())
+        self.workers = workers
+        self.dask = dask
+        self.chunk = max(1, chunk)
+        self.progress = progress
+        self.external = external
+        self.executed = 0
+
+    def key(self, stage: str, p: Point) -> str:
+        """The store key of a point's run."""
+        return run_key(stage, p.params, p.seed, self.test_hash)
+
+    def missing(self, stage: str, points: Sequence[Point]) -> list[Point]:
+        """Points with no finished run in the store (done, or failed after its retry)."""
+        out = []
+        for p in points:
+            r = self.store.get_run(self.key(stage, p))
+            if r is None or (r.status == "failed" and r.attempts < 2):
+                out.append(p)
+        return out
+
+    def record(self, stage: str, p: Point, res: dict[str, Any], attempts: int,
+               started: float) -> RunRecord:
+        """Store one run's result (``res`` as from :func:`demcal.execute.tasks.run_chunk`)."""
+        outcome = res.get("outcome")
+        failed = outcome in RETRY_OUTCOMES
+        reason = res.get("reason")
+        if failed and reason is None:
+            reason = f"outcome {outcome}"
+        key = self.key(stage, p)
+        result = dict(res.get("result") or {})
+        if attempts > 1:
+            first = self.store.get_run(key)
+            if first is not None:
+                result["first_attempt"] = {"outcome": first.outcome, "reason": first.reason}
+                reason = (f"retried with dt_fraction x{RETRY_DT_SCALE} after: {first.reason}"
+                          + (f"; then: {reason}" if failed else ""))
+        rec = RunRecord(
+            key=key, stage=stage, point=p.point, replicate=p.replicate,
+            params=dict(p.params), seed=p.seed, status="failed" if failed else "done",
+            outcome=outcome, aor_deg=res.get("aor_deg") if outcome == "pile" else None,
+            result=result, reason=reason, attempts=attempts,
+            engine_version=self._engine_version(), started_at=started,
+            finished_at=time.time(), wall_time_s=res.get("wall_time_s"),
+            artefacts=dict((res.get("result") or {}).get("artefacts") or {}))
+        self.store.record_run(rec)
+        return rec
+
+    @staticmethod
+    def _engine_version() -> str:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return f"demcal {version('demcal')}"
+        except PackageNotFoundError:  # pragma: no cover
+            return "demcal"
+
+    def _execute(self, stage: str, points: list[Point], dt_scale: float, attempts: int,
+                 total: int, done0: int) -> list[Point]:
+        """Run points; return those to retry."""
+        by_key = {self.key(stage, p): p for p in points}
+        tasks = [RunTask(k, self.test, p.params, p.seed, dt_scale) for k, p in by_key.items()]
+        chunks = [tasks[i:i + self.chunk] for i in range(0, len(tasks), self.chunk)]
+        retry: list[Point] = []
+        started = time.time()
+        count = [done0]
+
+        def on_result(res: dict[str, Any]) -> None:
+            p = by_key[res["key"]]
+            rec = self.record(stage, p, res, attempts, started)
+            self.executed += 1
+            count[0] += 1
+            if rec.outcome in RETRY_OUTCOMES and attempts < 2:
+                retry.append(p)
+            if self.progress is not None:
+                self.progress(stage, count[0], total)
+
+        if self.dask is not None:
+            from demcal.execute.dask_exec import run_dask
+
+            run_dask(chunks, on_result, address=self.dask)
+        else:
+            run_local(chunks, on_result, workers=self.workers)
+        return retry
+
+    def run(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:
+        """Make sure every point has a stored run; return the runs in ``points`` order.
+
+        In external mode nothing runs: :class:`ExternalPending` is raised with the missing
+        points (when every run is stored, the runs are returned as usual).
+        """
+        todo = self.missing(stage, points)
+        if todo and self.external:
+            raise ExternalPending(stage, todo)
+        total = len(points)
+        if self.progress is not None:
+            self.progress(stage, total - len(todo), total)
+        fresh = [p for p in todo if self.store.get_run(self.key(stage, p)) is None]
+        stale = [p for p in todo if p not in fresh]  # failed once, retry pending
+        retry = self._execute(stage, fresh, 1.0, 1, total, total - len(todo)) if fresh else []
+        retry += stale
+        if retry:
+            self._execute(stage, retry, RETRY_DT_SCALE, 2, total, total - len(retry))
+        out = []
+        for p in points:
+            r = self.store.get_run(self.key(stage, p))
+            assert r is not None
+            out.append(r)
+        return out
+

@@ -1,0 +1,507 @@
+"""The calibration stages, each a function of a :class:`Context` that writes its summary.
+
+rangefind -> screening -> steepest -> rsm -> optimize -> verification. Every stage makes its
+design points, has the runner run (or find) them, and stores a summary whose keys are the
+contract documented in :mod:`demcal.calibrate`. A run without a pile is stored with its
+outcome and never enters a fit as a number: its design point is excluded and listed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from demcal import doe
+from demcal.calibrate.classifier import PileClassifier
+from demcal.calibrate.runner import Point, Runner
+from demcal.calibrate.study import Study
+from demcal.errors import InputError, StudyError
+from demcal.store import RunRecord, RunStore, params_hash
+from demcal.virtual import PARAMETERS
+
+__all__ = ["Context", "optimize", "rangefind", "rsm", "screening", "steepest", "verification"]
+
+
+@dataclass
+class Context:
+    """State shared by the stages of one study.
+
+    ``fixed``: full parameter set with every factor at its current centre (SI);
+    ``factors``: current ranges [{"name","symbol","low","high","unit"}];
+    ``records``: every run the stages used (for the pile classifier).
+    """
+
+    study: Study
+    store: RunStore
+    runner: Runner
+    fixed: dict[str, float]
+    target: float
+    factors: list[dict[str, Any]]
+    records: list[RunRecord] = field(default_factory=list)
+    results: dict[str, Any] = field(default_factory=dict)
+
+    def full(self, actual: dict[str, float]) -> dict[str, float]:
+        """The fixed set with ``actual`` factor values applied (floats)."""
+        out = dict(self.fixed)
+        out.update({k: float(v) for k, v in actual.items()})
+        return out
+
+    def factor(self, name: str) -> dict[str, Any]:
+        return next(f for f in self.factors if f["name"] == name)
+
+    def seed(self, point: int, replicate: int) -> int:
+        """Seed of a run: distinct per design row, so replicated centre points differ."""
+        return int(self.study.seed + 1000 * replicate + point)
+
+    def run(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:
+        recs = self.runner.run(stage, points)
+        self.records.extend(recs)
+        return recs
+
+    def begin(self, stage: str, inputs: Any) -> str:
+        h = params_hash({"inputs": inputs, "test": self.runner.test_hash})
+        self.store.set_stage(stage, "running", {}, inputs_hash=h)
+        return h
+
+
+def _clip(name: str, value: float) -> float:
+    spec = PARAMETERS[name]
+    lo = spec.low if not spec.low_open else spec.low + 1e-9
+    hi = spec.high if not spec.high_open else spec.high - 1e-9
+    return float(min(max(value, lo), hi))
+
+
+def _space(factors: Sequence[dict[str, Any]]) -> doe.FactorSpace:
+    return doe.FactorSpace([doe.Factor(f["name"], f["low"], f["high"], f.get("unit") or "")
+                            for f in factors])
+
+
+def _point_responses(recs: Sequence[RunRecord], n_points: int) -> tuple[np.ndarray, list[str]]:
+    """Mean AoR per design point over its replicates; NaN if any replicate formed no pile."""
+    y = np.full(n_points, math.nan)
+    outcome = ["pile"] * n_points
+    by: dict[int, list[RunRecord]] = {}
+    for r in recs:
+        by.setdefault(r.point, []).append(r)
+    for i in range(n_points):
+        rs = by.get(i, [])
+        bad = [r.outcome for r in rs if r.outcome != "pile" or r.aor_deg is None]
+        if bad or not rs:
+            outcome[i] = bad[0] if bad else "missing"
+        else:
+            y[i] = float(np.mean([r.aor_deg for r in rs]))
+    return y, outcome
+
+
+def _design_points(ctx: Context, design: doe.Design) -> list[Point]:
+    actual = design.actual
+    pts = []
+    for i in range(design.n_runs):
+        values = {n: float(actual[i, j]) for j, n in enumerate(design.names)}
+        for r in range(ctx.study.replicates):
+            pts.append(Point(i, r, ctx.full(values), ctx.seed(i, r)))
+    return pts
+
+
+def _run_rows(design: doe.Design, y: np.ndarray, outcomes: list[str]) -> list[dict[str, Any]]:
+    actual = design.actual
+    return [{"point": i,
+             "coded": {n: float(design.coded[i, j]) for j, n in enumerate(design.names)},
+             "actual": {n: float(actual[i, j]) for j, n in enumerate(design.names)},
+             "aor_deg": None if math.isnan(y[i]) else float(y[i]), "outcome": outcomes[i]}
+            for i in range(design.n_runs)]
+
+
+def _exclusion_note(excluded: list[int], outcomes: list[str]) -> str:
+    if not excluded:
+        return "every design point formed a pile"
+    kinds = sorted({outcomes[i] for i in excluded})
+    return (f"{len(excluded)} design point(s) formed no pile ({', '.join(kinds)}): points "
+            f"{', '.join(str(i) for i in excluded)} are stored with their outcome and excluded "
+            "from the fit")
+
+
+# ------------------------------------------------------------------------------ rangefind
+def _feasible(values: np.ndarray, piles: np.ndarray) -> tuple[float, float] | None:
+    """Largest contiguous run of pile points (a single point: +/- half a grid step)."""
+    best: tuple[int, int] | None = None
+    i = 0
+    while i < len(values):
+        if piles[i]:
+            j = i
+            while j + 1 < len(values) and piles[j + 1]:
+                j += 1
+            if best is None or j - i > best[1] - best[0]:
+                best = (i, j)
+            i = j + 1
+        else:
+            i += 1
+    if best is None:
+        return None
+    a, b = best
+    if a == b:
+        half = 0.5 * (values[1] - values[0])
+        return float(max(values[0], values[a] - half)), float(min(values[-1], values[a] + half))
+    return float(values[a]), float(values[b])
+
+
+def rangefind(ctx: Context) -> dict[str, Any]:
+    """Scan each listed factor at the others' centre; keep the part of its range with piles."""
+    opts = ctx.study.stages.rangefind
+    names = [ctx.study.factor(r).name for r in (opts.factors or [f["name"] for f in ctx.factors])]
+    ctx.begin("rangefind", {"factors": ctx.factors, "opts": opts.model_dump(mode="json"),
+                            "fixed": ctx.fixed})
+    hard = {ctx.study.factor(k).name: v for k, v in opts.hard_limits.items()}
+    moves: list[str] = []
+    for attempt in range(opts.max_moves + 1):
+        points, index = [], []
+        for fi, name in enumerate(names):
+            f = ctx.factor(name)
+            for j, v in enumerate(np.linspace(f["low"], f["high"], opts.points)):
+                pt = 100 * fi + j
+                for r in range(ctx.study.replicates):
+                    points.append(Point(pt, r, ctx.full({name: float(v)}), ctx.seed(pt, r)))
+                index.append((name, float(v), pt))
+        recs = ctx.run("rangefind", points)
+        y, outcomes = _point_responses(recs, 100 * len(names))
+        rows, aors, slopes = [], [], {}
+        for name in names:
+            f = ctx.factor(name)
+            pts = [(v, pt) for n, v, pt in index if n == name]
+            vals = np.array([v for v, _ in pts])
+            ys = np.array([y[pt] for _, pt in pts])
+            piles = ~np.isnan(ys)
+            feas = _feasible(vals, piles)
+            reason = None
+            new_low, new_high = f["low"], f["high"]
+            if feas is None:
+                reason = (f"no pile anywhere in {f['low']:g}..{f['high']:g} "
+                          f"({', '.join(sorted({outcomes[pt] for _, pt in pts}))})")
+            else:
+                new_low, new_high = feas
+                cut = [f"{v:g} ({outcomes[pt]})" for v, pt in pts if np.isnan(y[pt])]
+                if cut:
+                    reason = ("no pile at " + ", ".join(cut) + f"; range cut to "
+                              f"{new_low:g}..{new_high:g}")
+            if piles.sum() >= 2:
+                slopes[name] = float(np.polyfit(vals[piles], ys[piles], 1)[0])
+            aors += [float(v) for v in ys[piles]]
+            rows.append({"name": name, "symbol": f["symbol"], "low": f["low"],
+                         "high": f["high"], "new_low": new_low, "new_high": new_high,
+                         "points": [{"value": float(v), "outcome": outcomes[pt],
+                                     "aor_deg": None if np.isnan(y[pt]) else float(y[pt])}
+                                    for v, pt in pts],
+                         "reason": reason})
+        if not aors:
+            summary = {"factors": rows, "response_min_deg": None, "response_max_deg": None,
+                       "target_in_range": False, "message": "no pile formed in any scan"}
+            ctx.store.set_stage("rangefind", "failed", {**summary, "error": summary["message"]})
+            raise StudyError("rangefind: no pile formed anywhere in the scanned ranges; lower "
+                             "the cohesion (e.g. pp.surface_energy) or widen the ranges")
+        lo, hi = min(aors), max(aors)
+        inside = lo <= ctx.target <= hi
+        if inside:
+            msg = f"target {ctx.target:g} deg lies in the response seen ({lo:.2f}..{hi:.2f} deg)"
+        else:
+            way = "raise" if ctx.target > hi else "lower"
+            drivers = [f"{n} ({'up' if (s > 0) == (way == 'raise') else 'down'})"
+                       for n, s in sorted(slopes.items(), key=lambda kv: -abs(kv[1]))]
+            msg = (f"target {ctx.target:g} deg lies outside the response seen ({lo:.2f}.."
+                   f"{hi:.2f} deg): ranges must move to {way} the AoR: "
+                   + (", ".join(drivers) or "no factor with a measurable slope"))
+        moved = False
+        if not inside and opts.move_ranges and attempt < opts.max_moves:
+            want_up = ctx.target > hi
+            for name, s in slopes.items():
+                if name not in hard or s == 0:
+                    continue
+                f = ctx.factor(name)
+                width = f["high"] - f["low"]
+                shift = width / 2 * (1 if (s > 0) == want_up else -1)
+                h_lo, h_hi = hard[name]
+                new_lo = min(max(f["low"] + shift, h_lo), h_hi - width)
+                new_lo = max(new_lo, h_lo)
+                new_hi = min(new_lo + width, h_hi)
+                if abs(new_lo - f["low"]) > 1e-12 * max(1.0, width):
+                    moves.append(f"{name}: {f['low']:g}..{f['high']:g} -> {new_lo:g}..{new_hi:g}")
+                    f["low"], f["high"] = new_lo, new_hi
+                    ctx.fixed[name] = 0.5 * (new_lo + new_hi)
+                    moved = True
+        if not moved:
+            break
+    for row in rows:
+        f = ctx.factor(row["name"])
+        f["low"], f["high"] = row["new_low"], row["new_high"]
+        ctx.fixed[row["name"]] = 0.5 * (f["low"] + f["high"])
+    if moves:
+        msg += "; ranges moved within hard limits: " + "; ".join(moves)
+    summary = {"factors": rows, "response_min_deg": lo, "response_max_deg": hi,
+               "target_in_range": inside, "message": msg}
+    ctx.store.set_stage("rangefind", "done", summary,
+                        inputs_hash=ctx.store.stage("rangefind").inputs_hash)
+    ctx.results["rangefind"] = summary
+    return summary
+
+
+# ------------------------------------------------------------------------------ screening
+def screening(ctx: Context) -> dict[str, Any]:
+    """Plackett-Burman design, linear fit, effects and ANOVA, the significant factors."""
+    opts = ctx.study.stages.screening
+    h = ctx.begin("screening", {"factors": ctx.factors, "opts": opts.model_dump(mode="json"),
+                                "fixed": ctx.fixed, "reps": ctx.study.replicates})
+    space = _space(ctx.factors)
+    k = len(space)
+    try:
+        design = doe.plackett_burman(space, n_runs=opts.runs, randomize=False)
+    except InputError as exc:
+        raise InputError(f"stages.screening.runs: {exc}") from None
+    recs = ctx.run("screening", _design_points(ctx, design))
+    y, outcomes = _point_responses(recs, design.n_runs)
+    excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
+    summary: dict[str, Any] = {
+        "design": "plackett_burman", "n_runs": design.n_runs, "alpha": opts.alpha,
+        "factors": [dict(f) for f in ctx.factors],
+        "dummies": [f"dummy{j + 1}" for j in range(design.dummies.shape[1])],
+        "runs": _run_rows(design, y, outcomes), "excluded_points": excluded}
+    try:
+        rs = doe.fit(design, y, model="linear")
+        if rs.df_resid < 1:
+            raise InputError("no residual degrees of freedom")
+    except InputError as exc:
+        err = (f"screening: the linear model cannot be fitted ({exc}); "
+               + _exclusion_note(excluded, outcomes) + ". Run range finding or narrow the "
+               "ranges to the pile region")
+        ctx.store.set_stage("screening", "failed", {**summary, "error": err}, inputs_hash=h)
+        raise StudyError(err) from None
+    eff = rs.effects()
+    effects = [{"term": str(t), "effect": float(r["effect"]),
+                "contribution_percent": float(r["contribution_percent"]),
+                "f": None if not np.isfinite(r["f"]) else float(r["f"]),
+                "p": None if not np.isfinite(r["p"]) else float(r["p"]), "rank": int(r["rank"])}
+               for t, r in eff.iterrows()]
+    if opts.factors:
+        selected = [ctx.study.factor(r).name for r in opts.factors]
+        why = "factors given in the study"
+    else:
+        sig = [e["term"] for e in effects if e["p"] is not None and e["p"] < opts.alpha]
+        selected = sig[:opts.max_factors]
+        why = f"{len(sig)} significant at alpha={opts.alpha:g}"
+        need = min(opts.min_factors, k)
+        for e in effects:
+            if len(selected) >= need:
+                break
+            if e["term"] not in selected:
+                selected.append(e["term"])
+        if len(selected) > len(sig[:opts.max_factors]):
+            why += f"; filled up to {need} by effect rank"
+    summary.update(anova=rs.anova().to_records(), fit=rs.anova().fit.to_dict(), effects=effects,
+                   selected=selected,
+                   message=f"selected {', '.join(selected)} ({why}); "
+                   + _exclusion_note(excluded, outcomes))
+    ctx.store.set_stage("screening", "done", summary, inputs_hash=h)
+    ctx.results["screening"] = summary
+    ctx.results["_screening_model"] = rs
+    return summary
+
+
+# ------------------------------------------------------------------------------ steepest
+def steepest(ctx: Context) -> dict[str, Any]:
+    """Path from the screening effects toward the target; best step = centre of the RSM."""
+    opts = ctx.study.stages.steepest
+    rs = ctx.results["_screening_model"]
+    selected = ctx.results["screening"]["selected"]
+    h = ctx.begin("steepest", {"sel": selected, "factors": ctx.factors,
+                               "opts": opts.model_dump(mode="json"), "fixed": ctx.fixed,
+                               "coef": {k: float(v) for k, v in rs.coefficients_coded.items()}})
+    coefs = {n: float(rs.coefficients_coded[n]) for n in selected}
+    centre_pred = float(rs.coefficients_coded["intercept"])
+    ascent = ctx.target > centre_pred
+    sign = {n: (1 if ascent else -1) * (1 if c >= 0 else -1) for n, c in coefs.items()}
+    space = _space([ctx.factor(n) for n in selected])
+    if opts.step == "auto":
+        step_c = 2.0 / (opts.steps - 1)
+        start = {n: -float(sign[n]) for n in selected}
+    else:
+        step_c = float(opts.step)
+        start = {n: 0.0 for n in selected}
+    design = doe.steepest_path({n: (c if c != 0 else 1e-12) for n, c in coefs.items()},
+                               factors=space, n_points=opts.steps,
+                               steps={n: step_c for n in selected}, start=start,
+                               direction="ascent" if ascent else "descent", units="coded")
+    actual = design.actual
+    path = [{n: _clip(n, actual[i, j]) for j, n in enumerate(design.names)}
+            for i in range(design.n_runs)]
+    pts = [Point(i, r, ctx.full(path[i]), ctx.seed(i, r))
+           for i in range(len(path)) for r in range(ctx.study.replicates)]
+    recs = ctx.run("steepest", pts)
+    y, outcomes = _point_responses(recs, len(path))
+    err = [None if math.isnan(v) else abs(v - ctx.target) / ctx.target * 100 for v in y]
+    piles = [i for i, e in enumerate(err) if e is not None]
+    if not piles:
+        msg = "steepest: no step of the path formed a pile"
+        ctx.store.set_stage("steepest", "failed", {"error": msg}, inputs_hash=h)
+        raise StudyError(msg)
+    best = piles[0]
+    for i in range(piles[0] + 1, len(path)):
+        if err[i] is None or err[i] > err[best]:  # type: ignore[operator]
+            break
+        best = i
+    step_actual = {n: abs(step_c) * space[n].half_range for n in selected}
+    centre = dict(path[best])
+    levels = {}
+    for n in selected:
+        lo = _clip(n, centre[n] - step_actual[n])
+        hi = _clip(n, centre[n] + step_actual[n])
+        if n in {f["name"] for f in ctx.factors}:  # keep the rangefind's pile region
+            rf = {r["name"]: r for r in ctx.results.get("rangefind", {}).get("factors", [])}
+            if n in rf and rf[n]["reason"]:
+                lo, hi = max(lo, min(rf[n]["new_low"], centre[n])), min(
+                    hi, max(rf[n]["new_high"], centre[n]))
+        if not hi > lo:
+            lo, hi = centre[n] - step_actual[n] / 2, centre[n] + step_actual[n] / 2
+        levels[n] = [lo, 0.5 * (lo + hi), hi]
+    summary = {"factors": selected, "direction": sign,
+               "steps": [{"step": i, "actual": path[i],
+                          "aor_deg": None if math.isnan(y[i]) else float(y[i]),
+                          "outcome": outcomes[i], "relative_error_percent": err[i]}
+                         for i in range(len(path))],
+               "best_step": best, "centre": {n: levels[n][1] for n in selected},
+               "levels": levels}
+    ctx.store.set_stage("steepest", "done", summary, inputs_hash=h)
+    ctx.results["steepest"] = summary
+    return summary
+
+
+# ------------------------------------------------------------------------------ rsm
+def rsm(ctx: Context) -> dict[str, Any]:
+    """Box-Behnken (or face-centred CCD) around the centre, quadratic model, full ANOVA."""
+    opts = ctx.study.stages.rsm
+    levels = ctx.results["steepest"]["levels"]
+    factors = [{**ctx.factor(n), "low": lv[0], "high": lv[2]} for n, lv in levels.items()]
+    h = ctx.begin("rsm", {"factors": factors, "opts": opts.model_dump(mode="json"),
+                          "fixed": ctx.fixed, "reps": ctx.study.replicates})
+    space = _space(factors)
+    try:
+        if opts.design == "bbd":
+            design = doe.box_behnken(space, center_points=opts.center_points, randomize=False)
+        else:
+            design = doe.central_composite(space, kind="face", center_points=opts.center_points,
+                                           randomize=False)
+    except InputError as exc:
+        raise InputError(f"stages.rsm.design: {exc}") from None
+    recs = ctx.run("rsm", _design_points(ctx, design))
+    y, outcomes = _point_responses(recs, design.n_runs)
+    excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
+    base = {"design": "box_behnken" if opts.design == "bbd" else "ccd",
+            "factors": factors, "runs": _run_rows(design, y, outcomes),
+            "excluded_points": excluded}
+    try:
+        model = doe.fit(design, y, model="quadratic")
+        if model.df_resid < 1:
+            raise InputError("no residual degrees of freedom")
+    except InputError as exc:
+        err = f"rsm: the quadratic model cannot be fitted ({exc}); " + _exclusion_note(
+            excluded, outcomes)
+        ctx.store.set_stage("rsm", "failed", {**base, "error": err}, inputs_hash=h)
+        raise StudyError(err) from None
+    table = model.anova()
+    lof_p = None
+    for row in table.rows:
+        if row.source == "Lack of Fit" and math.isfinite(row.p):
+            lof_p = float(row.p)
+    warnings = []
+    if excluded:
+        warnings.append(_exclusion_note(excluded, outcomes))
+    p_model = float(model.f_pvalue)
+    if not p_model < 0.05:
+        warnings.append(f"model not significant (p = {p_model:.3g} >= 0.05)")
+    if lof_p is not None and lof_p < 0.05:
+        warnings.append(f"significant lack of fit (p = {lof_p:.3g} < 0.05)")
+    if lof_p is None:
+        warnings.append("no lack-of-fit test (no replicated points with spare df)")
+    if model.adj_r2 < 0.7:
+        warnings.append(f"adjusted R^2 = {model.adj_r2:.3f} < 0.7")
+    adequate = p_model < 0.05 and (lof_p is None or lof_p >= 0.05) and model.adj_r2 >= 0.7
+    summary = {**base, "anova": table.to_records(), "fit": table.fit.to_dict(),
+               "lack_of_fit_p": lof_p,
+               "coefficients_coded": {k: float(v) for k, v in model.coefficients_coded.items()},
+               "coefficients_actual": {k: float(v) for k, v in
+                                       model.coefficients_actual.items()},
+               "equation_coded": model.equation(units="coded"),
+               "equation_actual": model.equation(units="actual"),
+               "adequate": bool(adequate), "warnings": warnings}
+    ctx.store.set_stage("rsm", "done", summary, inputs_hash=h)
+    ctx.results["rsm"] = summary
+    ctx.results["_rsm_model"] = model
+    return summary
+
+
+# ------------------------------------------------------------------------------ optimize
+def optimize(ctx: Context) -> dict[str, Any]:
+    """Settings whose predicted AoR equals the target, ranked; only inside the pile region."""
+    opts = ctx.study.stages.optimize
+    model = ctx.results["_rsm_model"]
+    h = ctx.begin("optimize", {"rsm": ctx.results["rsm"]["coefficients_coded"],
+                               "opts": opts.model_dump(mode="json"), "target": ctx.target})
+    clf = PileClassifier.fit(ctx.records, [(f.name, f.low, f.high) for f in ctx.study.factors])
+    names = list(model.names)
+
+    def full_rows(x: np.ndarray) -> list[dict[str, float]]:
+        return [ctx.full({n: float(v) for n, v in zip(names, row, strict=True)}) for row in x]
+
+    def constraint(x: np.ndarray) -> np.ndarray:
+        return clf.p_pile(full_rows(np.atleast_2d(x))) >= opts.min_p_pile
+
+    centre = {n: ctx.results["steepest"]["levels"][n][1] for n in names}
+    try:
+        res = doe.optimize_target(model, ctx.target, constraint=constraint, near=centre,
+                                  n_solutions=opts.n_solutions, units="actual")
+    except InputError as exc:
+        err = f"optimize: no setting inside the pile region hits the target ({exc})"
+        ctx.store.set_stage("optimize", "failed", {"error": err}, inputs_hash=h)
+        raise StudyError(err) from None
+    if not res.solutions:
+        err = "optimize: no setting inside the design region and the pile region hits the target"
+        ctx.store.set_stage("optimize", "failed", {"error": err}, inputs_hash=h)
+        raise StudyError(err)
+    cands = []
+    for s in res.solutions:
+        full = ctx.full(s.actual or {})
+        cands.append({"params": {n: float(s.actual[n]) for n in names},  # type: ignore[index]
+                      "predicted_aor_deg": float(s.predicted),
+                      "pi_low_deg": float(s.pi[0]) if math.isfinite(s.pi[0]) else None,
+                      "pi_high_deg": float(s.pi[1]) if math.isfinite(s.pi[1]) else None,
+                      "p_pile": float(clf.p_pile([full])[0]),
+                      "desirability": float(s.desirability)})
+    summary = {"target_aor_deg": ctx.target, "candidates": cands,
+               "chosen": cands[0]["params"], "predicted_aor_deg": cands[0]["predicted_aor_deg"],
+               "classifier": clf.describe()}
+    ctx.store.set_stage("optimize", "done", summary, inputs_hash=h)
+    ctx.results["optimize"] = summary
+    return summary
+
+
+# ------------------------------------------------------------------------------ verification
+def verification(ctx: Context) -> dict[str, Any]:
+    """N replicate runs at the chosen optimum: mean, spread and relative error to the target."""
+    n = ctx.study.stages.verification.n
+    params = ctx.full(ctx.results["optimize"]["chosen"])
+    h = ctx.begin("verification", {"params": params, "n": n})
+    pts = [Point(0, i, params, ctx.study.seed + 10_000 + i) for i in range(n)]
+    recs = ctx.run("verification", pts)
+    aors = [r.aor_deg if r.outcome == "pile" else None for r in recs]
+    vals = np.array([a for a in aors if a is not None])
+    mean = float(vals.mean()) if vals.size else None
+    std = float(vals.std(ddof=1)) if vals.size > 1 else (0.0 if vals.size else None)
+    rel = None if mean is None else abs(mean - ctx.target) / ctx.target * 100.0
+    png = next((r.artefacts.get("pile_png") for r in recs if r.artefacts.get("pile_png")), None)
+    summary = {"params": params, "aor_deg": aors, "outcomes": [r.outcome for r in recs],
+               "aor_mean_deg": mean, "aor_std_deg": std, "relative_error_percent": rel,
+               "n": n, "n_piles": int(vals.size), "pile_png": png}
+    ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
+    ctx.results["verification"] = summary
+    return summary

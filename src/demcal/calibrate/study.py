@@ -1,0 +1,369 @@
+"""The study file: one TOML file that defines a whole calibration (validated with pydantic).
+
+Sections (every key optional unless said; see :data:`EXAMPLE_STUDY` for a commented file)::
+
+    name, seed, replicates, backend
+    [material]      preset, overrides {parameter: value}, measurements (path, optional)
+    [target]        aor_deg + std_deg + n | photos [paths] | measurements (path)
+    [[factors]]     name (a demcal.virtual parameter), symbol, low, high, unit
+    [test]          kind "aor" (fidelity, overrides) | "analytic" (the stand-in, see
+                    demcal.execute.analytic)
+    [stages.*]      rangefind, screening, steepest, rsm, optimize, verification options
+    [executor]      workers, dask
+
+Units: SI for every parameter, degrees for angles.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from demcal.errors import InputError
+
+__all__ = ["EXAMPLE_STUDY", "FactorSpec", "Study", "load_study", "parse_study"]
+
+
+class _M(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Material(_M):
+    """Fixed parameters: a preset of demcal.virtual with overrides (SI units)."""
+
+    preset: str = "corn_stalk"
+    overrides: dict[str, float] = Field(default_factory=dict)
+    measurements: str | None = Field(
+        None, description="measurements.toml (demcal.physical): its fixed values override")
+
+    @field_validator("preset")
+    @classmethod
+    def _preset(cls, v: str) -> str:
+        from demcal.virtual import PRESETS
+
+        if v not in PRESETS:
+            raise ValueError(f"must be one of {', '.join(PRESETS)}; got {v!r}")
+        return v
+
+    @field_validator("overrides")
+    @classmethod
+    def _overrides(cls, v: dict[str, float]) -> dict[str, float]:
+        from demcal.virtual import check_parameters
+
+        try:
+            return check_parameters(v)
+        except InputError as exc:
+            raise ValueError(str(exc)) from None
+
+
+class Target(_M):
+    """The measured angle of repose: a value, photos to measure, or a measurements file."""
+
+    aor_deg: float | None = Field(None, gt=0, lt=90)
+    std_deg: float | None = Field(None, ge=0)
+    n: int | None = Field(None, ge=1)
+    photos: list[str] | None = None
+    measurements: str | None = None
+
+    @model_validator(mode="after")
+    def _one(self) -> Target:
+        given = [k for k in ("aor_deg", "photos", "measurements") if getattr(self, k)]
+        if len(given) != 1:
+            raise ValueError("give exactly one of aor_deg, photos or measurements; got "
+                             + (", ".join(given) or "none"))
+        return self
+
+
+class FactorSpec(_M):
+    """One calibration factor: a virtual-test parameter varied between low and high (SI)."""
+
+    name: str
+    symbol: str | None = None
+    low: float
+    high: float
+    unit: str | None = None
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        from demcal.virtual import PARAMETERS
+
+        if v not in PARAMETERS:
+            raise ValueError(f"must be one of {', '.join(PARAMETERS)}; got {v!r}")
+        return v
+
+    @model_validator(mode="after")
+    def _range(self) -> FactorSpec:
+        from demcal.virtual import PARAMETERS
+
+        if not self.low < self.high:
+            raise ValueError(f"low must be < high; got low={self.low:g}, high={self.high:g}")
+        spec = PARAMETERS[self.name]
+        try:
+            spec.check(self.low)
+            spec.check(self.high)
+        except InputError as exc:
+            raise ValueError(str(exc)) from None
+        if self.unit is None:
+            self.unit = spec.unit
+        if self.symbol is None:
+            self.symbol = spec.paper_symbol or self.name
+        return self
+
+
+class TestSpec(_M):
+    """The virtual test: the engine's AoR test, or the analytic stand-in (a test double)."""
+
+    kind: Literal["aor", "analytic"] = "aor"
+    fidelity: Literal["quick", "paper"] = "quick"
+    overrides: dict[str, Any] = Field(default_factory=dict,
+                                      description="nested AoRTestConfig overrides")
+    analytic: dict[str, Any] = Field(default_factory=dict,
+                                     description="options of demcal.execute.analytic")
+
+    @model_validator(mode="after")
+    def _config(self) -> TestSpec:
+        if self.kind == "aor":
+            from demcal.virtual import fidelity_config
+
+            try:
+                fidelity_config(self.fidelity, **self.overrides)
+            except ValidationError as exc:
+                raise ValueError("overrides: " + "; ".join(
+                    ".".join(map(str, e["loc"])) + ": " + e["msg"] for e in exc.errors())
+                ) from None
+        else:
+            from demcal.execute.analytic import AnalyticOptions
+
+            AnalyticOptions.model_validate(self.analytic)
+        return self
+
+
+class RangefindOptions(_M):
+    """Range finding: scan each listed factor at the others' centre, keep the pile part."""
+
+    enabled: bool = True
+    factors: list[str] | None = Field(None, description="names or symbols; default all")
+    points: int = Field(5, ge=3, le=21)
+    move_ranges: bool = Field(False, description="shift ranges within hard_limits when the "
+                              "target lies outside the response seen")
+    hard_limits: dict[str, tuple[float, float]] = Field(default_factory=dict)
+    max_moves: int = Field(2, ge=0, le=10)
+
+
+class ScreeningOptions(_M):
+    """Plackett-Burman screening."""
+
+    enabled: bool = True
+    runs: int | None = Field(None, ge=8, le=48, description="PB runs (multiple of 4)")
+    alpha: float = Field(0.05, gt=0, lt=1)
+    max_factors: int = Field(3, ge=1, le=7)
+    min_factors: int = Field(3, ge=1, le=7, description="filled up by rank if fewer are "
+                             "significant (Box-Behnken needs 3)")
+    factors: list[str] | None = Field(None, description="skip the choice: use these")
+
+
+class SteepestOptions(_M):
+    """Steepest ascent/descent toward the target."""
+
+    enabled: bool = True
+    steps: int = Field(5, ge=2, le=20, description="points on the path")
+    step: Literal["auto"] | float = Field(
+        "auto", description="'auto': the path spans each factor's range; a number: coded step")
+
+
+class RsmOptions(_M):
+    """Response-surface design and quadratic model."""
+
+    design: Literal["bbd", "ccd"] = "bbd"
+    center_points: int = Field(3, ge=2, le=10)
+
+
+class OptimizeOptions(_M):
+    """Settings whose predicted AoR equals the target."""
+
+    n_solutions: int = Field(5, ge=1, le=20)
+    min_p_pile: float = Field(0.5, gt=0, lt=1, description="classifier threshold")
+
+
+class VerificationOptions(_M):
+    """Replicates at the optimum."""
+
+    n: int = Field(3, ge=1, le=50)
+
+
+class Stages(_M):
+    rangefind: RangefindOptions = RangefindOptions()
+    screening: ScreeningOptions = ScreeningOptions()
+    steepest: SteepestOptions = SteepestOptions()
+    rsm: RsmOptions = RsmOptions()
+    optimize: OptimizeOptions = OptimizeOptions()
+    verification: VerificationOptions = VerificationOptions()
+
+
+class Executor(_M):
+    """Where runs execute: a local process pool, or a Dask scheduler address."""
+
+    workers: int | None = Field(None, ge=1, le=1024, description="default: CPU count")
+    dask: str | None = None
+    chunk: int = Field(1, ge=1, description="runs per task (batched worlds; GPU: large)")
+
+
+class Study(_M):
+    """A whole calibration study."""
+
+    name: str = "study"
+    seed: int = Field(1, ge=0)
+    replicates: int = Field(1, ge=1, le=20, description="seeds per design point")
+    backend: Literal["auto", "cpu", "cuda"] = "auto"
+    material: Material = Material()
+    target: Target
+    factors: list[FactorSpec] = Field(min_length=1)
+    test: TestSpec = TestSpec()
+    stages: Stages = Stages()
+    executor: Executor = Executor()
+
+    @model_validator(mode="after")
+    def _refs(self) -> Study:
+        names = [f.name for f in self.factors]
+        if len(set(names)) != len(names):
+            raise ValueError("factors: a parameter is listed twice")
+        symbols = [f.symbol for f in self.factors]
+        if len(set(symbols)) != len(symbols):
+            raise ValueError("factors: a symbol is listed twice")
+        allowed = set(names) | set(symbols)
+        for where, refs in (("stages.rangefind.factors", self.stages.rangefind.factors),
+                            ("stages.screening.factors", self.stages.screening.factors),
+                            ("stages.rangefind.hard_limits",
+                             list(self.stages.rangefind.hard_limits))):
+            for r in refs or []:
+                if r not in allowed:
+                    raise ValueError(f"{where}: {r!r} is not a factor; allowed: "
+                                     + ", ".join(names + [s for s in symbols if s]))
+        if self.stages.screening.min_factors > self.stages.screening.max_factors:
+            raise ValueError("stages.screening.min_factors must be <= max_factors")
+        return self
+
+    def factor(self, ref: str) -> FactorSpec:
+        """The factor named ``ref`` (parameter name or symbol)."""
+        for f in self.factors:
+            if ref in (f.name, f.symbol):
+                return f
+        raise InputError(f"{ref!r} is not a factor of the study")
+
+
+def parse_study(data: dict[str, Any], *, base: Path | None = None) -> Study:
+    """Validate a study dict; errors become one InputError naming each bad field."""
+    try:
+        study = Study.model_validate(data)
+    except ValidationError as exc:
+        lines = []
+        for e in exc.errors():
+            loc = ".".join(str(p) for p in e["loc"])
+            msg = str(e["msg"]).removeprefix("Value error, ")
+            lines.append(f"{loc}: {msg}" if loc else msg)
+        raise InputError("study: " + "; ".join(lines)) from None
+    if base is not None:  # resolve relative paths against the study file's folder
+        def rel(p: str | None) -> str | None:
+            return None if p is None else str((base / p).resolve())
+
+        study.material.measurements = rel(study.material.measurements)
+        study.target.measurements = rel(study.target.measurements)
+        if study.target.photos:
+            study.target.photos = [rel(p) for p in study.target.photos]  # type: ignore[misc]
+    return study
+
+
+def load_study(path: str | Path) -> Study:
+    """Read and validate a study TOML file (relative paths are taken from its folder)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"study file not found: {path}")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    return parse_study(data, base=path.parent.resolve())
+
+
+EXAMPLE_STUDY = '''\
+# A demcal calibration study (see `demcal calibrate --help`). Units: SI, angles in degrees.
+name = "my material"
+seed = 1                  # base seed of every run (replicates use seed, seed+1, ...)
+replicates = 1            # seeds per design point
+backend = "auto"          # engine backend: auto | cpu | cuda
+
+[material]
+preset = "corn_stalk"     # fixed parameters (demcal.virtual presets)
+# overrides = { "particle.density" = 114.36 }
+# measurements = "measurements.toml"   # fixed values derived by demcal.physical
+
+[target]
+aor_deg = 44.12           # or: photos = ["pile1.jpg", ...]   or: measurements = "m.toml"
+std_deg = 1.7
+n = 5
+
+# One [[factors]] table per calibrated parameter (names: `demcal simulate aor --help`).
+[[factors]]
+name = "pp.static_friction"
+symbol = "x3"
+low = 0.3
+high = 1.0
+
+[[factors]]
+name = "pp.rolling_friction"
+symbol = "x4"
+low = 0.05
+high = 0.5
+
+[[factors]]
+name = "pw.static_friction"
+symbol = "x6"
+low = 0.4
+high = 0.7
+
+[[factors]]
+name = "pp.surface_energy"
+symbol = "x8"
+low = 0.0
+high = 0.02
+
+[test]
+kind = "aor"              # aor (the DEM engine) | analytic (a planted stand-in, for tests)
+fidelity = "quick"        # quick | paper
+# overrides = { fill = { count = 200 } }
+
+[stages.rangefind]
+enabled = true            # scan ranges first; no-pile parts are cut off
+factors = ["x8"]          # default: every factor
+points = 5
+# move_ranges = true
+# hard_limits = { x8 = [0.0, 0.05] }
+
+[stages.screening]
+alpha = 0.05
+max_factors = 3
+min_factors = 3
+runs = 12                 # Plackett-Burman runs
+
+[stages.steepest]
+steps = 5
+step = "auto"             # or a coded step, e.g. 0.5
+
+[stages.rsm]
+design = "bbd"            # bbd | ccd
+center_points = 3
+
+[stages.optimize]
+n_solutions = 5
+
+[stages.verification]
+n = 3
+
+[executor]
+# workers = 2             # local process pool (default: CPU count)
+# dask = "tcp://scheduler:8786"
+'''

@@ -1,0 +1,82 @@
+"""Analytic stand-in for the virtual AoR test: a planted response surface (a test double).
+
+It is NOT a simulation. It has the virtual test's interface (parameters and seed in, a typed
+outcome and an angle out) and a known truth, so that the calibration pipeline can be tested
+end to end in milliseconds and checked against the answer it must find:
+
+    aor_deg = base_deg + sum_p linear[p] * (x_p - centre[p])
+                       + sum_p quadratic[p] * (x_p - centre[p])^2
+                       + sum_{p*q} interaction[p*q] * (x_p - centre[p]) (x_q - centre[q])
+                       + noise_deg * N(0, 1)       (seeded by the parameters and the seed)
+
+Parts of the space form no pile, as real cohesive materials do: if ``x_p > no_pile_above[p]``
+for any p the outcome is ``column`` (no angle). If ``x_p > unstable_above[p]`` and the run's
+time-step fraction is not reduced (``dt_scale >= 1``) the outcome is ``unstable`` (a
+numerical failure that a retry with a smaller time step cures). Parameters in SI, angles deg.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = ["AnalyticOptions", "analytic_aor", "true_aor"]
+
+
+class AnalyticOptions(BaseModel):
+    """The planted surface (parameter names of demcal.virtual; values SI, angles deg)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    base_deg: float = 35.0
+    centre: dict[str, float] = Field(default_factory=dict)
+    linear: dict[str, float] = Field(default_factory=dict)
+    quadratic: dict[str, float] = Field(default_factory=dict)
+    interaction: dict[str, float] = Field(default_factory=dict, description="'p*q' -> coef")
+    noise_deg: float = Field(0.3, ge=0)
+    no_pile_above: dict[str, float] = Field(default_factory=dict)
+    no_pile_outcome: str = "column"
+    unstable_above: dict[str, float] = Field(default_factory=dict)
+
+
+def true_aor(params: Mapping[str, float], options: AnalyticOptions | Mapping[str, Any]) -> float:
+    """The noise-free planted angle, deg (defined also where no pile forms)."""
+    o = options if isinstance(options, AnalyticOptions) else AnalyticOptions(**options)
+
+    def d(p: str) -> float:
+        return float(params[p]) - float(o.centre.get(p, 0.0))
+
+    y = o.base_deg
+    y += sum(c * d(p) for p, c in o.linear.items())
+    y += sum(c * d(p) ** 2 for p, c in o.quadratic.items())
+    for pq, c in o.interaction.items():
+        p, q = pq.split("*")
+        y += c * d(p.strip()) * d(q.strip())
+    return float(y)
+
+
+def analytic_aor(params: Mapping[str, float], seed: int,
+                 options: AnalyticOptions | Mapping[str, Any], *,
+                 dt_scale: float = 1.0) -> dict[str, Any]:
+    """One stand-in "run": ``{"outcome", "aor_deg", "reason", "params", "seed", ...}``."""
+    o = options if isinstance(options, AnalyticOptions) else AnalyticOptions(**options)
+    for p, thr in o.unstable_above.items():
+        if float(params[p]) > thr and dt_scale >= 1.0:
+            return {"outcome": "unstable", "aor_deg": None, "seed": int(seed),
+                    "reason": f"stand-in: {p} > {thr:g} is unstable at the full time step",
+                    "params": dict(params), "stand_in": True}
+    for p, thr in o.no_pile_above.items():
+        if float(params[p]) > thr:
+            return {"outcome": o.no_pile_outcome, "aor_deg": None, "seed": int(seed),
+                    "reason": None, "params": dict(params), "stand_in": True}
+    text = json.dumps({"p": {k: repr(float(v)) for k, v in sorted(params.items())},
+                       "s": int(seed)})
+    rng = np.random.default_rng(int(hashlib.sha256(text.encode()).hexdigest()[:15], 16))
+    aor = true_aor(params, o) + o.noise_deg * float(rng.standard_normal())
+    return {"outcome": "pile", "aor_deg": float(min(max(aor, 0.5), 89.5)), "seed": int(seed),
+            "reason": None, "params": dict(params), "stand_in": True}

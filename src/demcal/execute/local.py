@@ -1,0 +1,70 @@
+"""Local executor: the runs in this process (1 worker) or in a spawned process pool.
+
+Each pool worker is a fresh process (``spawn``) whose environment sets
+``NUMBA_NUM_THREADS=1`` before numba is imported: on a small CPU, N single-thread processes
+beat one N-thread engine (measured ~1.5x for 2 cores). Results reach the parent as each task
+ends (``on_result``) so the caller stores them at once; Ctrl-C cancels the queued tasks and
+loses no finished one.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from typing import Any
+
+from demcal.execute import tasks as _tasks
+from demcal.execute.tasks import RunTask
+
+__all__ = ["default_workers", "run_local"]
+
+OnResult = Callable[[dict[str, Any]], None]
+
+
+def default_workers() -> int:
+    """Worker processes by default: the usable CPU count."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _init_worker(threads: int) -> None:
+    os.environ["NUMBA_NUM_THREADS"] = str(threads)
+
+
+def run_local(chunks: Sequence[list[RunTask]], on_result: OnResult, *,
+              workers: int = 1, threads_per_worker: int = 1) -> None:
+    """Run every chunk; call ``on_result(result_dict)`` in this process as each run ends.
+
+    ``workers == 1`` runs inline (numba keeps its thread count); more start a spawn pool.
+    """
+    if workers <= 1 or len(chunks) <= 1:
+        for chunk in chunks:
+            for r in _tasks.run_chunk(chunk):
+                on_result(r)
+        return
+    ctx = multiprocessing.get_context("spawn")
+    old = os.environ.get("NUMBA_NUM_THREADS")
+    os.environ["NUMBA_NUM_THREADS"] = str(threads_per_worker)  # inherited by spawned workers
+    try:
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(chunks)), mp_context=ctx,
+                                   initializer=_init_worker, initargs=(threads_per_worker,))
+    finally:
+        if old is None:
+            os.environ.pop("NUMBA_NUM_THREADS", None)
+        else:
+            os.environ["NUMBA_NUM_THREADS"] = old
+    try:
+        pending: set[Future] = {pool.submit(_tasks.run_chunk, list(c)) for c in chunks}
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                for r in fut.result():
+                    on_result(r)
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)

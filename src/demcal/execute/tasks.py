@@ -1,0 +1,88 @@
+"""One unit of work: a run (or a chunk of runs, batched as worlds of one engine).
+
+Tasks are plain picklable data so that any executor (a local process, a spawned pool worker,
+a Dask worker) can run them with :func:`run_chunk`; the result of every run is a JSON-ready
+dict ``{"key", "outcome", "aor_deg", "reason", "wall_time_s", "result"}``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["RunTask", "TestDef", "run_chunk"]
+
+
+@dataclass(frozen=True)
+class TestDef:
+    """The virtual test: ``kind`` "aor" (engine; fidelity, overrides) or "analytic" (stand-in)."""
+
+    kind: str = "aor"
+    fidelity: str = "quick"
+    overrides: dict[str, Any] = field(default_factory=dict)
+    analytic: dict[str, Any] = field(default_factory=dict)
+    backend: str = "auto"
+
+    def identity(self) -> dict[str, Any]:
+        """What defines the test's results (the backend does not)."""
+        if self.kind == "analytic":
+            return {"kind": "analytic", "analytic": self.analytic}
+        return {"kind": "aor", "fidelity": self.fidelity, "overrides": self.overrides}
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """One run: its store key, full parameter set (SI), seed and time-step scale."""
+
+    key: str
+    test: TestDef
+    params: dict[str, float]
+    seed: int
+    dt_scale: float = 1.0
+
+
+def _aor_chunk(tasks: list[RunTask]) -> list[dict[str, Any]]:
+    from demcal.errors import SimulationUnstable
+    from demcal.virtual import fidelity_config, run_aor
+
+    test = tasks[0].test
+    out: list[dict[str, Any]] = []
+    # one engine per time-step scale (worlds of a batch share the fraction)
+    for scale in sorted({t.dt_scale for t in tasks}):
+        group = [t for t in tasks if t.dt_scale == scale]
+        config = fidelity_config(test.fidelity, **test.overrides)
+        if scale != 1.0:
+            config = config.model_copy(update={"dt_fraction": config.dt_fraction * scale})
+        t0 = time.perf_counter()
+        try:
+            results = run_aor([t.params for t in group], config=config,
+                              seeds=[t.seed for t in group], backend=test.backend)
+        except SimulationUnstable as exc:
+            wall = time.perf_counter() - t0
+            out += [{"key": t.key, "outcome": "unstable", "aor_deg": None,
+                     "reason": str(exc), "wall_time_s": wall, "result": {}} for t in group]
+            continue
+        for t, r in zip(group, results, strict=True):
+            d = r.to_dict()
+            out.append({"key": t.key, "outcome": str(r.outcome), "aor_deg": r.aor_deg,
+                        "reason": r.reason, "wall_time_s": r.wall_time_s, "result": d})
+    return out
+
+
+def run_chunk(tasks: list[RunTask]) -> list[dict[str, Any]]:
+    """Run a chunk of tasks (same test) and return one result dict per task."""
+    if not tasks:
+        return []
+    if tasks[0].test.kind == "analytic":
+        from demcal.execute.analytic import analytic_aor
+
+        out = []
+        for t in tasks:
+            t0 = time.perf_counter()
+            r = analytic_aor(t.params, t.seed, t.test.analytic, dt_scale=t.dt_scale)
+            out.append({"key": t.key, "outcome": r["outcome"], "aor_deg": r["aor_deg"],
+                        "reason": r["reason"], "wall_time_s": time.perf_counter() - t0,
+                        "result": r})
+        return out
+    return _aor_chunk(tasks)
