@@ -1,1 +1,47 @@
-"""The calibration report: HTML with the paper's tables and figures, rebuilt from the run store."""
+"""The calibration report: the paper's tables and figures, rebuilt from the run store alone.
+
+Typical use::
+
+    from demcal import report
+
+    path = report.build_report("studies/corn")          # -> studies/corn/report/report.html
+    data = report.load_report_data("studies/corn")      # the same numbers, for a notebook
+    fig = report.pareto_figure(data.stage("screening").summary["effects"], data.symbols)
+
+Figures are matplotlib Figures (Agg canvas, no pyplot state); tables are pandas DataFrames
+(``report.tables``), also written as CSV next to the HTML.
+"""
+
+from demcal.report import tables
+from demcal.report.build import build_report
+from demcal.report.data import STAGES, ReportData, StageView, load_report_data
+from demcal.report.figures import (
+    comparison_figure,
+    measurement_figure,
+    pareto_figure,
+    predicted_actual_figure,
+    rangefind_figure,
+    steepest_figure,
+    surface_figure,
+    verification_figure,
+)
+from demcal.report.surface import StoredSurface, significant_pairs
+
+__all__ = [
+    "STAGES",
+    "ReportData",
+    "StageView",
+    "StoredSurface",
+    "build_report",
+    "comparison_figure",
+    "load_report_data",
+    "measurement_figure",
+    "pareto_figure",
+    "predicted_actual_figure",
+    "rangefind_figure",
+    "significant_pairs",
+    "steepest_figure",
+    "surface_figure",
+    "tables",
+    "verification_figure",
+]

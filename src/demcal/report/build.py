@@ -1,0 +1,423 @@
+"""Assemble the report from the store: ``report.html``, ``report.json``, CSV tables, PNGs.
+
+:func:`build_report` reads the study's store, builds every table and figure of the stages
+that have data, and writes them under ``<study_dir>/report`` (or ``out_dir``). A failed,
+running or missing stage is shown as such and the report still builds; a figure that cannot
+be drawn from malformed data is replaced by a note naming the error.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import io
+import json
+import logging
+import math
+from collections.abc import Callable
+from html import escape
+from pathlib import Path
+from typing import Any
+
+from matplotlib.figure import Figure
+
+from demcal.report import figures as F
+from demcal.report import tables as T
+from demcal.report.data import ReportData, StageView, load_report_data
+from demcal.report.html import badge, banner, figure_html, page, table_html
+from demcal.report.surface import significant_pairs
+
+__all__ = ["build_report"]
+
+log = logging.getLogger("demcal.report")
+DPI = 110
+
+
+class _Builder:
+    """Collects tables (CSV + JSON) and figures (PNG) while the HTML is written."""
+
+    def __init__(self, data: ReportData, out_dir: Path) -> None:
+        self.data = data
+        self.out_dir = out_dir
+        self.tables: dict[str, dict[str, Any]] = {}
+        self.figures: list[str] = []
+        self.problems: list[str] = []
+        (out_dir / "tables").mkdir(parents=True, exist_ok=True)
+        (out_dir / "figures").mkdir(parents=True, exist_ok=True)
+
+    def table(self, table: T.Table) -> str:
+        table.frame.to_csv(self.out_dir / "tables" / f"{table.key}.csv", index=False)
+        self.tables[table.key] = table.records()
+        return table_html(table)
+
+    def figure(self, key: str, caption: str, make: Callable[[], Figure]) -> str:
+        try:
+            fig = make()
+            buf = io.BytesIO()
+            fig.savefig(buf, format="png", dpi=DPI)
+        except Exception as exc:  # a bad figure must not stop the report
+            msg = f"figure {key} could not be drawn: {type(exc).__name__}: {exc}"
+            log.warning(msg)
+            self.problems.append(msg)
+            return f'<p class="warn">{escape(msg)}</p>'
+        png = buf.getvalue()
+        (self.out_dir / "figures" / f"{key}.png").write_bytes(png)
+        self.figures.append(f"figures/{key}.png")
+        return figure_html(png, caption)
+
+    def image(self, key: str, path: str | None, caption: str) -> str:
+        """Embed a PNG stored by the study (a diagnostic figure), copied into figures/."""
+        if not path:
+            return ""
+        p = Path(path)
+        if not p.is_absolute():
+            p = self.data.study_dir / p
+        if not p.is_file():
+            return f'<p class="warn">{escape(caption)}: image not found ({escape(str(path))})</p>'
+        png = p.read_bytes()
+        (self.out_dir / "figures" / f"{key}.png").write_bytes(png)
+        self.figures.append(f"figures/{key}.png")
+        return figure_html(png, caption)
+
+
+def _fmt(v: Any, spec: str = ".2f", unit: str = "") -> str:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return "—"
+    return f"{f:{spec}}{unit}" if math.isfinite(f) else "—"
+
+
+def _equation(coefs: dict[str, Any], symbols: dict[str, str]) -> str:
+    """``AoR = +41.77 +2.429·x3 ...`` from stored coefficients (4 significant digits)."""
+    parts = []
+    for term, v in coefs.items():
+        c = _fmt(v, "+.4g")
+        label = T.term_label(term, symbols)
+        parts.append(c if label == "Intercept" else f"{c}·{label}")
+    return "AoR (°) = " + " ".join(parts)
+
+
+def _section(sid: str, title: str, status: str | None, body: str) -> str:
+    head = f"<h2>{escape(title)}{badge(status) if status else ''}</h2>"
+    return f'<section id="{escape(sid)}">{head}{body}</section>'
+
+
+def _guard(b: _Builder, view: StageView, render: Callable[[], str]) -> str:
+    """Banner, then the stage's content (if it has any); a render error becomes a note."""
+    out = banner(view)
+    if view.status in ("failed", "missing") and not any(
+            k != "error" for k in view.summary):
+        return out
+    try:
+        return out + render()
+    except Exception as exc:  # malformed summary: say so
+        msg = f"{view.name}: the stored summary could not be shown ({type(exc).__name__}: {exc})"
+        b.problems.append(msg)
+        return out + f'<p class="warn">{escape(msg)}</p>'
+
+
+# ------------------------------------------------------------------------------------- sections
+def _overview(b: _Builder) -> str:
+    d = b.data
+    study = d.meta.get("study") or {}
+    name = study.get("name") or d.study_dir.name
+    opt, ver = d.stage("optimize").summary, d.stage("verification").summary
+    t = d.target or {}
+    cards = [("Measured AoR", _fmt(t.get("aor_deg"), ".2f", "°")
+              + (f" ± {_fmt(t.get('std_deg'), '.2f')}°" if t.get("std_deg") is not None else "")),
+             ("Predicted at optimum", _fmt(opt.get("predicted_aor_deg"), ".2f", "°")),
+             ("Verified AoR", _fmt(ver.get("aor_mean_deg"), ".2f", "°")
+              + (f" ± {_fmt(ver.get('aor_std_deg'), '.2f')}°"
+                 if ver.get("aor_std_deg") is not None else "")),
+             ("Relative error", _fmt(ver.get("relative_error_percent"), ".2f", " %"))]
+    chosen = opt.get("chosen") or {}
+    cards += [(f"{d.symbol(k)} ({k})", _fmt(v, ".4g")) for k, v in chosen.items()]
+    grid = "".join(f'<div class="card"><div class="k">{escape(k)}</div>'
+                   f'<div class="v">{escape(v)}</div></div>' for k, v in cards)
+    when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    meta = (f'<p class="meta">Study folder <code>{escape(str(d.study_dir))}</code>'
+            + (f" · study file <code>{escape(str(d.meta['study_file']))}</code>"
+               if d.meta.get("study_file") else "")
+            + f" · report built {when} from the run store alone.</p>")
+    return (f"<header><h1>Calibration report: {escape(str(name))}</h1>{meta}"
+            f'<div class="summary">{grid}</div></header>'
+            + _section("stages", "Stages", None, b.table(T.stages_table(d))))
+
+
+def _measurement(b: _Builder) -> str:
+    d = b.data
+    if not d.target:
+        return _section("measurement", "Physical measurements", "missing",
+                        '<div class="banner missing"><b>No target</b> is stored.</div>'
+                        + (b.table(T.physical_table(d)) if d.meta.get("physical") else ""))
+    parts = [b.table(T.target_table(d))]
+    photos = d.target.get("photos") or []
+    if photos:
+        parts.append(b.table(T.measurement_table(d)))
+        parts.append(b.figure("measurement", "Angle of repose of each photo with the target "
+                              "mean ± 1 std.", lambda: F.measurement_figure(d.target)))
+        shots = [b.image(f"photo_{i + 1}", p.get("figure"),
+                         f"Photo {i + 1} ({Path(str(p.get('file', ''))).name}): "
+                         "boundary and fitted flank lines") for i, p in enumerate(photos)]
+        if any(shots):
+            parts.append('<h3>Diagnostic figure of each photo</h3><div class="gallery">'
+                         + "".join(shots) + "</div>")
+    if d.meta.get("physical"):
+        parts.append(b.table(T.physical_table(d)))
+    parts.append(b.table(T.factors_table(d)))
+    if d.meta.get("fixed_params"):
+        parts.append(b.table(T.fixed_params_table(d)))
+    return _section("measurement", "Physical measurements and target", None, "".join(parts))
+
+
+def _rangefind(b: _Builder) -> str:
+    d, view = b.data, b.data.stage("rangefind")
+
+    def render() -> str:
+        s = view.summary
+        parts = []
+        if s.get("message"):
+            parts.append(f"<p>{escape(str(s['message']))}</p>")
+        if s.get("response_min_deg") is not None:
+            parts.append(f"<p>AoR over the scan: {_fmt(s.get('response_min_deg'))}° to "
+                         f"{_fmt(s.get('response_max_deg'))}°; target "
+                         f"{'inside' if s.get('target_in_range') else 'outside'} this range.</p>")
+        parts.append(b.table(T.rangefind_table(s, d.symbols)))
+        parts.append(b.figure("rangefind", "AoR against each factor's value; × = no pile; "
+                              "shaded = range kept; dashed = target.",
+                              lambda: F.rangefind_figure(s, d.target_aor_deg, d.symbols)))
+        parts.append("<details open><summary>Every point of the scan</summary>"
+                     + b.table(T.rangefind_points_table(s, d.symbols)) + "</details>")
+        return "".join(parts)
+
+    return _section("rangefind", "Range-finding scan", view.status, _guard(b, view, render))
+
+
+def _screening(b: _Builder) -> str:
+    d, view = b.data, b.data.stage("screening")
+
+    def render() -> str:
+        s = view.summary
+        parts = []
+        info = (f"{str(s.get('design', '')).replace('_', '-').title()} design, "
+                f"{s.get('n_runs', len(s.get('runs') or []))} runs, alpha = {s.get('alpha')}.")
+        if s.get("dummies"):
+            info += f" Dummy columns: {', '.join(map(str, s['dummies']))}."
+        parts.append(f"<p>{escape(info)}</p>")
+        parts.append(b.table(T.screening_design_table(s, d.symbols)))
+        if s.get("anova"):
+            parts.append(b.table(T.screening_anova_table(s, d.symbols)))
+        if s.get("fit"):
+            parts.append(b.table(T.fit_table("screening_fit", "Screening fit statistics",
+                                             s["fit"])))
+        if s.get("effects"):
+            parts.append(b.figure("pareto", "Pareto chart of the effects: |effect| with % "
+                                  "contribution; ** p < 0.01, * p < 0.05.",
+                                  lambda: F.pareto_figure(s["effects"], d.symbols)))
+        sel = ", ".join(f"{d.symbol(n)} ({n})" for n in s.get("selected") or [])
+        parts.append(f"<p><b>Selected for the next stage:</b> {escape(sel or 'none')}.</p>")
+        if s.get("excluded_points"):
+            parts.append(f"<p>Excluded design points (no pile): "
+                         f"{escape(', '.join(map(str, s['excluded_points'])))}.</p>")
+        if s.get("message"):
+            parts.append(f"<p>{escape(str(s['message']))}</p>")
+        return "".join(parts)
+
+    return _section("screening", "Screening", view.status, _guard(b, view, render))
+
+
+def _steepest(b: _Builder) -> str:
+    d, view = b.data, b.data.stage("steepest")
+
+    def render() -> str:
+        s = view.summary
+        direction = ", ".join(f"{d.symbol(k)} {'up' if v > 0 else 'down'}"
+                              for k, v in (s.get("direction") or {}).items())
+        parts = [f"<p>Direction: {escape(direction or '—')}; best step: "
+                 f"{escape(str(s.get('best_step', '—')))}.</p>",
+                 b.table(T.steepest_table(s, d.symbols)),
+                 b.figure("steepest", "AoR (line) and relative error to the measurement (bars) "
+                          "along the path.",
+                          lambda: F.steepest_figure(s, d.target_aor_deg, d.symbols))]
+        if s.get("levels"):
+            parts.append(b.table(T.steepest_levels_table(s, d.symbols)))
+        return "".join(parts)
+
+    return _section("steepest", "Path of steepest ascent", view.status, _guard(b, view, render))
+
+
+def _rsm(b: _Builder) -> str:
+    d, view = b.data, b.data.stage("rsm")
+
+    def render() -> str:
+        s = view.summary
+        parts = [b.table(T.rsm_design_table(s, d.symbols))]
+        if s.get("anova"):
+            parts.append(b.table(T.Table(
+                "rsm_anova", "ANOVA of the response surface with lack of fit (cf. Table 8)",
+                T.anova_frame(s["anova"], d.symbols),
+                note="Partial sum of squares (Type III). ** p < 0.01, * p < 0.05.")))
+        if s.get("fit"):
+            parts.append(b.table(T.fit_table("rsm_fit", "Fit statistics", s["fit"],
+                                             s.get("lack_of_fit_p"))))
+        adequate = s.get("adequate")
+        if adequate is not None:
+            parts.append(f"<p><b>Model adequate:</b> {'yes' if adequate else 'no'}.</p>")
+        for w in s.get("warnings") or []:
+            parts.append(f'<p class="warn">Warning: {escape(str(w))}</p>')
+        if s.get("coefficients_coded"):
+            parts.append(b.table(T.rsm_coefficients_table(s, d.symbols)))
+        for key, label in (("coefficients_coded", "Coded equation (factors from -1 to +1)"),
+                           ("coefficients_actual", "Actual equation (factors in their units)")):
+            if s.get(key):
+                parts.append(f'<h3>{label}</h3><div class="eq">'
+                             f"{escape(_equation(s[key], d.symbols))}</div>")
+        if s.get("coefficients_coded") and len(s.get("factors") or []) >= 2:
+            hold = d.stage("optimize").summary.get("chosen") or None
+            for a, c in significant_pairs(s):
+                key = f"surface_{d.symbol(a)}_{d.symbol(c)}".replace(".", "_")
+                parts.append(b.figure(
+                    key, f"Response surface and contour of AoR over {d.symbol(a)} and "
+                    f"{d.symbol(c)} (other factors at "
+                    f"{'the optimum' if hold else 'their centres'}; dots = design points).",
+                    lambda a=a, c=c, hold=hold: F.surface_figure(s, (a, c), hold)))
+            parts.append(b.figure("predicted_actual", "Predicted (stored model) vs actual AoR "
+                                  "of the design runs.", lambda: F.predicted_actual_figure(s)))
+        if s.get("excluded_points"):
+            parts.append(f"<p>Excluded design points (no pile): "
+                         f"{escape(', '.join(map(str, s['excluded_points'])))}.</p>")
+        return "".join(parts)
+
+    return _section("rsm", "Response surface", view.status, _guard(b, view, render))
+
+
+def _optimize(b: _Builder) -> str:
+    d, view = b.data, b.data.stage("optimize")
+
+    def render() -> str:
+        s = view.summary
+        chosen = ", ".join(f"{d.symbol(k)} = {_fmt(v, '.4g')}"
+                           for k, v in (s.get("chosen") or {}).items())
+        return (f"<p>Target {_fmt(s.get('target_aor_deg'))}°. <b>Chosen:</b> "
+                f"{escape(chosen or '—')}, predicted AoR "
+                f"{_fmt(s.get('predicted_aor_deg'))}°.</p>"
+                + b.table(T.candidates_table(s, d.symbols)))
+
+    return _section("optimize", "Optimum and alternatives", view.status, _guard(b, view, render))
+
+
+def _verification(b: _Builder) -> str:
+    d, view = b.data, b.data.stage("verification")
+
+    def render() -> str:
+        s = view.summary
+        t = d.target or {}
+        parts = [b.table(T.verification_summary_table(s, d.target_aor_deg)),
+                 b.table(T.verification_table(s)),
+                 b.figure("verification", "Verification replicates, their mean ± 1 std "
+                          "(blue band) and the measurement (green).",
+                          lambda: F.verification_figure(s, d.target_aor_deg, t.get("std_deg")))]
+        photos = t.get("photos") or []
+        with_fig = [p for p in photos if p.get("figure")]
+        goal = d.target_aor_deg
+        if with_fig and goal is not None:  # the photo closest to the target mean
+            with_fig.sort(key=lambda p: abs(T._num(p.get("mean_deg")) - goal)
+                          if T._num(p.get("mean_deg")) is not None else math.inf)
+        photo_fig = with_fig[0].get("figure") if with_fig else None
+        pile = s.get("pile_png")
+
+        def resolve(p: str | None) -> Path | None:
+            if not p:
+                return None
+            q = Path(p)
+            return q if q.is_absolute() else d.study_dir / q
+
+        if photo_fig or pile:
+            parts.append(b.figure("comparison", "Physical pile (photo with its fitted flanks) "
+                                  "next to the simulated pile (side view with fitted lines), "
+                                  "cf. Fig. 9.",
+                                  lambda: F.comparison_figure(resolve(photo_fig),
+                                                              resolve(pile))))
+        else:
+            parts.append('<p class="note">No photo or pile image is stored, so the side-by-side '
+                         "comparison is not shown.</p>")
+        params = s.get("params") or {}
+        if params:
+            parts.append(b.table(T.Table("verification_params",
+                                         "Full parameter set verified (SI units)",
+                                         T._frame([{"parameter": k, "value": T._num(v)}
+                                                   for k, v in params.items()],
+                                                  ["parameter", "value"]))))
+        return "".join(parts)
+
+    return _section("verification", "Verification", view.status, _guard(b, view, render))
+
+
+def _excluded(b: _Builder) -> str:
+    table = T.excluded_table(b.data)
+    text = ("<p>These runs gave no angle (no pile formed, or the run failed) and are left out "
+            "of every fit.</p>" if len(table.frame) else "<p>No run was excluded.</p>")
+    return _section("excluded", "Excluded runs", None, text + b.table(table))
+
+
+def _footer(b: _Builder) -> str:
+    versions = b.data.meta.get("versions") or {}
+    v = ", ".join(f"{k} {val}" for k, val in versions.items())
+    probs = "".join(f'<p class="warn">{escape(p)}</p>' for p in b.problems)
+    v = v or "versions not stored"
+    return (f'<footer><h2>Provenance</h2>{probs}<p class="meta">{escape(v)}'
+            ". Every number here is in <code>report.json</code> and "
+            "<code>tables/*.csv</code>.</p></footer>")
+
+
+# ----------------------------------------------------------------------------------------- main
+def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Path:
+    """Build the calibration report of a study from its run store.
+
+    Parameters
+    ----------
+    study_dir : str or Path
+        Study folder holding ``demcal.sqlite``.
+    out_dir : str or Path, optional
+        Output folder (default ``<study_dir>/report``).
+
+    Returns
+    -------
+    Path
+        The written ``report.html``; next to it ``report.json`` (every table's numbers, the
+        stage statuses and summaries), ``tables/*.csv`` and ``figures/*.png``.
+
+    Raises
+    ------
+    InputError
+        If the folder has no run store.
+    """
+    data = load_report_data(study_dir)
+    out = Path(out_dir) if out_dir is not None else data.study_dir / "report"
+    out.mkdir(parents=True, exist_ok=True)
+    b = _Builder(data, out)
+    body = "".join([_overview(b), _measurement(b), _rangefind(b), _screening(b), _steepest(b),
+                    _rsm(b), _optimize(b), _verification(b), _excluded(b)])
+    body += _footer(b)
+    study = data.meta.get("study") or {}
+    title = f"demcal calibration report: {study.get('name') or data.study_dir.name}"
+    html_path = out / "report.html"
+    html_path.write_text(page(title, body), encoding="utf-8")
+    doc = {
+        "title": title,
+        "study_dir": str(data.study_dir),
+        "stages": {n: {"status": v.status, "error": v.error, "n_runs": len(v.runs)}
+                   for n, v in data.stages.items()},
+        "target": data.target,
+        "meta": {k: v for k, v in data.meta.items() if k != "study"},
+        "summaries": {n: v.summary for n, v in data.stages.items() if v.summary},
+        "tables": b.tables,
+        "figures": b.figures,
+        "problems": b.problems,
+    }
+    (out / "report.json").write_text(json.dumps(doc, indent=1, allow_nan=False),
+                                     encoding="utf-8")
+    log.info("report written to %s", html_path)
+    return html_path
+
+

@@ -1,0 +1,165 @@
+"""Load everything the report shows from a study's run store (and nothing else).
+
+The store contract (meta keys, stage summaries, runs) is documented in ``demcal.calibrate``;
+this module only reads it. Every stage is reported with one of four states: ``done``,
+``failed`` (its summary holds ``{"error": ...}``), ``running`` (partial) or ``missing`` (never
+started).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from demcal.errors import InputError
+from demcal.store import STORE_NAME, RunRecord, RunStore
+
+__all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
+
+#: The calibration's stages in the order the report shows them, with their titles.
+STAGES: dict[str, str] = {
+    "rangefind": "Range finding",
+    "screening": "Screening (Plackett-Burman)",
+    "steepest": "Path of steepest ascent",
+    "rsm": "Response surface",
+    "optimize": "Optimum",
+    "verification": "Verification",
+}
+
+
+#: The meta keys of the store contract that the report reads.
+META_KEYS = ("study", "study_file", "study_dir", "target", "physical", "fixed_params",
+             "factors", "versions", "result")
+
+
+@dataclass(frozen=True)
+class StageView:
+    """One stage as the report sees it.
+
+    Attributes
+    ----------
+    name : str
+        Stage key (``"screening"``).
+    status : {"done", "failed", "running", "missing"}
+    summary : dict
+        The stored JSON summary (empty when missing).
+    runs : list of RunRecord
+        The stage's stored runs, by point and replicate.
+    """
+
+    name: str
+    status: str
+    summary: dict[str, Any] = field(default_factory=dict)
+    runs: list[RunRecord] = field(default_factory=list)
+
+    @property
+    def title(self) -> str:
+        """Human title of the stage."""
+        return STAGES.get(self.name, self.name)
+
+    @property
+    def ok(self) -> bool:
+        """True when the stage finished (``done``)."""
+        return self.status == "done"
+
+    @property
+    def error(self) -> str | None:
+        """The failure message of a failed stage, else None."""
+        if self.status != "failed":
+            return None
+        return str(self.summary.get("error") or "failed (no message stored)")
+
+
+@dataclass(frozen=True)
+class ReportData:
+    """All the numbers of a report, read from the store of ``study_dir``.
+
+    Attributes
+    ----------
+    study_dir : Path
+    meta : dict
+        Every meta key of the store (``study``, ``target``, ``physical``, ``factors``, ...).
+    stages : dict of str -> StageView
+        One entry per known stage (missing ones included) and any other stored stage.
+    runs : list of RunRecord
+        Every stored run.
+    """
+
+    study_dir: Path
+    meta: dict[str, Any]
+    stages: dict[str, StageView]
+    runs: list[RunRecord]
+
+    def stage(self, name: str) -> StageView:
+        """The stage ``name`` (status ``missing`` if never started)."""
+        return self.stages.get(name, StageView(name, "missing"))
+
+    @property
+    def target(self) -> dict[str, Any] | None:
+        """The measured target (``meta["target"]``) or None."""
+        return self.meta.get("target")
+
+    @property
+    def target_aor_deg(self) -> float | None:
+        """Target angle of repose, degrees, or None."""
+        t = self.target
+        return None if not t or t.get("aor_deg") is None else float(t["aor_deg"])
+
+    @property
+    def symbols(self) -> dict[str, str]:
+        """Parameter name -> paper-style symbol (from the factors of the meta and stages)."""
+        out: dict[str, str] = {}
+        sources = [self.meta.get("factors") or []]
+        for name in ("screening", "rsm"):
+            sources.append(self.stage(name).summary.get("factors") or [])
+        for rows in sources:
+            for f in rows:
+                if isinstance(f, dict) and f.get("name") and f.get("symbol"):
+                    out.setdefault(str(f["name"]), str(f["symbol"]))
+        return out
+
+    def symbol(self, name: str) -> str:
+        """Short symbol of a parameter (its name when none is known)."""
+        return self.symbols.get(name, name)
+
+    def excluded_runs(self) -> list[RunRecord]:
+        """Runs without a usable angle: failed, or an outcome other than a pile."""
+        return [r for r in self.runs
+                if r.status != "done" or (r.outcome not in (None, "pile")) or r.aor_deg is None]
+
+
+def load_report_data(study_dir: str | Path) -> ReportData:
+    """Read a study's store into a :class:`ReportData`.
+
+    Parameters
+    ----------
+    study_dir : str or Path
+        The study folder holding ``demcal.sqlite`` (or the store file itself).
+
+    Raises
+    ------
+    InputError
+        If there is no store there.
+    """
+    path = Path(study_dir)
+    store_path = path if path.is_file() else path / STORE_NAME
+    if not store_path.is_file():
+        raise InputError(f"study_dir: no run store {STORE_NAME} in {path} "
+                         "(run `demcal calibrate` first)")
+    with RunStore(store_path) as store:
+        meta = {k: v for k in META_KEYS if (v := store.meta(k)) is not None}
+        runs = store.runs()
+        stored = {s.name: s for s in store.stages()}
+    by_stage: dict[str, list[RunRecord]] = {}
+    for r in runs:
+        by_stage.setdefault(r.stage, []).append(r)
+    stages: dict[str, StageView] = {}
+    for name in [*STAGES, *(n for n in stored if n not in STAGES)]:
+        rec = stored.get(name)
+        if rec is None:
+            stages[name] = StageView(name, "missing", {}, by_stage.get(name, []))
+        else:
+            summary = rec.summary if isinstance(rec.summary, dict) else {}
+            stages[name] = StageView(name, rec.status, summary, by_stage.get(name, []))
+    return ReportData(study_dir=store_path.parent, meta=meta, stages=stages, runs=runs)

@@ -1,0 +1,412 @@
+"""The report's tables as pandas DataFrames, built from the stored stage summaries.
+
+Each function takes the report data (or one stage summary) and returns a :class:`Table`: its
+key (the CSV file stem and the HTML id), a title, and a DataFrame of raw values (angles in
+degrees, everything else SI; None/NaN where a value does not exist). The HTML shows the same
+frames with :func:`format_cell`; ``report.json`` and ``tables/*.csv`` hold the raw values.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import pandas as pd
+
+from demcal.doe.anova import significance
+from demcal.report.data import ReportData
+
+__all__ = [
+    "Table",
+    "anova_frame",
+    "candidates_table",
+    "excluded_table",
+    "factors_table",
+    "fit_table",
+    "fixed_params_table",
+    "format_cell",
+    "measurement_table",
+    "physical_table",
+    "rangefind_points_table",
+    "rangefind_table",
+    "rsm_coefficients_table",
+    "rsm_design_table",
+    "screening_anova_table",
+    "screening_design_table",
+    "stages_table",
+    "steepest_levels_table",
+    "steepest_table",
+    "target_table",
+    "term_label",
+    "verification_summary_table",
+    "verification_table",
+]
+
+P_COLUMNS = ("p", "p-value", "lack-of-fit p")
+
+
+@dataclass(frozen=True)
+class Table:
+    """A titled table: ``key`` (file stem / HTML id), ``title`` and the raw ``frame``."""
+
+    key: str
+    title: str
+    frame: pd.DataFrame
+    note: str = ""
+
+    def records(self) -> dict[str, Any]:
+        """JSON form: ``{"title", "columns", "rows"}`` with None for missing numbers."""
+        rows = [[_json_value(v) for v in row] for row in self.frame.itertuples(index=False)]
+        return {"title": self.title, "columns": [str(c) for c in self.frame.columns],
+                "rows": rows, "note": self.note}
+
+
+def _json_value(v: Any) -> Any:
+    if v is None:
+        return None
+    if hasattr(v, "item"):
+        v = v.item()
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+def format_cell(value: Any, column: str = "") -> str:
+    """Text of a table cell: floats to 5 significant digits, p-values as Design-Expert prints
+    them (``<0.0001`` or 4 decimals), integers as integers, None/NaN as an empty cell."""
+    value = _json_value(value)
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if column in P_COLUMNS:
+            return "<0.0001" if value < 1e-4 else f"{value:.4f}"
+        return f"{value:.5g}"
+    return str(value)
+
+
+def term_label(term: str, symbols: Mapping[str, str]) -> str:
+    """Display name of a model term with paper symbols: ``x3·x4``, ``x3²``, ``Intercept``."""
+    if term in ("intercept", "1"):
+        return "Intercept"
+    if term in ("Model", "Residual", "Lack of Fit", "Pure Error", "Cor Total"):
+        return term
+    parts = []
+    for piece in str(term).split("*"):
+        name, _, exp = piece.strip().partition("^")
+        sym = symbols.get(name, name)
+        parts.append(sym + ("" if not exp else "²" if exp == "2" else f"^{exp}"))
+    return "·".join(parts)
+
+
+def _num(v: Any) -> float | None:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+def _frame(rows: list[dict[str, Any]], columns: list[str]) -> pd.DataFrame:
+    return pd.DataFrame(rows, columns=columns).astype(object)
+
+
+# ------------------------------------------------------------------------------ study / inputs
+def stages_table(data: ReportData) -> Table:
+    """Status of every stage, with the failure message or the stage's message."""
+    rows = []
+    for view in data.stages.values():
+        msg = view.error or view.summary.get("message") or ""
+        if view.status == "missing":
+            msg = "not run (no record in the store)"
+        elif view.status == "running":
+            msg = msg or "started, not finished"
+        rows.append({"stage": view.title, "status": view.status, "runs": len(view.runs),
+                     "message": str(msg)})
+    return Table("stages", "Status of each stage",
+                 _frame(rows, ["stage", "status", "runs", "message"]))
+
+
+def factors_table(data: ReportData) -> Table:
+    """The study's factors: symbol, parameter, unit and range as given."""
+    rows = [{"symbol": f.get("symbol", ""), "parameter": f.get("name", ""),
+             "unit": f.get("unit", "") or "", "low": _num(f.get("low")),
+             "high": _num(f.get("high"))} for f in data.meta.get("factors") or []]
+    return Table("factors", "Factors and their ranges (as given in the study)",
+                 _frame(rows, ["symbol", "parameter", "unit", "low", "high"]))
+
+
+def fixed_params_table(data: ReportData) -> Table:
+    """Every parameter that is not a factor, with its fixed value (SI)."""
+    fixed = data.meta.get("fixed_params") or {}
+    rows = [{"parameter": k, "value": _num(v)} for k, v in fixed.items()]
+    return Table("fixed_params", "Fixed parameters (SI units)",
+                 _frame(rows, ["parameter", "value"]))
+
+
+def _flatten(prefix: str, value: Any, out: list[dict[str, Any]]) -> None:
+    if isinstance(value, Mapping):
+        for k, v in value.items():
+            _flatten(f"{prefix}.{k}" if prefix else str(k), v, out)
+    elif isinstance(value, list | tuple) and all(_num(v) is not None for v in value) and value:
+        out.append({"quantity": prefix, "value": ", ".join(format_cell(float(v))
+                                                          for v in value)})
+    else:
+        num = _num(value)
+        out.append({"quantity": prefix, "value": num if num is not None else
+                    ("" if value is None else str(value))})
+
+
+def physical_table(data: ReportData) -> Table:
+    """The intrinsic properties measured on the material (flattened ``meta["physical"]``)."""
+    rows: list[dict[str, Any]] = []
+    _flatten("", data.meta.get("physical") or {}, rows)
+    return Table("physical", "Physical measurements (SI units)",
+                 _frame(rows, ["quantity", "value"]))
+
+
+def target_table(data: ReportData) -> Table:
+    """The target angle of repose: mean, standard deviation, number and source."""
+    t = data.target or {}
+    rows = [{"target AoR (deg)": _num(t.get("aor_deg")), "std (deg)": _num(t.get("std_deg")),
+             "n": t.get("n"), "source": t.get("source", "")}]
+    return Table("target", "Target angle of repose",
+                 _frame(rows, ["target AoR (deg)", "std (deg)", "n", "source"]))
+
+
+def measurement_table(data: ReportData) -> Table:
+    """Each photo's measured angles (left and right flank, mean), degrees."""
+    photos = (data.target or {}).get("photos") or []
+    rows = [{"photo": i + 1, "file": str(p.get("file", "")), "left (deg)": _num(p.get("left_deg")),
+             "right (deg)": _num(p.get("right_deg")), "mean (deg)": _num(p.get("mean_deg"))}
+            for i, p in enumerate(photos)]
+    return Table("measurements", "Angle of repose of each photo",
+                 _frame(rows, ["photo", "file", "left (deg)", "right (deg)", "mean (deg)"]))
+
+
+# --------------------------------------------------------------------------------- range finding
+def rangefind_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """Per factor: range given, range kept, points tried, no-pile points and the reason."""
+    rows = []
+    for f in summary.get("factors") or []:
+        pts = f.get("points") or []
+        rows.append({"symbol": f.get("symbol") or symbols.get(f.get("name", ""), ""),
+                     "parameter": f.get("name", ""), "low": _num(f.get("low")),
+                     "high": _num(f.get("high")), "new low": _num(f.get("new_low")),
+                     "new high": _num(f.get("new_high")), "points": len(pts),
+                     "no pile": sum(1 for p in pts if p.get("outcome") != "pile"),
+                     "reason": f.get("reason") or ""})
+    cols = ["symbol", "parameter", "low", "high", "new low", "new high", "points", "no pile",
+            "reason"]
+    return Table("rangefind", "Range-finding scan: ranges given and kept", _frame(rows, cols))
+
+
+def rangefind_points_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """Every point of the range-finding scan: factor, value, outcome, AoR (deg)."""
+    rows = []
+    for f in summary.get("factors") or []:
+        sym = f.get("symbol") or symbols.get(f.get("name", ""), f.get("name", ""))
+        for p in f.get("points") or []:
+            rows.append({"symbol": sym, "value": _num(p.get("value")),
+                         "outcome": p.get("outcome", ""), "AoR (deg)": _num(p.get("aor_deg"))})
+    return Table("rangefind_points", "Range-finding scan: every point",
+                 _frame(rows, ["symbol", "value", "outcome", "AoR (deg)"]))
+
+
+# ------------------------------------------------------------------------------------ screening
+def _factor_symbols(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> list[tuple]:
+    return [(f["name"], f.get("symbol") or symbols.get(f["name"], f["name"]))
+            for f in summary.get("factors") or []]
+
+
+def screening_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """The screening design in coded units and its responses (the paper's Table 4)."""
+    facs = _factor_symbols(summary, symbols)
+    dummies = list(summary.get("dummies") or [])
+    rows = []
+    for r in summary.get("runs") or []:
+        coded = r.get("coded") or {}
+        row: dict[str, Any] = {"run": r.get("point")}
+        for name, sym in facs:
+            row[sym] = _num(coded.get(name))
+        for d in dummies:
+            row[d] = _num(coded.get(d))
+        row["AoR (deg)"] = _num(r.get("aor_deg"))
+        row["outcome"] = r.get("outcome", "")
+        rows.append(row)
+    cols = ["run", *(s for _, s in facs), *dummies, "AoR (deg)", "outcome"]
+    frame = _frame(rows, cols)
+    for _, s in facs:  # coded levels are integers (-1, +1)
+        frame[s] = [None if v is None else int(v) if float(v).is_integer() else v
+                    for v in frame[s]]
+    return Table("screening_design", "Screening design and results (coded levels; cf. Table 4)",
+                 frame)
+
+
+def anova_frame(records: list[Mapping[str, Any]], symbols: Mapping[str, str]) -> pd.DataFrame:
+    """ANOVA records (``AnovaTable.to_records()``) as a frame with a significance column."""
+    rows = []
+    for rec in records:
+        p = _num(rec.get("p"))
+        rows.append({"source": term_label(str(rec.get("term", "")), symbols),
+                     "SS": _num(rec.get("ss")), "df": rec.get("df"), "MS": _num(rec.get("ms")),
+                     "F": _num(rec.get("f")), "p": p,
+                     "significance": significance(p if p is not None else math.nan)})
+    return _frame(rows, ["source", "SS", "df", "MS", "F", "p", "significance"])
+
+
+def screening_anova_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """ANOVA of the screening fit with each effect, % contribution and rank (cf. Table 5)."""
+    frame = anova_frame(summary.get("anova") or [], symbols)
+    eff = {term_label(str(e.get("term", "")), symbols): e for e in summary.get("effects") or []}
+    frame["effect"] = [_num(eff[s].get("effect")) if s in eff else None for s in frame["source"]]
+    frame["contribution %"] = [_num(eff[s].get("contribution_percent")) if s in eff else None
+                               for s in frame["source"]]
+    frame["rank"] = [eff[s].get("rank") if s in eff else None for s in frame["source"]]
+    return Table("screening_anova", "Screening ANOVA, effects and % contribution (cf. Table 5)",
+                 frame, note="** p < 0.01, * p < 0.05. Effect = mean AoR at +1 minus at -1, "
+                             "deg; contribution = 100 SS / SS total.")
+
+
+def fit_table(key: str, title: str, fit: Mapping[str, Any],
+              lack_of_fit_p: float | None = None) -> Table:
+    """Fit statistics (``FitStatistics.to_dict()``) as statistic/value rows."""
+    names = {"std_dev": "Std. Dev. (deg)", "mean": "Mean (deg)", "cv_percent": "C.V. %",
+             "press": "PRESS", "r2": "R²", "adj_r2": "Adjusted R²", "pred_r2": "Predicted R²",
+             "adeq_precision": "Adeq Precision"}
+    rows = [{"statistic": names.get(k, k), "value": _num(v)} for k, v in fit.items()]
+    if lack_of_fit_p is not None:
+        rows.append({"statistic": "Lack of fit p", "value": _num(lack_of_fit_p)})
+    return Table(key, title, _frame(rows, ["statistic", "value"]))
+
+
+# ------------------------------------------------------------------------------------- steepest
+def steepest_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """The path of steepest ascent: settings, AoR and relative error per step (cf. Table 6)."""
+    names = list(summary.get("factors") or [])
+    best = summary.get("best_step")
+    rows = []
+    for s in summary.get("steps") or []:
+        actual = s.get("actual") or {}
+        row: dict[str, Any] = {"step": s.get("step")}
+        for n in names:
+            row[symbols.get(n, n)] = _num(actual.get(n))
+        row["AoR (deg)"] = _num(s.get("aor_deg"))
+        row["relative error %"] = _num(s.get("relative_error_percent"))
+        row["outcome"] = s.get("outcome", "")
+        row["best"] = "best" if s.get("step") == best else ""
+        rows.append(row)
+    cols = ["step", *(symbols.get(n, n) for n in names), "AoR (deg)", "relative error %",
+            "outcome", "best"]
+    return Table("steepest", "Path of steepest ascent (cf. Table 6)", _frame(rows, cols))
+
+
+def steepest_levels_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """Levels chosen for the response-surface design from the best step."""
+    rows = []
+    for n, lv in (summary.get("levels") or {}).items():
+        lv = list(lv) + [None] * (3 - len(lv))
+        rows.append({"symbol": symbols.get(n, n), "parameter": n, "low": _num(lv[0]),
+                     "centre": _num(lv[1]), "high": _num(lv[2])})
+    return Table("steepest_levels", "Levels for the response surface",
+                 _frame(rows, ["symbol", "parameter", "low", "centre", "high"]))
+
+
+# ------------------------------------------------------------------------------------------ rsm
+def rsm_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """The response-surface design, coded and actual, with its responses (cf. Table 7)."""
+    facs = _factor_symbols(summary, symbols)
+    rows = []
+    for r in summary.get("runs") or []:
+        coded, actual = r.get("coded") or {}, r.get("actual") or {}
+        row: dict[str, Any] = {"run": r.get("point")}
+        for name, sym in facs:
+            row[sym] = _num(coded.get(name))
+        for name, sym in facs:
+            row[f"{sym} actual"] = _num(actual.get(name))
+        row["AoR (deg)"] = _num(r.get("aor_deg"))
+        row["outcome"] = r.get("outcome", "")
+        rows.append(row)
+    cols = ["run", *(s for _, s in facs), *(f"{s} actual" for _, s in facs), "AoR (deg)",
+            "outcome"]
+    frame = _frame(rows, cols)
+    for _, s in facs:
+        frame[s] = [None if v is None else int(v) if float(v).is_integer() else v
+                    for v in frame[s]]
+    return Table("rsm_design", f"{_design_name(summary)} design and results (cf. Table 7)",
+                 frame)
+
+
+def _design_name(summary: Mapping[str, Any]) -> str:
+    return {"box_behnken": "Box-Behnken", "ccd": "Central composite"}.get(
+        str(summary.get("design", "")), str(summary.get("design", "Response-surface")))
+
+
+def rsm_coefficients_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """Coefficients of the fitted polynomial in coded and in actual units."""
+    coded = summary.get("coefficients_coded") or {}
+    actual = summary.get("coefficients_actual") or {}
+    terms = list(coded) + [t for t in actual if t not in coded]
+    rows = [{"term": term_label(t, symbols), "coded": _num(coded.get(t)),
+             "actual": _num(actual.get(t))} for t in terms]
+    return Table("rsm_coefficients", "Coefficients (coded and actual units)",
+                 _frame(rows, ["term", "coded", "actual"]))
+
+
+# ------------------------------------------------------------------------- optimum and checks
+def candidates_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """Ranked candidate settings with their predicted AoR and 95 % prediction interval."""
+    cands = summary.get("candidates") or []
+    names: list[str] = []
+    for c in cands:
+        names += [n for n in (c.get("params") or {}) if n not in names]
+    rows = []
+    for i, c in enumerate(cands):
+        row: dict[str, Any] = {"rank": i + 1}
+        for n in names:
+            row[symbols.get(n, n)] = _num((c.get("params") or {}).get(n))
+        row["predicted AoR (deg)"] = _num(c.get("predicted_aor_deg"))
+        row["PI low (deg)"] = _num(c.get("pi_low_deg"))
+        row["PI high (deg)"] = _num(c.get("pi_high_deg"))
+        row["P(pile)"] = _num(c.get("p_pile"))
+        rows.append(row)
+    cols = ["rank", *(symbols.get(n, n) for n in names), "predicted AoR (deg)", "PI low (deg)",
+            "PI high (deg)", "P(pile)"]
+    return Table("candidates", "Optimum and ranked alternatives", _frame(rows, cols))
+
+
+def verification_table(summary: Mapping[str, Any]) -> Table:
+    """Each verification replicate: AoR (deg) and outcome."""
+    aors = list(summary.get("aor_deg") or [])
+    outs = list(summary.get("outcomes") or [])
+    n = max(len(aors), len(outs))
+    aors += [None] * (n - len(aors))
+    outs += [""] * (n - len(outs))
+    rows = [{"replicate": i + 1, "AoR (deg)": _num(a), "outcome": o}
+            for i, (a, o) in enumerate(zip(aors, outs, strict=True))]
+    return Table("verification", "Verification replicates",
+                 _frame(rows, ["replicate", "AoR (deg)", "outcome"]))
+
+
+def verification_summary_table(summary: Mapping[str, Any], target: float | None) -> Table:
+    """Mean ± std of the replicates and the relative error against the measurement."""
+    rows = [{"n": summary.get("n"), "mean AoR (deg)": _num(summary.get("aor_mean_deg")),
+             "std (deg)": _num(summary.get("aor_std_deg")), "measured AoR (deg)": target,
+             "relative error %": _num(summary.get("relative_error_percent"))}]
+    return Table("verification_summary", "Verification against the measurement",
+                 _frame(rows, ["n", "mean AoR (deg)", "std (deg)", "measured AoR (deg)",
+                               "relative error %"]))
+
+
+def excluded_table(data: ReportData) -> Table:
+    """Runs without a usable angle (no pile, failed): excluded from every fit."""
+    rows = [{"stage": r.stage, "point": r.point, "replicate": r.replicate, "status": r.status,
+             "outcome": r.outcome or "", "reason": r.reason or ""}
+            for r in data.excluded_runs()]
+    return Table("excluded_runs", "Excluded runs (no pile or failed)",
+                 _frame(rows, ["stage", "point", "replicate", "status", "outcome", "reason"]))
