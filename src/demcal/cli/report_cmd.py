@@ -1,0 +1,32 @@
+"""``demcal report STUDY_DIR``: rebuild a study's HTML report from its run store."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from demcal.cli import app
+from demcal.cli._common import cli_errors, console
+from demcal.report import build_report, load_report_data
+
+
+@app.command("report")
+@cli_errors
+def report(
+    study_dir: Annotated[Path, typer.Argument(
+        help="Study folder holding demcal.sqlite (the run store).")],
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Output folder (default STUDY_DIR/report).")] = None,
+) -> None:
+    """Build the calibration report (HTML, JSON, CSV tables, PNG figures) from the store."""
+    path = build_report(study_dir, out)
+    data = load_report_data(study_dir)
+    for view in data.stages.values():
+        colour = {"done": "green", "failed": "red", "running": "yellow"}.get(view.status, "dim")
+        line = f"  {view.title}: [{colour}]{view.status}[/{colour}]"
+        if view.error:
+            line += f" ({view.error})"
+        console.print(line, highlight=False, soft_wrap=True)
+    console.print(f"report: {path}", highlight=False, soft_wrap=True)
