@@ -1,0 +1,84 @@
+"""Known truth: on the analytic stand-in (planted surface, no-pile region above
+pp.surface_energy = 0.03 J/m^2) the range finding cuts the no-pile part and the whole study
+recovers a setting whose TRUE angle is the target."""
+
+from __future__ import annotations
+
+import pytest
+
+from demcal.calibrate import calibrate
+from demcal.calibrate.study import load_study
+from demcal.errors import StudyError
+from demcal.execute.analytic import true_aor
+from demcal.store import RunStore
+
+BOUNDARY = 0.03  # planted: no pile where pp.surface_energy > 0.03
+
+
+@pytest.fixture
+def result(study_file):
+    return calibrate(study_file), study_file
+
+
+def test_rangefind_finds_the_pile_region(result):
+    res, path = result
+    with RunStore(path.parent) as store:
+        rf = store.stage("rangefind")
+        assert rf.status == "done"
+        (x8,) = rf.summary["factors"]
+        assert x8["name"] == "pp.surface_energy"
+        # grid 0, 0.0125, ..., 0.05: the last pile point lies within one step of the truth
+        assert x8["new_low"] == 0.0
+        assert BOUNDARY - 0.0125 <= x8["new_high"] <= BOUNDARY
+        assert "column" in x8["reason"]
+        outcomes = [p["outcome"] for p in x8["points"]]
+        assert outcomes == ["pile", "pile", "pile", "column", "column"]
+        assert [p["aor_deg"] is None for p in x8["points"]] == [False] * 3 + [True] * 2
+        # the scan of x8 alone (others at their centre) reaches 30..35 deg < 40: say so
+        assert rf.summary["target_in_range"] is False
+        assert 34 < rf.summary["response_max_deg"] < 36
+        assert "raise the AoR: pp.surface_energy (up)" in rf.summary["message"]
+        # the no-pile runs are stored with their outcome and no angle
+        cols = [r for r in store.runs(stage="rangefind") if r.outcome == "column"]
+        assert len(cols) == 2 and all(r.aor_deg is None and r.status == "done" for r in cols)
+    assert res["ranges"]["pp.surface_energy"] == [0.0, x8["new_high"]]
+
+
+def test_study_recovers_the_planted_target(result):
+    res, path = result
+    study = load_study(path)
+    opts = study.test.analytic
+    target = res["target_aor_deg"]
+    # screening picks the three planted strong factors, not restitution (no effect)
+    assert set(res["stages"]["screening"]["selected"]) == {
+        "pp.static_friction", "pp.rolling_friction", "pp.surface_energy"}
+    # the chosen setting's noise-free angle is the target within 1 deg, in the pile region
+    truth = true_aor(res["optimum_full"], opts)
+    assert abs(truth - target) < 1.0, truth
+    assert res["optimum"]["pp.surface_energy"] < BOUNDARY
+    assert abs(res["predicted_aor_deg"] - target) < 0.05
+    v = res["verification"]
+    assert v["n"] == 3 and abs(v["aor_mean_deg"] - target) < 1.0
+    assert v["relative_error_percent"] < 2.5
+    assert res["n_runs"] == 5 + 12 + 5 + 15 + 3
+    with RunStore(path.parent) as store:
+        rsm = store.stage("rsm").summary
+        assert rsm["adequate"] and rsm["lack_of_fit_p"] is not None
+        opt = store.stage("optimize").summary
+        for c in opt["candidates"]:  # never a point predicted outside the pile region
+            assert c["p_pile"] >= 0.5 and c["params"]["pp.surface_energy"] < BOUNDARY
+        assert store.meta("result")["optimum"] == res["optimum"]
+        assert {s.name for s in store.stages()} == {"rangefind", "screening", "steepest", "rsm",
+                                                     "optimize", "verification"}
+
+
+def test_without_rangefind_the_no_pile_points_are_excluded_and_named(study_file):
+    text = study_file.read_text().replace("[stages.rangefind]", "[stages.rangefind]\nenabled "
+                                          "= false")
+    study_file.write_text(text)
+    with pytest.raises(StudyError, match=r"formed no pile \(column\): points"):
+        calibrate(study_file)
+    with RunStore(study_file.parent) as store:
+        sc = store.stage("screening")
+        assert sc.status == "failed" and "excluded" in sc.summary["error"]
+        assert len(sc.summary["excluded_points"]) == 6  # x8 high in half the PB runs

@@ -1,0 +1,91 @@
+"""Study schema: every error names the field and the allowed values; `demcal init` is valid."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+from typer.testing import CliRunner
+
+from demcal.calibrate import EXAMPLE_STUDY, load_study, parse_study
+from demcal.cli import app
+from demcal.errors import InputError
+
+
+def _bad(data: dict, *parts: str) -> None:
+    with pytest.raises(InputError) as exc:
+        parse_study(data)
+    for p in parts:
+        assert p in str(exc.value), str(exc.value)
+
+
+def test_example_parses(example_data):
+    s = parse_study(example_data)
+    assert s.test.kind == "analytic"
+    assert [f.symbol for f in s.factors] == ["x2", "x3", "x4", "x6", "x8"]
+    assert s.factor("x8").name == "pp.surface_energy"
+
+
+def test_unknown_factor_name(example_data):
+    d = copy.deepcopy(example_data)
+    d["factors"][0]["name"] = "pp.friction"
+    _bad(d, "factors.0.name", "pp.static_friction", "pp.friction")
+
+
+def test_low_not_below_high(example_data):
+    d = copy.deepcopy(example_data)
+    d["factors"][1]["low"] = 2.0
+    _bad(d, "factors.1", "low must be < high")
+
+
+def test_out_of_parameter_range(example_data):
+    d = copy.deepcopy(example_data)
+    d["factors"][0]["high"] = 1.5  # restitution must be <= 1
+    _bad(d, "factors.0", "pp.restitution must be in")
+
+
+def test_rsm_design_choices(example_data):
+    d = copy.deepcopy(example_data)
+    d["stages"]["rsm"]["design"] = "doehlert"
+    _bad(d, "stages.rsm.design", "'bbd'", "'ccd'")
+
+
+def test_target_needs_one_source(example_data):
+    d = copy.deepcopy(example_data)
+    d["target"] = {"std_deg": 1.0}
+    _bad(d, "target", "aor_deg, photos or measurements")
+
+
+def test_unknown_key_and_bad_reference(example_data):
+    d = copy.deepcopy(example_data)
+    d["stages"]["screening"]["alpah"] = 0.1
+    _bad(d, "stages.screening.alpah", "Extra inputs")
+    d = copy.deepcopy(example_data)
+    d["stages"]["rangefind"]["factors"] = ["x9"]
+    _bad(d, "stages.rangefind.factors", "'x9'", "x8")
+
+
+def test_bad_aor_test_override(example_data):
+    d = copy.deepcopy(example_data)
+    d["test"] = {"kind": "aor", "fidelity": "quick", "overrides": {"fill": {"count": -3}}}
+    _bad(d, "test", "fill.count")
+
+
+def test_init_writes_a_valid_study(tmp_path):
+    out = tmp_path / "s.toml"
+    res = CliRunner().invoke(app, ["init", str(out)])
+    assert res.exit_code == 0, res.output
+    assert out.read_text() == EXAMPLE_STUDY
+    s = load_study(out)
+    assert s.test.kind == "aor" and s.stages.rsm.design == "bbd"
+    res = CliRunner().invoke(app, ["init", str(out)])
+    assert res.exit_code == 2 and "--force" in res.output
+
+
+def test_cli_reports_schema_error_in_one_line(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_text(EXAMPLE_STUDY.replace('design = "bbd"', 'design = "xyz"'))
+    res = CliRunner().invoke(app, ["calibrate", str(p)])
+    assert res.exit_code == 2
+    assert "stages.rsm.design" in res.output
+    assert "Traceback" not in res.output
