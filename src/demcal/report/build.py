@@ -205,11 +205,13 @@ def _screening(b: _Builder) -> str:
             info += f" Dummy columns: {', '.join(map(str, s['dummies']))}."
         parts.append(f"<p>{escape(info)}</p>")
         parts.append(b.table(T.screening_design_table(s, d.symbols)))
+        row = []
         if s.get("anova"):
-            parts.append(b.table(T.screening_anova_table(s, d.symbols)))
+            row.append(b.table(T.screening_anova_table(s, d.symbols)))
         if s.get("fit"):
-            parts.append(b.table(T.fit_table("screening_fit", "Screening fit statistics",
-                                             s["fit"])))
+            row.append(b.table(T.fit_table("screening_fit", "Screening fit statistics",
+                                           s["fit"])))
+        parts.append(f'<div class="row">{"".join(row)}</div>')
         if s.get("effects"):
             parts.append(b.figure("pareto", "Pareto chart of the effects: |effect| with % "
                                   "contribution; ** p < 0.01, * p < 0.05.",
@@ -252,14 +254,16 @@ def _rsm(b: _Builder) -> str:
     def render() -> str:
         s = view.summary
         parts = [b.table(T.rsm_design_table(s, d.symbols))]
+        row = []
         if s.get("anova"):
-            parts.append(b.table(T.Table(
+            row.append(b.table(T.Table(
                 "rsm_anova", "ANOVA of the response surface with lack of fit (cf. Table 8)",
                 T.anova_frame(s["anova"], d.symbols),
                 note="Partial sum of squares (Type III). ** p < 0.01, * p < 0.05.")))
         if s.get("fit"):
-            parts.append(b.table(T.fit_table("rsm_fit", "Fit statistics", s["fit"],
-                                             s.get("lack_of_fit_p"))))
+            row.append(b.table(T.fit_table("rsm_fit", "Fit statistics", s["fit"],
+                                           s.get("lack_of_fit_p"))))
+        parts.append(f'<div class="row">{"".join(row)}</div>')
         adequate = s.get("adequate")
         if adequate is not None:
             parts.append(f"<p><b>Model adequate:</b> {'yes' if adequate else 'no'}.</p>")
@@ -312,8 +316,8 @@ def _verification(b: _Builder) -> str:
     def render() -> str:
         s = view.summary
         t = d.target or {}
-        parts = [b.table(T.verification_summary_table(s, d.target_aor_deg)),
-                 b.table(T.verification_table(s)),
+        parts = ['<div class="row">' + b.table(T.verification_summary_table(s, d.target_aor_deg))
+                 + b.table(T.verification_table(s)) + "</div>",
                  b.figure("verification", "Verification replicates, their mean ± 1 std "
                           "(blue band) and the measurement (green).",
                           lambda: F.verification_figure(s, d.target_aor_deg, t.get("std_deg")))]

@@ -34,7 +34,10 @@ p.meta, .note, figcaption { color: var(--muted); font-size: 12.5px; }
 table.data { border-collapse: collapse; font-size: 12.5px; min-width: 30%; }
 table.data caption { text-align: left; font-weight: 600; padding: 4px 0; caption-side: top; }
 table.data th, table.data td { border-bottom: 1px solid var(--line); padding: 3px 9px;
-                              white-space: nowrap; }
+                              vertical-align: top; }
+table.data th, table.data td.num { white-space: nowrap; }
+table.data td { max-width: 520px; overflow-wrap: anywhere; }
+.row { display: flex; flex-wrap: wrap; gap: 0 28px; align-items: flex-start; }
 table.data th { background: #eef2f7; text-align: left; }
 table.data td.num { text-align: right; font-variant-numeric: tabular-nums; }
 table.data tr:nth-child(even) td { background: #fafbfc; }

@@ -227,11 +227,13 @@ def _factor_symbols(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> l
 def screening_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
     """The screening design in coded units and its responses (the paper's Table 4)."""
     facs = _factor_symbols(summary, symbols)
-    dummies = list(summary.get("dummies") or [])
+    runs = summary.get("runs") or []
+    dummies = [d for d in summary.get("dummies") or []  # shown only when their levels are
+               if any(d in (r.get("coded") or {}) for r in runs)]  # stored
     rows = []
-    for r in summary.get("runs") or []:
+    for r in runs:
         coded = r.get("coded") or {}
-        row: dict[str, Any] = {"run": r.get("point")}
+        row: dict[str, Any] = {"point": r.get("point")}
         for name, sym in facs:
             row[sym] = _num(coded.get(name))
         for d in dummies:
@@ -239,7 +241,7 @@ def screening_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str
         row["AoR (deg)"] = _num(r.get("aor_deg"))
         row["outcome"] = r.get("outcome", "")
         rows.append(row)
-    cols = ["run", *(s for _, s in facs), *dummies, "AoR (deg)", "outcome"]
+    cols = ["point", *(s for _, s in facs), *dummies, "AoR (deg)", "outcome"]
     frame = _frame(rows, cols)
     for _, s in facs:  # coded levels are integers (-1, +1)
         frame[s] = [None if v is None else int(v) if float(v).is_integer() else v
@@ -324,7 +326,7 @@ def rsm_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> 
     rows = []
     for r in summary.get("runs") or []:
         coded, actual = r.get("coded") or {}, r.get("actual") or {}
-        row: dict[str, Any] = {"run": r.get("point")}
+        row: dict[str, Any] = {"point": r.get("point")}
         for name, sym in facs:
             row[sym] = _num(coded.get(name))
         for name, sym in facs:
@@ -332,7 +334,7 @@ def rsm_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> 
         row["AoR (deg)"] = _num(r.get("aor_deg"))
         row["outcome"] = r.get("outcome", "")
         rows.append(row)
-    cols = ["run", *(s for _, s in facs), *(f"{s} actual" for _, s in facs), "AoR (deg)",
+    cols = ["point", *(s for _, s in facs), *(f"{s} actual" for _, s in facs), "AoR (deg)",
             "outcome"]
     frame = _frame(rows, cols)
     for _, s in facs:
