@@ -278,11 +278,15 @@ def _rsm(b: _Builder) -> str:
                              f"{escape(_equation(s[key], d.symbols))}</div>")
         if s.get("coefficients_coded") and len(s.get("factors") or []) >= 2:
             hold = d.stage("optimize").summary.get("chosen") or None
+            p_of = {str(r.get("term")): r.get("p") for r in s.get("anova") or []}
             for a, c in significant_pairs(s):
                 key = f"surface_{d.symbol(a)}_{d.symbol(c)}".replace(".", "_")
+                p = p_of.get(f"{a}*{c}", p_of.get(f"{d.symbol(a)}*{d.symbol(c)}"))
+                why = (f"interaction p = {_fmt(p, '.4f')}" if p is not None and p < 0.05 else
+                       "no significant interaction: the two strongest main effects")
                 parts.append(b.figure(
                     key, f"Response surface and contour of AoR over {d.symbol(a)} and "
-                    f"{d.symbol(c)} (other factors at "
+                    f"{d.symbol(c)} ({why}; other factors at "
                     f"{'the optimum' if hold else 'their centres'}; dots = design points).",
                     lambda a=a, c=c, hold=hold: F.surface_figure(s, (a, c), hold)))
             parts.append(b.figure("predicted_actual", "Predicted (stored model) vs actual AoR "

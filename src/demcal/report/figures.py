@@ -256,7 +256,7 @@ def predicted_actual_figure(summary: Mapping[str, Any]) -> Figure:
         if math.isfinite(y) and np.isfinite(x).all():
             actual.append(y)
             pred.append(float(surf.predict_coded(x[None, :])[0]))
-    fig = _figure(4.2, 4.0)
+    fig = _figure(3.8, 3.6)
     ax = fig.add_subplot()
     ax.plot(actual, pred, "o", color=_PILE)
     if actual:
