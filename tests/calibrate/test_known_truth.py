@@ -4,6 +4,9 @@ recovers a setting whose TRUE angle is the target."""
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 import pytest
 
 from demcal.calibrate import calibrate
@@ -12,12 +15,16 @@ from demcal.errors import StudyError
 from demcal.execute.analytic import true_aor
 from demcal.store import RunStore
 
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "analytic" / "study.toml"
+
 BOUNDARY = 0.03  # planted: no pile where pp.surface_energy > 0.03
 
 
-@pytest.fixture
-def result(study_file):
-    return calibrate(study_file), study_file
+@pytest.fixture(scope="module")
+def result(tmp_path_factory):
+    path = tmp_path_factory.mktemp("truth") / "study.toml"
+    shutil.copy(EXAMPLE, path)
+    return calibrate(path), path
 
 
 def test_rangefind_finds_the_pile_region(result):

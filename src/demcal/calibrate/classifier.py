@@ -69,6 +69,19 @@ class PileClassifier:
         z = np.column_stack([np.ones(len(x)), (x - self.centre) / self.half])
         return expit(z @ self.coef)
 
+    def p_pile_grid(self, base: Mapping[str, float], names: Sequence[str],
+                    x: np.ndarray) -> np.ndarray:
+        """Probability of a pile at rows ``x`` of ``names`` (SI), others as in ``base``."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        if self.constant is not None:
+            return np.full(len(x), self.constant)
+        feats = np.tile([float(base[m]) for m in self.names], (len(x), 1))
+        for j, n in enumerate(names):
+            if n in self.names:
+                feats[:, self.names.index(n)] = x[:, j]
+        z = np.column_stack([np.ones(len(x)), (feats - self.centre) / self.half])
+        return expit(z @ self.coef)
+
     def describe(self) -> dict[str, Any]:
         """JSON summary: runs used, piles, coefficients (coded factors)."""
         return {"n_runs": self.n_runs, "n_piles": self.n_piles,

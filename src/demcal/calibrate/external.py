@@ -34,7 +34,7 @@ def write_run_sheet(pending: ExternalPending, runner: Runner, folder: str | Path
         row.update(aor_deg=None, outcome=None)
         rows.append(row)
     path = Path(folder) / f"runsheet_{pending.stage}.csv"
-    pd.DataFrame(rows).to_csv(path, index=False, float_format="%.10g")
+    pd.DataFrame(rows).to_csv(path, index=False)  # repr floats: exact round trip
     return path
 
 

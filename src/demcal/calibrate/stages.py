@@ -450,16 +450,14 @@ def optimize(ctx: Context) -> dict[str, Any]:
     clf = PileClassifier.fit(ctx.records, [(f.name, f.low, f.high) for f in ctx.study.factors])
     names = list(model.names)
 
-    def full_rows(x: np.ndarray) -> list[dict[str, float]]:
-        return [ctx.full({n: float(v) for n, v in zip(names, row, strict=True)}) for row in x]
-
     def constraint(x: np.ndarray) -> np.ndarray:
-        return clf.p_pile(full_rows(np.atleast_2d(x))) >= opts.min_p_pile
+        return clf.p_pile_grid(ctx.fixed, names, x) >= opts.min_p_pile
 
     centre = {n: ctx.results["steepest"]["levels"][n][1] for n in names}
     try:
         res = doe.optimize_target(model, ctx.target, constraint=constraint, near=centre,
-                                  n_solutions=opts.n_solutions, units="actual")
+                                  n_solutions=opts.n_solutions, n_starts=opts.n_starts,
+                                  units="actual", seed=ctx.study.seed)
     except InputError as exc:
         err = f"optimize: no setting inside the pile region hits the target ({exc})"
         ctx.store.set_stage("optimize", "failed", {"error": err}, inputs_hash=h)

@@ -186,6 +186,7 @@ class OptimizeOptions(_M):
     """Settings whose predicted AoR equals the target."""
 
     n_solutions: int = Field(5, ge=1, le=20)
+    n_starts: int = Field(16, ge=1, le=200, description="local searches of the optimiser")
     min_p_pile: float = Field(0.5, gt=0, lt=1, description="classifier threshold")
 
 
