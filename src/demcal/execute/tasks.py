@@ -7,6 +7,7 @@ dict ``{"key", "outcome", "aor_deg", "reason", "wall_time_s", "result"}``.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -17,6 +18,8 @@ __all__ = ["RunTask", "TestDef", "run_chunk"]
 @dataclass(frozen=True)
 class TestDef:
     """The virtual test: ``kind`` "aor" (engine; fidelity, overrides) or "analytic" (stand-in)."""
+
+    __test__ = False  # not a pytest class
 
     kind: str = "aor"
     fidelity: str = "quick"
@@ -71,9 +74,17 @@ def _aor_chunk(tasks: list[RunTask]) -> list[dict[str, Any]]:
 
 
 def run_chunk(tasks: list[RunTask]) -> list[dict[str, Any]]:
-    """Run a chunk of tasks (same test) and return one result dict per task."""
+    """Run a chunk of tasks (same test) and return one result dict per task.
+
+    Each dict also names the ``worker`` that ran it: ``{"pid", "numba_threads"}``.
+    """
     if not tasks:
         return []
+    worker = {"pid": os.getpid(), "numba_threads": os.environ.get("NUMBA_NUM_THREADS")}
+    return [{**r, "worker": worker} for r in _run(tasks)]
+
+
+def _run(tasks: list[RunTask]) -> list[dict[str, Any]]:
     if tasks[0].test.kind == "analytic":
         from demcal.execute.analytic import analytic_aor
 
