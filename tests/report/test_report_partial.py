@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 from htmltables import read_tables, section
 
 from demcal.report import build_report
@@ -65,3 +67,16 @@ def test_empty_store_builds_a_report_of_missing_stages(tmp_path):
     html = build_report(tmp_path / "s").read_text("utf-8")
     assert html.count("Not run:") == 6
     assert "No target" in html
+
+
+def test_a_stage_that_cannot_be_shown_leaves_no_orphan_tables(report_of, tmp_path):
+    study, _, _ = report_of()
+    with RunStore(study) as store:
+        store.set_stage("steepest", "done", {"factors": ["pp.static_friction"],
+                                             "steps": [{"step": 1, "actual": "garbage"}]})
+    path = build_report(study, tmp_path / "again")
+    html = path.read_text("utf-8")
+    doc = json.loads((path.parent / "report.json").read_text())
+    assert "the stored summary could not be shown" in section(html, "steepest")
+    assert "steepest" not in doc["tables"] and "t-steepest" not in html
+    assert set(read_tables(html)) == {f"t-{k}" for k in doc["tables"]}

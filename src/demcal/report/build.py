@@ -108,9 +108,12 @@ def _guard(b: _Builder, view: StageView, render: Callable[[], str]) -> str:
     if view.status in ("failed", "missing") and not any(
             k != "error" for k in view.summary):
         return out
+    before = set(b.tables)
     try:
         return out + render()
     except Exception as exc:  # malformed summary: say so
+        for key in set(b.tables) - before:  # keep report.json to the tables shown
+            del b.tables[key]
         msg = f"{view.name}: the stored summary could not be shown ({type(exc).__name__}: {exc})"
         b.problems.append(msg)
         return out + f'<p class="warn">{escape(msg)}</p>'
