@@ -420,7 +420,7 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
         "stages": {n: {"status": v.status, "error": v.error, "n_runs": len(v.runs)}
                    for n, v in data.stages.items()},
         "target": data.target,
-        "meta": {k: v for k, v in data.meta.items() if k != "study"},
+        "meta": data.meta,
         "summaries": {n: v.summary for n, v in data.stages.items() if v.summary},
         "tables": b.tables,
         "figures": b.figures,

@@ -65,8 +65,8 @@ code, .eq { font-family: "DejaVu Sans Mono", Consolas, monospace; font-size: 12.
 .warn { color: #8a5a00; }
 @media print {
   body { max-width: none; padding: 0; font-size: 11px; }
-  h2 { page-break-after: avoid; }
-  figure, .tablewrap, table.data, .card { page-break-inside: avoid; }
+  h2, h3 { page-break-after: avoid; break-after: avoid-page; }
+  figure, .tablewrap, table.data, .card { page-break-inside: avoid; break-inside: avoid; }
   .tablewrap { overflow: visible; }
   section { page-break-before: auto; }
 }
