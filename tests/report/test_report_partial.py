@@ -24,6 +24,10 @@ def test_failed_stage_is_shown_with_its_error_and_later_stages_missing(report_of
     for sid in ("optimize", "verification"):
         assert "Not run:" in section(html, sid)
     assert "t-screening_anova" in html and "t-steepest" in html  # earlier stages still there
+    runs = read_tables(html)["t-rsm_runs"]  # the runs the failed stage stored are listed
+    assert runs["columns"] == ["point", "replicate", "x3", "x4", "x8", "status", "outcome",
+                               "AoR (deg)", "reason"]
+    assert len(runs["rows"]) == 15 and runs["rows"][0][:5] == ["1", "0", "0.55", "0.09", "0.1"]
     stages = {r[0]: r for r in read_tables(html)["t-stages"]["rows"]}
     assert stages["Response surface"][1] == "failed" and stages["Response surface"][3] == ERROR
     assert stages["Verification"][1] == "missing"

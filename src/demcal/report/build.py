@@ -107,6 +107,8 @@ def _guard(b: _Builder, view: StageView, render: Callable[[], str]) -> str:
     out = banner(view)
     if view.status in ("failed", "missing") and not any(
             k != "error" for k in view.summary):
+        if view.runs:  # what the stage ran before it stopped
+            out += b.table(T.stage_runs_table(view, b.data.symbols))
         return out
     before = set(b.tables)
     try:

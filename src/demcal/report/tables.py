@@ -16,7 +16,7 @@ from typing import Any
 import pandas as pd
 
 from demcal.doe.anova import significance
-from demcal.report.data import ReportData
+from demcal.report.data import ReportData, StageView
 
 __all__ = [
     "Table",
@@ -35,6 +35,7 @@ __all__ = [
     "rsm_design_table",
     "screening_anova_table",
     "screening_design_table",
+    "stage_runs_table",
     "stages_table",
     "steepest_levels_table",
     "steepest_table",
@@ -412,3 +413,24 @@ def excluded_table(data: ReportData) -> Table:
             for r in data.excluded_runs()]
     return Table("excluded_runs", "Excluded runs (no pile or failed)",
                  _frame(rows, ["stage", "point", "replicate", "status", "outcome", "reason"]))
+
+
+def stage_runs_table(view: StageView, symbols: Mapping[str, str]) -> Table:
+    """The runs a stage stored (for a failed or unfinished stage): the parameters that vary
+    between them, the outcome and the AoR (deg)."""
+    runs = view.runs
+    names = sorted({k for r in runs for k in r.params})
+    varying = [n for n in names if len({repr(r.params.get(n)) for r in runs}) > 1]
+    varying = [n for n in symbols if n in varying] + [n for n in varying if n not in symbols]
+    rows = []
+    for r in runs:
+        row: dict[str, Any] = {"point": r.point, "replicate": r.replicate}
+        for n in varying:
+            row[symbols.get(n, n)] = _num(r.params.get(n))
+        row.update({"status": r.status, "outcome": r.outcome or "", "AoR (deg)": r.aor_deg,
+                    "reason": r.reason or ""})
+        rows.append(row)
+    cols = ["point", "replicate", *(symbols.get(n, n) for n in varying), "status", "outcome",
+            "AoR (deg)", "reason"]
+    return Table(f"{view.name}_runs", f"Runs stored by this stage ({len(runs)})",
+                 _frame(rows, cols))
