@@ -105,9 +105,10 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     store.set_meta("versions", {"demcal": dv, "python": platform.python_version(),
                                 "numpy": np.__version__, "engine_backend": study.backend})
     ex = study.executor
+    chunk = ex.chunk or (100_000 if study.backend == "cuda" else 1)
     runner = Runner(store, test_def(study),
                     workers=workers or ex.workers or default_workers(),
-                    dask=dask if dask is not None else ex.dask, chunk=ex.chunk,
+                    dask=dask if dask is not None else ex.dask, chunk=chunk,
                     progress=progress, external=external)
     return st.Context(study, store, runner, fixed, float(target["aor_deg"]),
                       [dict(f) for f in factors])

@@ -210,7 +210,8 @@ class Executor(_M):
 
     workers: int | None = Field(None, ge=1, le=1024, description="default: CPU count")
     dask: str | None = None
-    chunk: int = Field(1, ge=1, description="runs per task (batched worlds; GPU: large)")
+    chunk: int | None = Field(None, ge=1, description="runs per task, batched as worlds of "
+                              "one engine; default 1 on CPU, a whole stage with backend cuda")
 
 
 class Study(_M):

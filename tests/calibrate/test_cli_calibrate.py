@@ -1,0 +1,57 @@
+"""`demcal calibrate` on the command line: the printed result, the JSON layout, the report."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from demcal.cli import app
+from demcal.store import RunStore
+
+
+def test_calibrate_cli_json_layout(study_file, tmp_path):
+    out = tmp_path / "result.json"
+    res = CliRunner().invoke(app, ["calibrate", str(study_file), "--json", str(out),
+                                   "--workers", "1"])
+    assert res.exit_code == 0, res.output
+    assert "pp.static_friction" in res.output and "verification (3 runs)" in res.output
+    data = json.loads(out.read_text())
+    assert set(data["optimum"]) == {"pp.static_friction", "pp.rolling_friction",
+                                    "pp.surface_energy"}
+    assert data["target_aor_deg"] == 40.0
+    assert abs(data["predicted_aor_deg"] - 40.0) < 0.05
+    assert set(data["verification"]) == {"aor_mean_deg", "aor_std_deg",
+                                         "relative_error_percent", "n"}
+    assert data["n_runs"] == 40
+    st = data["stages"]
+    assert list(st) == ["rangefind", "screening", "steepest", "rsm", "optimize", "verification"]
+    assert st["screening"]["design"] == "plackett_burman" and len(st["screening"]["selected"]) == 3
+    assert st["rsm"]["design"] == "box_behnken" and len(st["rsm"]["responses"]) == 15
+    with RunStore(study_file.parent) as store:
+        assert store.meta("result") == data
+    try:
+        from demcal.report import build_report  # noqa: F401  (written by another helper)
+    except ImportError:
+        return
+    assert "report: " in res.output
+
+
+def test_move_ranges_within_hard_limits(study_file):
+    from demcal.calibrate import calibrate
+
+    text = study_file.read_text().replace(
+        '[stages.rangefind]\nfactors = ["x8"]',
+        '[stages.rangefind]\nfactors = ["x3", "x8"]\nmove_ranges = true\n'
+        'hard_limits = { x3 = [0.2, 2.0] }')
+    study_file.write_text(text)
+    calibrate(study_file)
+    with RunStore(study_file.parent) as store:
+        rf = store.stage("rangefind").summary
+    # at x8 = 0.025 the x3 scan over 0.2..1.0 tops out at 39.4 deg < 40: x3 moves up by half
+    x3, x8 = rf["factors"]
+    assert x8["new_high"] == 0.025
+    assert (x3["low"], x3["high"]) == pytest.approx((0.6, 1.4))
+    assert rf["target_in_range"] is True
+    assert "moved within hard limits: pp.static_friction: 0.2..1 -> 0.6..1.4" in rf["message"]
