@@ -12,13 +12,15 @@ end to end in milliseconds and checked against the answer it must find:
 Parts of the space form no pile, as real cohesive materials do: if ``x_p > no_pile_above[p]``
 for any p the outcome is ``column`` (no angle). If ``x_p > unstable_above[p]`` and the run's
 time-step fraction is not reduced (``dt_scale >= 1``) the outcome is ``unstable`` (a
-numerical failure that a retry with a smaller time step cures). Parameters in SI, angles deg.
+numerical failure that a retry with a smaller time step cures). ``delay_s`` makes a run take
+that long, so that tests can kill a study in the middle of a stage. Parameters in SI, angles deg.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -42,6 +44,7 @@ class AnalyticOptions(BaseModel):
     no_pile_above: dict[str, float] = Field(default_factory=dict)
     no_pile_outcome: str = "column"
     unstable_above: dict[str, float] = Field(default_factory=dict)
+    delay_s: float = Field(0.0, ge=0, le=60, description="wall time of one run (sleep), s")
 
 
 def true_aor(params: Mapping[str, float], options: AnalyticOptions | Mapping[str, Any]) -> float:
@@ -65,6 +68,8 @@ def analytic_aor(params: Mapping[str, float], seed: int,
                  dt_scale: float = 1.0) -> dict[str, Any]:
     """One stand-in "run": ``{"outcome", "aor_deg", "reason", "params", "seed", ...}``."""
     o = options if isinstance(options, AnalyticOptions) else AnalyticOptions(**options)
+    if o.delay_s:
+        time.sleep(o.delay_s)  # stands for a simulation's wall time (fault tests)
     for p, thr in o.unstable_above.items():
         if float(params[p]) > thr and dt_scale >= 1.0:
             return {"outcome": "unstable", "aor_deg": None, "seed": int(seed),
