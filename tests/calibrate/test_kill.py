@@ -3,6 +3,7 @@ nothing finished is lost and every run is done exactly once."""
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import sys
@@ -37,11 +38,9 @@ def test_sigkill_mid_stage_then_resume(study_file):
         stored = store.count()
         assert stored >= killed_at >= 8 and store.stage("screening").status == "running"
         keys = {r.key for r in store.runs()}
-    res = subprocess.run(cmd + ["--json", str(study_file.parent / "r.json")], timeout=300,
+    res = subprocess.run([*cmd, "--json", str(study_file.parent / "r.json")], timeout=300,
                          capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
-    import json
-
     out = json.loads((study_file.parent / "r.json").read_text())
     assert out["n_runs"] == 40
     assert out["n_runs_executed"] == 40 - stored  # the stored runs were not run again
