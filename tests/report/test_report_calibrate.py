@@ -43,9 +43,11 @@ def test_report_of_a_study_whose_screening_failed(tmp_path):
     path = build_report(tmp_path)
     doc = json.loads((path.parent / "report.json").read_text())
     assert doc["stages"]["screening"]["status"] == "failed"
+    assert doc["stages"]["rangefind"]["status"] == "disabled"
     assert doc["problems"] == []
     html = path.read_text("utf-8")
     scr = section(html, "screening")
     assert "Stage failed:" in scr and "excluded" in scr
+    assert "Disabled:" in section(html, "rangefind")
     excluded = read_tables(html)["t-excluded_runs"]["rows"]
     assert sum(r[0] == "screening" for r in excluded) == 6

@@ -66,6 +66,15 @@ def test_malformed_summary_is_named_and_the_report_still_builds(report_of, tmp_p
     assert "nonsense" in html
 
 
+def test_stage_disabled_in_the_study_is_shown_as_disabled(report_of):
+    study, _, _ = report_of(stages=("screening",))
+    with RunStore(study) as store:
+        store.set_meta("study", {"name": "x", "stages": {"rangefind": {"enabled": False}}})
+    html = build_report(study).read_text("utf-8")
+    assert "Disabled:" in section(html, "rangefind")
+    assert "Not run:" in section(html, "steepest")
+
+
 def test_empty_store_builds_a_report_of_missing_stages(tmp_path):
     RunStore(tmp_path / "s").close()
     html = build_report(tmp_path / "s").read_text("utf-8")

@@ -105,7 +105,7 @@ def _section(sid: str, title: str, status: str | None, body: str) -> str:
 def _guard(b: _Builder, view: StageView, render: Callable[[], str]) -> str:
     """Banner, then the stage's content (if it has any); a render error becomes a note."""
     out = banner(view)
-    if view.status in ("failed", "missing") and not any(
+    if view.status in ("failed", "missing", "disabled") and not any(
             k != "error" for k in view.summary):
         if view.runs:  # what the stage ran before it stopped
             out += b.table(T.stage_runs_table(view, b.data.symbols))

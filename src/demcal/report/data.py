@@ -1,9 +1,9 @@
 """Load everything the report shows from a study's run store (and nothing else).
 
 The store contract (meta keys, stage summaries, runs) is documented in ``demcal.calibrate``;
-this module only reads it. Every stage is reported with one of four states: ``done``,
-``failed`` (its summary holds ``{"error": ...}``), ``running`` (partial) or ``missing`` (never
-started).
+this module only reads it. Every stage is reported with one of five states: ``done``,
+``failed`` (its summary holds ``{"error": ...}``), ``running`` (partial), ``missing`` (never
+started) or ``disabled`` (turned off in the study and never started).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ class StageView:
     ----------
     name : str
         Stage key (``"screening"``).
-    status : {"done", "failed", "running", "missing"}
+    status : {"done", "failed", "running", "missing", "disabled"}
     summary : dict
         The stored JSON summary (empty when missing).
     runs : list of RunRecord
@@ -158,7 +158,9 @@ def load_report_data(study_dir: str | Path) -> ReportData:
     for name in [*STAGES, *(n for n in stored if n not in STAGES)]:
         rec = stored.get(name)
         if rec is None:
-            stages[name] = StageView(name, "missing", {}, by_stage.get(name, []))
+            conf = ((meta.get("study") or {}).get("stages") or {}).get(name) or {}
+            status = "disabled" if conf.get("enabled") is False else "missing"
+            stages[name] = StageView(name, status, {}, by_stage.get(name, []))
         else:
             summary = rec.summary if isinstance(rec.summary, dict) else {}
             stages[name] = StageView(name, rec.status, summary, by_stage.get(name, []))

@@ -57,7 +57,7 @@ code, .eq { font-family: "DejaVu Sans Mono", Consolas, monospace; font-size: 12.
 .status.done { background: #dff3e3; color: #1c6b2f; }
 .status.failed { background: #fbe0e0; color: #9b1c1c; }
 .status.running { background: #fff2cc; color: #7a5b00; }
-.status.missing { background: #eceef1; color: #5b6472; }
+.status.missing, .status.disabled { background: #eceef1; color: #5b6472; }
 .banner { border-left: 4px solid; padding: 6px 12px; margin: 8px 0; border-radius: 3px; }
 .banner.failed { border-color: #c62828; background: #fdf1f1; }
 .banner.missing { border-color: #8a93a0; background: #f4f5f7; }
@@ -110,6 +110,9 @@ def banner(view: StageView) -> str:
     if view.status == "missing":
         return ('<div class="banner missing"><b>Not run:</b> the store has no record of this '
                 "stage.</div>")
+    if view.status == "disabled":
+        return ('<div class="banner missing"><b>Disabled:</b> the study turns this stage '
+                "off.</div>")
     if view.status == "running":
         return ('<div class="banner running"><b>In progress:</b> this stage had not finished '
                 "when the report was built; what is shown is partial.</div>")

@@ -125,6 +125,8 @@ def stages_table(data: ReportData) -> Table:
         msg = view.error or view.summary.get("message") or ""
         if view.status == "missing":
             msg = "not run (no record in the store)"
+        elif view.status == "disabled":
+            msg = "disabled in the study"
         elif view.status == "running":
             msg = msg or "started, not finished"
         rows.append({"stage": view.title, "status": view.status, "runs": len(view.runs),
