@@ -65,3 +65,69 @@ def test_dask_local_cluster_runs_the_study(tmp_path):
     assert res["optimum"] == ref["optimum"]
     assert res["verification"] == ref["verification"]
     assert res["n_runs"] == ref["n_runs"] == 40
+
+
+def test_dask_worker_killed_mid_run_loses_nothing(tmp_path):
+    """SIGKILL one Dask worker process during the screening stage: the scheduler reruns its
+    task elsewhere, every run ends up stored once, and the answer is the undisturbed one."""
+    distributed = pytest.importorskip("distributed")
+    import signal
+    import threading
+    import time
+
+    from demcal.calibrate import calibrate
+    from demcal.store import RunStore
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    shutil.copy(EXAMPLE, a / "study.toml")
+    text = EXAMPLE.read_text().replace("noise_deg = 0.3", "noise_deg = 0.3\ndelay_s = 0.15")
+    (b / "study.toml").write_text(text)
+    ref = calibrate(a / "study.toml", workers=1)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        pids = list(client.run(os.getpid).values())
+        killed: list[int] = []
+
+        def killer() -> None:
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline and not killed:
+                time.sleep(0.05)
+                if (b / "demcal.sqlite").exists():
+                    with RunStore(b) as store:
+                        if store.count("screening") >= 2:
+                            os.kill(pids[0], signal.SIGKILL)
+                            killed.append(pids[0])
+
+        thread = threading.Thread(target=killer)
+        thread.start()
+        res = calibrate(b / "study.toml", dask=cluster.scheduler_address)
+        thread.join()
+    assert killed
+    assert res["optimum"] == ref["optimum"] and res["n_runs"] == 40
+    with RunStore(b) as store:
+        assert store.count() == 40
+
+
+@pytest.mark.slow
+def test_engine_runs_through_run_chunk_with_a_halved_time_step():
+    """The real virtual test behind the executor (tiny fill, ~30 s): typed outcomes, and the
+    retry's dt_scale halves the engine's time step."""
+    from demcal.virtual import preset_parameters
+
+    test = TestDef(kind="aor", fidelity="quick", overrides={"fill": {"count": 40}})
+    p = preset_parameters("corn_stalk", {"pp.surface_energy": 0.0})
+    full, half = run_local_results([RunTask("a", test, p, 1),
+                                    RunTask("b", test, p, 2, dt_scale=0.5)])
+    for r in (full, half):
+        assert r["outcome"] in ("pile", "column", "plug", "scattered", "unsettled", "unstable")
+        assert (r["aor_deg"] is None) == (r["outcome"] != "pile")
+    assert half["result"]["time_step_s"] == pytest.approx(0.5 * full["result"]["time_step_s"])
+
+
+def run_local_results(tasks: list[RunTask]) -> list[dict]:
+    got: dict[str, dict] = {}
+    run_local([tasks], lambda r: got.__setitem__(r["key"], r), workers=1)
+    return [got[t.key] for t in tasks]
