@@ -107,6 +107,9 @@ def banner(view: StageView) -> str:
     """Status badge and, unless done, a banner saying what failed or is missing."""
     if view.status == "failed":
         return f'<div class="banner failed"><b>Stage failed:</b> {escape(view.error or "")}</div>'
+    if view.status == "missing" and view.runs:
+        return ('<div class="banner missing"><b>Not run:</b> the store has no summary of this '
+                "stage, only the runs listed below (left from an earlier attempt).</div>")
     if view.status == "missing":
         return ('<div class="banner missing"><b>Not run:</b> the store has no record of this '
                 "stage.</div>")
