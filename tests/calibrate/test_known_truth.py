@@ -89,3 +89,19 @@ def test_without_rangefind_the_no_pile_points_are_excluded_and_named(study_file)
         sc = store.stage("screening")
         assert sc.status == "failed" and "excluded" in sc.summary["error"]
         assert len(sc.summary["excluded_points"]) == 6  # x8 high in half the PB runs
+
+
+def test_steepest_path_goes_on_while_the_error_falls(study_file):
+    """3 steps end still falling toward 43 deg: the path grows by 2 steps and stops at the
+    first no-pile step (x8 > 0.03); the best step is the last pile."""
+    text = study_file.read_text().replace("aor_deg = 40.0", "aor_deg = 43.0").replace(
+        "[stages.steepest]\nsteps = 5", "[stages.steepest]\nsteps = 3\nmax_steps = 9")
+    study_file.write_text(text)
+    calibrate(study_file)
+    with RunStore(study_file.parent) as store:
+        s = store.stage("steepest").summary
+        assert store.count("steepest") == 5
+    assert [x["outcome"] for x in s["steps"]] == ["pile", "pile", "pile", "column", "column"]
+    errs = [x["relative_error_percent"] for x in s["steps"][:3]]
+    assert errs[0] > errs[1] > errs[2]
+    assert s["best_step"] == 2 and "no pile" in s["message"]

@@ -328,28 +328,40 @@ def steepest(ctx: Context) -> dict[str, Any]:
     else:
         step_c = float(opts.step)
         start = {n: 0.0 for n in selected}
-    design = doe.steepest_path({n: (c if c != 0 else 1e-12) for n, c in coefs.items()},
-                               factors=space, n_points=opts.steps,
-                               steps={n: step_c for n in selected}, start=start,
-                               direction="ascent" if ascent else "descent", units="coded")
-    actual = design.actual
-    path = [{n: _clip(n, actual[i, j]) for j, n in enumerate(design.names)}
-            for i in range(design.n_runs)]
-    pts = [Point(i, r, ctx.full(path[i]), ctx.seed(i, r))
-           for i in range(len(path)) for r in range(ctx.study.replicates)]
-    recs = ctx.run("steepest", pts)
-    y, outcomes = _point_responses(recs, len(path))
-    err = [None if math.isnan(v) else abs(v - ctx.target) / ctx.target * 100 for v in y]
-    piles = [i for i, e in enumerate(err) if e is not None]
-    if not piles:
-        msg = "steepest: no step of the path formed a pile"
-        ctx.store.set_stage("steepest", "failed", {"error": msg}, inputs_hash=h)
-        raise StudyError(msg)
-    best = piles[0]
-    for i in range(piles[0] + 1, len(path)):
-        if err[i] is None or err[i] > err[best]:  # type: ignore[operator]
+    n_points = opts.steps
+    while True:
+        design = doe.steepest_path({n: (c if c != 0 else 1e-12) for n, c in coefs.items()},
+                                   factors=space, n_points=n_points,
+                                   steps={n: step_c for n in selected}, start=start,
+                                   direction="ascent" if ascent else "descent", units="coded")
+        actual = design.actual
+        path = [{n: _clip(n, actual[i, j]) for j, n in enumerate(design.names)}
+                for i in range(design.n_runs)]
+        pts = [Point(i, r, ctx.full(path[i]), ctx.seed(i, r))
+               for i in range(len(path)) for r in range(ctx.study.replicates)]
+        recs = ctx.run("steepest", pts)  # earlier steps are stored: only new ones run
+        y, outcomes = _point_responses(recs, len(path))
+        err = [None if math.isnan(v) else abs(v - ctx.target) / ctx.target * 100 for v in y]
+        piles = [i for i, e in enumerate(err) if e is not None]
+        if not piles:
+            msg = "steepest: no step of the path formed a pile"
+            ctx.store.set_stage("steepest", "failed", {"error": msg}, inputs_hash=h)
+            raise StudyError(msg)
+        best = piles[0]
+        for i in range(piles[0] + 1, len(path)):
+            if err[i] is None or err[i] > err[best]:  # type: ignore[operator]
+                break
+            best = i
+        # the error still falls at the last step: go on along the path (bounded)
+        if best < len(path) - 1 or n_points >= opts.max_steps or path[-1] == path[-2]:
             break
-        best = i
+        n_points = min(opts.max_steps, n_points + 2)
+    if best == len(path) - 1:
+        message = (f"the relative error still falls at the last step ({len(path)} steps, "
+                   f"max_steps {opts.max_steps}): the target may lie beyond the path")
+    else:
+        message = (f"after step {best} the relative error grows or no pile forms: step {best} "
+                   "is the centre")
     step_actual = {n: abs(step_c) * space[n].half_range for n in selected}
     centre = dict(path[best])
     levels = {}
@@ -370,7 +382,7 @@ def steepest(ctx: Context) -> dict[str, Any]:
                           "outcome": outcomes[i], "relative_error_percent": err[i]}
                          for i in range(len(path))],
                "best_step": best, "centre": {n: levels[n][1] for n in selected},
-               "levels": levels}
+               "levels": levels, "message": message}
     ctx.store.set_stage("steepest", "done", summary, inputs_hash=h)
     ctx.results["steepest"] = summary
     return summary

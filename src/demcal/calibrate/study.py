@@ -171,6 +171,8 @@ class SteepestOptions(_M):
 
     enabled: bool = True
     steps: int = Field(5, ge=2, le=20, description="points on the path")
+    max_steps: int = Field(9, ge=2, le=40, description="the path goes on (2 steps at a time) "
+                           "while the error still falls at its end, up to this many points")
     step: Literal["auto"] | float = Field(
         "auto", description="'auto': the path spans each factor's range; a number: coded step")
 
@@ -353,6 +355,7 @@ runs = 12                 # Plackett-Burman runs
 
 [stages.steepest]
 steps = 5
+max_steps = 9             # go on while the error still falls at the path's end
 step = "auto"             # or a coded step, e.g. 0.5
 
 [stages.rsm]
