@@ -131,3 +131,29 @@ def run_local_results(tasks: list[RunTask]) -> list[dict]:
     got: dict[str, dict] = {}
     run_local([tasks], lambda r: got.__setitem__(r["key"], r), workers=1)
     return [got[t.key] for t in tasks]
+
+
+def test_interrupt_stops_the_pool_and_keeps_finished_results():
+    """An exception in the parent (as Ctrl-C) while workers run: results already handed over
+    are kept, queued tasks are dropped and no worker process is left running."""
+    import multiprocessing
+
+    test = TestDef(kind="analytic", analytic={**OPTIONS, "delay_s": 0.3})
+    tasks = [RunTask(f"k{i}", test, {"pp.static_friction": 0.05 * i}, seed=i)
+             for i in range(12)]
+    got: list[str] = []
+
+    class Stop(BaseException):
+        pass
+
+    def on_result(r: dict) -> None:
+        got.append(r["key"])
+        if len(got) == 3:
+            raise Stop
+
+    with pytest.raises(Stop):
+        run_local([[t] for t in tasks], on_result, workers=2)
+    assert len(got) == 3
+    for child in multiprocessing.active_children():
+        child.join(5)
+    assert not [c for c in multiprocessing.active_children() if c.is_alive()]

@@ -94,6 +94,11 @@ def calibrate_cmd(
                          progress=on_progress)
         try:
             result = run_stages(ctx)
+        except KeyboardInterrupt:
+            n = ctx.store.count()
+            console.print(f"[yellow]interrupted:[/yellow] {n} finished runs are stored; run "
+                          f"`demcal calibrate {study}` again to resume")
+            raise typer.Exit(130) from None
         except ExternalPending as pending:
             path = write_run_sheet(pending, ctx.runner, Path(study).resolve().parent)
             console.print(f"{pending.stage}: {len(pending.points)} runs to do externally; run "

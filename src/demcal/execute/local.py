@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
@@ -33,6 +34,7 @@ def default_workers() -> int:
 
 def _init_worker(threads: int) -> None:
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
 
 
 def run_local(chunks: Sequence[list[RunTask]], on_result: OnResult, *,
@@ -65,6 +67,12 @@ def run_local(chunks: Sequence[list[RunTask]], on_result: OnResult, *,
                 for r in fut.result():
                     on_result(r)
     except BaseException:
+        # Ctrl-C or an error: every finished run is stored already; drop the queue and stop
+        # the runs in flight now rather than wait for them
+        procs = list(getattr(pool, "_processes", {}).values())
         pool.shutdown(wait=False, cancel_futures=True)
+        for proc in procs:
+            if proc.is_alive():
+                proc.terminate()
         raise
     pool.shutdown(wait=True)
