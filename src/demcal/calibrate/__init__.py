@@ -68,8 +68,13 @@ Each RunRecord: stage, point (design row index), replicate, params (full set), s
 status done|failed, outcome (pile|column|plug|unsettled|unstable), aor_deg, result (the
 AoRResult.to_dict() or the stand-in's dict), reason, attempts, timings, artefacts.
 
-Also written (extra keys, readers may ignore them): optimize "classifier" and each candidate's
-"desirability"; verification "n_piles"; a retried run's result "first_attempt".
+Also written (extra keys, readers may ignore them): steepest "message"; optimize
+"classifier" and each candidate's "desirability"; verification "n_piles"; a retried run's
+result "first_attempt"; meta "result" also holds "optimum_full" (every parameter),
+"n_runs_executed", "ranges" (final factor ranges), "rsm_adequate" and "stages" (per stage:
+design, factors, responses, selected). Each stage row's inputs_hash is a hash of the stage's
+inputs (ranges, options, fixed values, test); runs are reused by run key, so a changed study
+re-runs only the runs whose key changed.
 """
 
 from demcal.calibrate.pipeline import STAGES, calibrate, open_study
