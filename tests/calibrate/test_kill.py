@@ -13,7 +13,7 @@ from demcal.store import RunStore
 
 
 def test_sigkill_mid_stage_then_resume(study_file):
-    text = study_file.read_text().replace("noise_deg = 0.3", "noise_deg = 0.3\ndelay_s = 0.1")
+    text = study_file.read_text().replace("noise_deg = 0.3", "noise_deg = 0.3\ndelay_s = 0.05")
     study_file.write_text(text)
     cmd = [sys.executable, "-m", "demcal", "calibrate", str(study_file), "--workers", "1",
            "--no-report"]
