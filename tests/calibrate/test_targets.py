@@ -38,6 +38,8 @@ def test_target_from_photos(study_file):
     assert [round(p["mean_deg"]) for p in t["photos"]] == [38, 42]
     assert abs(t["aor_deg"] - 40.0) < 0.5 and abs(ctx.target - t["aor_deg"]) < 1e-12
     assert t["photos"][0]["file"].endswith("p0.png")
+    for p in t["photos"]:
+        assert Path(p["figure"]).stat().st_size > 1000  # the diagnostic figure
 
 
 def test_corn_stalk_study_target_and_fixed_values(tmp_path):

@@ -36,18 +36,28 @@ def test_def(study: Study) -> TestDef:
                    analytic=dict(t.analytic), backend=study.backend)
 
 
-def resolve_target(study: Study) -> dict[str, Any]:
-    """The target AoR (deg) as the store's meta "target": from a value, photos or a file."""
+def resolve_target(study: Study, figures: Path | None = None) -> dict[str, Any]:
+    """The target AoR (deg) as the store's meta "target": from a value, photos or a file.
+
+    With photos and ``figures`` (a folder), a diagnostic figure of each photo is saved there.
+    """
     t = study.target
     if t.aor_deg is not None:
         return {"aor_deg": float(t.aor_deg), "std_deg": t.std_deg, "n": t.n, "source": "value",
                 "photos": []}
     if t.photos:
-        from demcal.measure import photos_aor
+        from demcal.measure import photos_aor, plot_photo_aor
 
         table = photos_aor(t.photos)
-        photos = [{"file": r.source, "left_deg": r.left_deg, "right_deg": r.right_deg,
-                   "mean_deg": r.mean_deg, "figure": None} for r in table.results]
+        photos = []
+        for i, r in enumerate(table.results):
+            fig = None
+            if figures is not None:
+                figures.mkdir(parents=True, exist_ok=True)
+                fig = str(figures / f"target_photo_{i + 1}.png")
+                plot_photo_aor(r, fig)
+            photos.append({"file": r.source, "left_deg": r.left_deg, "right_deg": r.right_deg,
+                           "mean_deg": r.mean_deg, "figure": fig})
         std = table.std_deg
         return {"aor_deg": table.mean_deg, "std_deg": None if not np.isfinite(std) else std,
                 "n": len(photos), "source": "photos", "photos": photos}
@@ -86,7 +96,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     path = Path(study_file).resolve()
     study = load_study(path)
     store = RunStore(path.parent)
-    target = resolve_target(study)
+    target = resolve_target(study, figures=path.parent / "figures")
     fixed, physical = _fixed(study)
     factors = [{"name": f.name, "symbol": f.symbol, "low": f.low, "high": f.high,
                 "unit": f.unit} for f in study.factors]
