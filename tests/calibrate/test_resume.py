@@ -25,12 +25,12 @@ class Counting:
         self.keys: Counter[str] = Counter()
         self.fail_after = fail_after
 
-    def __call__(self, chunk):
+    def __call__(self, chunk, on_result=None):
         out = []
         for t in chunk:
             if self.fail_after is not None and sum(self.keys.values()) >= self.fail_after:
                 raise Killed  # in the middle of the screening stage
-            out += REAL_RUN_CHUNK([t])
+            out += REAL_RUN_CHUNK([t], on_result)
             self.keys[t.key] += 1
         return out
 

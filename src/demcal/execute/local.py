@@ -13,7 +13,6 @@ import multiprocessing
 import os
 import signal
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
 
 from demcal.execute import tasks as _tasks
@@ -44,35 +43,29 @@ def run_local(chunks: Sequence[list[RunTask]], on_result: OnResult, *,
     ``workers == 1`` runs inline (numba keeps its thread count); more start a spawn pool.
     """
     if workers <= 1 or len(chunks) <= 1:
-        for chunk in chunks:
-            for r in _tasks.run_chunk(chunk):
-                on_result(r)
+        for chunk in chunks:  # each run handed over the moment it ends
+            _tasks.run_chunk(chunk, on_result)
         return
     ctx = multiprocessing.get_context("spawn")
     old = os.environ.get("NUMBA_NUM_THREADS")
     os.environ["NUMBA_NUM_THREADS"] = str(threads_per_worker)  # inherited by spawned workers
     try:
-        pool = ProcessPoolExecutor(max_workers=min(workers, len(chunks)), mp_context=ctx,
-                                   initializer=_init_worker, initargs=(threads_per_worker,))
+        pool = ctx.Pool(min(workers, len(chunks)), initializer=_init_worker,
+                        initargs=(threads_per_worker,))
     finally:
         if old is None:
             os.environ.pop("NUMBA_NUM_THREADS", None)
         else:
             os.environ["NUMBA_NUM_THREADS"] = old
     try:
-        pending: set[Future] = {pool.submit(_tasks.run_chunk, list(c)) for c in chunks}
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in done:
-                for r in fut.result():
-                    on_result(r)
+        for results in pool.imap_unordered(_tasks.run_chunk, [list(c) for c in chunks]):
+            for r in results:
+                on_result(r)
     except BaseException:
         # Ctrl-C or an error: every finished run is stored already; drop the queue and stop
         # the runs in flight now rather than wait for them
-        procs = list(getattr(pool, "_processes", {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for proc in procs:
-            if proc.is_alive():
-                proc.terminate()
+        pool.terminate()
+        pool.join()
         raise
-    pool.shutdown(wait=True)
+    pool.close()
+    pool.join()

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -45,12 +46,11 @@ class RunTask:
     dt_scale: float = 1.0
 
 
-def _aor_chunk(tasks: list[RunTask]) -> list[dict[str, Any]]:
+def _aor_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> None:
     from demcal.errors import SimulationUnstable
     from demcal.virtual import fidelity_config, run_aor
 
     test = tasks[0].test
-    out: list[dict[str, Any]] = []
     # one engine per time-step scale (worlds of a batch share the fraction)
     for scale in sorted({t.dt_scale for t in tasks}):
         group = [t for t in tasks if t.dt_scale == scale]
@@ -58,42 +58,52 @@ def _aor_chunk(tasks: list[RunTask]) -> list[dict[str, Any]]:
         if scale != 1.0:
             config = config.model_copy(update={"dt_fraction": config.dt_fraction * scale})
         t0 = time.perf_counter()
+        sent: set[int] = set()
+
+        def world_done(i: int, r: Any, group: list[RunTask] = group,
+                       sent: set[int] = sent) -> None:
+            sent.add(i)
+            emit({"key": group[i].key, "outcome": str(r.outcome), "aor_deg": r.aor_deg,
+                  "reason": r.reason, "wall_time_s": r.wall_time_s, "result": r.to_dict()})
+
         try:
-            results = run_aor([t.params for t in group], config=config,
-                              seeds=[t.seed for t in group], backend=test.backend)
+            run_aor([t.params for t in group], config=config, seeds=[t.seed for t in group],
+                    backend=test.backend, on_result=world_done)
         except SimulationUnstable as exc:
             wall = time.perf_counter() - t0
-            out += [{"key": t.key, "outcome": "unstable", "aor_deg": None,
-                     "reason": str(exc), "wall_time_s": wall, "result": {}} for t in group]
-            continue
-        for t, r in zip(group, results, strict=True):
-            d = r.to_dict()
-            out.append({"key": t.key, "outcome": str(r.outcome), "aor_deg": r.aor_deg,
-                        "reason": r.reason, "wall_time_s": r.wall_time_s, "result": d})
-    return out
+            for i, t in enumerate(group):
+                if i not in sent:
+                    emit({"key": t.key, "outcome": "unstable", "aor_deg": None,
+                          "reason": str(exc), "wall_time_s": wall, "result": {}})
 
 
-def run_chunk(tasks: list[RunTask]) -> list[dict[str, Any]]:
+def run_chunk(tasks: list[RunTask],
+              on_result: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
     """Run a chunk of tasks (same test) and return one result dict per task.
 
-    Each dict also names the ``worker`` that ran it: ``{"pid", "numba_threads"}``.
+    ``on_result(result)`` (in the same process) is called the moment each run ends, before
+    the chunk ends (worlds of one batched engine end at different times). Each dict also
+    names the ``worker`` that ran it: ``{"pid", "numba_threads"}``.
     """
     if not tasks:
         return []
     worker = {"pid": os.getpid(), "numba_threads": os.environ.get("NUMBA_NUM_THREADS")}
-    return [{**r, "worker": worker} for r in _run(tasks)]
+    out: list[dict[str, Any]] = []
 
+    def emit(r: dict[str, Any]) -> None:
+        r = {**r, "worker": worker}
+        out.append(r)
+        if on_result is not None:
+            on_result(r)
 
-def _run(tasks: list[RunTask]) -> list[dict[str, Any]]:
     if tasks[0].test.kind == "analytic":
         from demcal.execute.analytic import analytic_aor
 
-        out = []
         for t in tasks:
             t0 = time.perf_counter()
             r = analytic_aor(t.params, t.seed, t.test.analytic, dt_scale=t.dt_scale)
-            out.append({"key": t.key, "outcome": r["outcome"], "aor_deg": r["aor_deg"],
-                        "reason": r["reason"], "wall_time_s": time.perf_counter() - t0,
-                        "result": r})
-        return out
-    return _aor_chunk(tasks)
+            emit({"key": t.key, "outcome": r["outcome"], "aor_deg": r["aor_deg"],
+                  "reason": r["reason"], "wall_time_s": time.perf_counter() - t0, "result": r})
+    else:
+        _aor_chunk(tasks, emit)
+    return out
