@@ -120,7 +120,7 @@ def test_engine_runs_through_run_chunk_with_a_halved_time_step():
     test = TestDef(kind="aor", fidelity="quick", overrides={"fill": {"count": 40}})
     p = preset_parameters("corn_stalk", {"pp.surface_energy": 0.0})
     full, half = run_local_results([RunTask("a", test, p, 1),
-                                    RunTask("b", test, p, 2, dt_scale=0.5)])
+                                    RunTask("b", test, p, 1, dt_scale=0.5)])
     for r in (full, half):
         assert r["outcome"] in ("pile", "column", "plug", "scattered", "unsettled", "unstable")
         assert (r["aor_deg"] is None) == (r["outcome"] != "pile")
