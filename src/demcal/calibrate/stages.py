@@ -298,7 +298,8 @@ def screening(ctx: Context) -> dict[str, Any]:
                 selected.append(e["term"])
         if len(selected) > len(sig[:opts.max_factors]):
             why += f"; filled up to {need} by effect rank"
-    summary.update(anova=rs.anova().to_records(), fit=rs.anova().fit.to_dict(), effects=effects,
+    table = rs.anova()
+    summary.update(anova=table.to_records(), fit=table.fit.to_dict(), effects=effects,
                    selected=selected,
                    message=f"selected {', '.join(selected)} ({why}); "
                    + _exclusion_note(excluded, outcomes))
