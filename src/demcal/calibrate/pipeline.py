@@ -119,7 +119,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     runner = Runner(store, test_def(study),
                     workers=workers or ex.workers or default_workers(),
                     dask=dask if dask is not None else ex.dask, chunk=chunk,
-                    progress=progress, external=external)
+                    progress=progress, external=external,
+                    figures_dir=path.parent / "figures" / "runs")
     return st.Context(study, store, runner, fixed, float(target["aor_deg"]),
                       [dict(f) for f in factors])
 

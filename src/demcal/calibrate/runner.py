@@ -12,6 +12,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from demcal.execute.local import run_local
@@ -61,11 +62,14 @@ class Runner:
         ``progress(stage, done, total)`` after each run.
     external : bool
         Run nothing: :meth:`run` returns the missing points instead (external mode).
+    figures_dir : path, optional
+        Engine runs that form a pile save a side view with the fitted flanks there
+        (``<stage>_<key>.png``, in the run's ``artefacts["pile_png"]``).
     """
 
     def __init__(self, store: RunStore, test: TestDef, *, workers: int = 1, dask: Any = None,
                  chunk: int = 1, progress: Callable[[str, int, int], None] | None = None,
-                 external: bool = False) -> None:
+                 external: bool = False, figures_dir: str | Path | None = None) -> None:
         self.store = store
         self.test = test
         self.test_hash = params_hash(test.identity())
@@ -74,6 +78,7 @@ class Runner:
         self.chunk = max(1, chunk)
         self.progress = progress
         self.external = external
+        self.figures_dir = None if figures_dir is None else Path(figures_dir)
         self.executed = 0
 
     def key(self, stage: str, p: Point) -> str:
@@ -125,11 +130,17 @@ class Runner:
         except PackageNotFoundError:  # pragma: no cover
             return "demcal"
 
+    def _plot_path(self, stage: str, key: str) -> str | None:
+        if self.figures_dir is None or self.test.kind != "aor":
+            return None
+        return str(self.figures_dir / f"{stage}_{key[:16]}.png")
+
     def _execute(self, stage: str, points: list[Point], dt_scale: float, attempts: int,
                  total: int, done0: int) -> list[Point]:
         """Run points; return those to retry."""
         by_key = {self.key(stage, p): p for p in points}
-        tasks = [RunTask(k, self.test, p.params, p.seed, dt_scale) for k, p in by_key.items()]
+        tasks = [RunTask(k, self.test, p.params, p.seed, dt_scale, self._plot_path(stage, k))
+                 for k, p in by_key.items()]
         chunks = [tasks[i:i + self.chunk] for i in range(0, len(tasks), self.chunk)]
         retry: list[Point] = []
         started = time.time()

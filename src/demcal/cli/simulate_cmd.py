@@ -127,7 +127,8 @@ def simulate_aor(
             progress.update(tasks[run], phase=phase, t=t)
 
         results = run_aor([params] * seeds, config=config, seeds=seed_list, backend=backend,
-                          progress=on_progress, vtk_dir=vtk)
+                          progress=on_progress, vtk_dir=vtk,
+                          plot_paths=None if plot is None else [plot] + [None] * (seeds - 1))
     summary = summarize_runs(results)
     summary["runs"] = [r.to_dict() for r in results]
     summary["fidelity"] = fidelity
@@ -150,18 +151,11 @@ def simulate_aor(
         reasons = {r.reason for r in results if r.reason}
         console.print(f"outcome: [bold]{summary['outcome']}[/bold] (no angle). "
                       + "; ".join(sorted(reasons)))
-    if plot is not None:
-        _plot_pile(results[0], plot)
+    if plot is not None and "pile_png" not in results[0].artefacts:
+        console.print(f"[yellow]no pile picture: the first run ended as "
+                      f"{results[0].outcome}[/yellow]")
     if json_out is not None:
         json_out.write_text(json.dumps(summary, indent=1, default=float))
     if any(r.outcome == "unstable" for r in results):
         raise typer.Exit(EXIT_FAILURE)
 
-
-def _plot_pile(result, path: Path) -> None:
-    """Side view of the pile with fitted flank lines (from the measurement's artefact)."""
-    fig_path = result.artefacts.get("side_view_png")
-    if fig_path is None:
-        console.print("[yellow]no pile picture: the test formed no pile[/yellow]")
-        return
-    Path(path).write_bytes(Path(fig_path).read_bytes())

@@ -37,13 +37,15 @@ class TestDef:
 
 @dataclass(frozen=True)
 class RunTask:
-    """One run: its store key, full parameter set (SI), seed and time-step scale."""
+    """One run: its store key, full parameter set (SI), seed, time-step scale and, optionally,
+    where to save a picture of its pile (``plot_path``, not part of the run's identity)."""
 
     key: str
     test: TestDef
     params: dict[str, float]
     seed: int
     dt_scale: float = 1.0
+    plot_path: str | None = None
 
 
 def _aor_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> None:
@@ -68,7 +70,8 @@ def _aor_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> 
 
         try:
             run_aor([t.params for t in group], config=config, seeds=[t.seed for t in group],
-                    backend=test.backend, on_result=world_done)
+                    backend=test.backend, on_result=world_done,
+                    plot_paths=[t.plot_path for t in group])
         except SimulationUnstable as exc:
             wall = time.perf_counter() - t0
             for i, t in enumerate(group):

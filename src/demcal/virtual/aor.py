@@ -110,6 +110,7 @@ class _Run:
     phase_times: dict[str, float] = field(default_factory=dict)
     wall_time: float = 0.0
     sphere_steps: int = 0
+    plot_path: str | Path | None = None
 
 
 def _capacity(config: AoRTestConfig, template) -> int:
@@ -131,6 +132,7 @@ def _capacity(config: AoRTestConfig, template) -> int:
 def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestConfig,
             seeds: Sequence[int], backend: str = "auto", progress: Progress | None = None,
             vtk_dir: str | Path | None = None,
+            plot_paths: Sequence[str | Path | None] | None = None,
             on_result: Callable[[int, AoRResult], None] | None = None) -> list[AoRResult]:
     """Run a batch of cylinder-lifting tests as worlds of one engine.
 
@@ -149,6 +151,9 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
         Called as ``progress(run, phase, sim_time_s, wall_time_s)`` at every check.
     vtk_dir : path, optional
         If given, VTK snapshots of every run at the end of each phase are written there.
+    plot_paths : sequence of path or None, optional
+        One entry per run: where to save a side view of its pile with the fitted flank lines
+        (PNG; only for a ``pile`` outcome; the path is in ``artefacts["pile_png"]``).
     on_result : callable, optional
         Called as ``on_result(run, result)`` the moment a run ends (before the batch ends), so
         a caller can store it at once.
@@ -163,6 +168,9 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
                          f"{len(parameter_sets)} sets")
     if not parameter_sets:
         return []
+    if plot_paths is not None and len(plot_paths) != len(parameter_sets):
+        raise InputError(f"plot_paths needs one entry per parameter set; got {len(plot_paths)} "
+                         f"for {len(parameter_sets)} sets")
     template = make_template(config.particle)
     cap = _capacity(config, template)
     g = config.geometry
@@ -178,7 +186,8 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
             raise InputError(f"parameter set {i} lacks {', '.join(sorted(missing))}")
         rng = np.random.default_rng(int(seed))
         scales = draw_scales(cap, config.particle, rng)
-        runs.append(_Run(i, params, int(seed), rng, scales, cap))
+        runs.append(_Run(i, params, int(seed), rng, scales, cap,
+                         plot_path=None if plot_paths is None else plot_paths[i]))
         walls = [
             PlaneWall(origin=[0.0, 0.0, 0.0], normal=[0.0, 0.0, 1.0], half_size=(half, half),
                       material="wall", name="plate"),
@@ -398,7 +407,13 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
             criteria=config.outcome)
     measured: dict[str, Any] = {}
     if outcome == Outcome.PILE:
-        measured = measure_pile(centres, radii, config.measurement)
+        figure = run.plot_path
+        if figure is not None:
+            try:
+                Path(figure).parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise InputError(f"plot path {str(figure)!r}: {exc.strerror}") from None
+        measured = measure_pile(centres, radii, config.measurement, figure=figure)
         if measured.get("error"):
             outcome = Outcome.SCATTERED
             reason = measured["error"]
@@ -426,6 +441,7 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
         reason=reason,
         views_deg=measured.get("views", []),
         phase_times_s=dict(run.phase_times),
+        artefacts={"pile_png": measured["figure"]} if measured.get("figure") else {},
     )
     run.done = True
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,8 +21,8 @@ def _finite(value: float) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def measure_pile(centres: np.ndarray, radii: np.ndarray,
-                 options: MeasurementOptions) -> dict[str, Any]:
+def measure_pile(centres: np.ndarray, radii: np.ndarray, options: MeasurementOptions,
+                 figure: str | Path | None = None) -> dict[str, Any]:
     """Angle of repose of a settled pile on the plate z = 0 by both measure methods.
 
     Parameters
@@ -32,6 +33,9 @@ def measure_pile(centres: np.ndarray, radii: np.ndarray,
         Sphere radii, m.
     options : MeasurementOptions
         Views, the method whose angle is reported as ``aor_deg``, the fit window.
+    figure : path, optional
+        If given and the pile was measured, a side view of the first view with the fitted
+        flank lines is saved there (PNG) and its path returned as ``figure``.
 
     Returns a dict with ``aor_deg`` (the chosen method's mean over views), ``aor_left_deg``,
     ``aor_right_deg``, ``aor_std_deg``, ``aor_silhouette_deg``, ``aor_profile_deg``,
@@ -72,4 +76,7 @@ def measure_pile(centres: np.ndarray, radii: np.ndarray,
     }
     if errors:
         out["measure_errors"] = errors
+    if figure is not None:
+        measure.plot_pile_aor(main, figure, centres, radii)
+        out["figure"] = str(figure)
     return out
