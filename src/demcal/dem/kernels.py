@@ -22,7 +22,7 @@ import math
 from numba import njit
 
 from demcal.dem.contact import normal_contact, tangential_contact
-from demcal.dem.walls import WALL_NONE, closest_point
+from demcal.dem.walls import WALL_NONE, closest_point, surely_beyond
 
 # pair-parameter fields (last axis of ``pair_params``)
 P_ESTAR = 0
@@ -369,10 +369,16 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             s_wall_force[i, k, 2] = 0.0
             if wt == WALL_NONE:
                 continue
-            d, nx, ny, nz, _qx, _qy, _qz = closest_point(
-                wt, wall_origin[w, k, 0], wall_origin[w, k, 1], wall_origin[w, k, 2],
-                wall_geom[w, k], pix, piy, piz)
-            overlap = ri - d
+            # most spheres are far from most walls: a bound without square roots skips them
+            far = surely_beyond(wt, wall_origin[w, k, 0], wall_origin[w, k, 1],
+                                wall_origin[w, k, 2], wall_geom[w, k], pix, piy, piz,
+                                ri + contact_margin)
+            overlap = -contact_margin
+            if not far:
+                d, nx, ny, nz, _qx, _qy, _qz = closest_point(
+                    wt, wall_origin[w, k, 0], wall_origin[w, k, 1], wall_origin[w, k, 2],
+                    wall_geom[w, k], pix, piy, piz)
+                overlap = ri - d
             if overlap <= -contact_margin:
                 w_hist[i, k, 0] = 0.0
                 w_hist[i, k, 1] = 0.0

@@ -22,7 +22,7 @@ from numba import njit
 from demcal.errors import InputError
 
 __all__ = ["GEOM_SIZE", "WALL_NONE", "WALL_PLANE", "WALL_TUBE", "PlaneWall", "TubeWall",
-           "closest_point", "pack_walls"]
+           "closest_point", "pack_walls", "surely_beyond"]
 
 WALL_NONE = 0
 WALL_PLANE = 1
@@ -159,6 +159,39 @@ def pack_walls(walls_per_world: list[list[PlaneWall | TubeWall]], max_walls: int
             geom[w, k] = g
             vel[w, k] = _vec3(wall.velocity, f"wall {wall.name!r} velocity")
     return wtype, origin, geom, vel
+
+
+@njit(cache=True)
+def surely_beyond(wtype, ox, oy, oz, geom, px, py, pz, reach):
+    """True when every point of the wall is farther than ``reach`` from ``p`` (a cheap bound).
+
+    A conservative test, no square roots: a plane's points all lie in its plane, a tube's
+    between radii ``r_in`` and ``r_out`` and heights 0 and ``length`` of its axis, so a point
+    beyond those by more than ``reach`` (times 1 + 1e-9, against rounding) is surely out of
+    contact. False means "compute the distance" (:func:`closest_point`), not "in contact".
+    """
+    margin = reach * (1.0 + 1e-9)
+    sx = px - ox
+    sy = py - oy
+    sz = pz - oz
+    if wtype == WALL_PLANE:
+        dn = sx * geom[0] + sy * geom[1] + sz * geom[2]
+        return dn > margin or dn < -margin
+    ax = geom[0]
+    ay = geom[1]
+    az = geom[2]
+    z = sx * ax + sy * ay + sz * az
+    if z < -margin or z > geom[5] + margin:
+        return True
+    rx = sx - z * ax
+    ry = sy - z * ay
+    rz = sz - z * az
+    rho2 = rx * rx + ry * ry + rz * rz
+    out = geom[4] + margin
+    if rho2 > out * out:
+        return True
+    inner = geom[3] - margin
+    return inner > 0.0 and rho2 < inner * inner
 
 
 @njit(cache=True)
