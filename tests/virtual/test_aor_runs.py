@@ -53,7 +53,7 @@ def _quick_aor(params, seeds):
 @pytest.mark.parametrize(("name", "low", "high"), [
     ("pp.static_friction", 0.2, 0.9),
     ("pp.rolling_friction", 0.02, 0.4),
-    ("pp.surface_energy", 0.0, 0.015),
+    ("pp.surface_energy", 0.0, 0.004),   # a pile up to ~0.005 J/m^2 (study.toml notes)
 ])
 def test_aor_rises_with(name, low, high):
     seeds = (11, 12, 13)

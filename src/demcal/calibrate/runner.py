@@ -64,7 +64,7 @@ class Runner:
         Run nothing: :meth:`run` returns the missing points instead (external mode).
     figures_dir : path, optional
         Engine runs that form a pile save a side view with the fitted flanks there
-        (``<stage>_<key>.png``, in the run's ``artefacts["pile_png"]``).
+        (``<stage>_<hash>.png``, in the run's ``artefacts["pile_png"]``).
     """
 
     def __init__(self, store: RunStore, test: TestDef, *, workers: int = 1, dask: Any = None,
@@ -133,7 +133,8 @@ class Runner:
     def _plot_path(self, stage: str, key: str) -> str | None:
         if self.figures_dir is None or self.test.kind != "aor":
             return None
-        return str(self.figures_dir / f"{stage}_{key[:16]}.png")
+        digest = key.partition(":")[2]  # keys are "<stage>:<hash>"
+        return str(self.figures_dir / f"{stage}_{digest[:12]}.png")
 
     def _execute(self, stage: str, points: list[Point], dt_scale: float, attempts: int,
                  total: int, done0: int) -> list[Point]:

@@ -34,6 +34,7 @@ from demcal.virtual.factory import SphereGrid, draw_scales, make_template, place
 from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled
 from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
+from demcal.virtual.settle import settle_state
 
 __all__ = ["AoRResult", "run_aor"]
 
@@ -274,14 +275,14 @@ def _enter(run: _Run, phase: str, t: float) -> None:
 
 
 def _settled(sim: Simulation, w: int, config: AoRTestConfig) -> tuple[bool, float, float]:
+    """The phase's settle criterion (:mod:`demcal.virtual.settle`): (settled, rms, max)."""
     v = sim.clump_velocities(w)
-    if len(v) == 0:
-        return True, 0.0, 0.0
-    speed2 = np.sum(v * v, axis=1)
-    rms = float(math.sqrt(speed2.mean()))
-    vmax = float(math.sqrt(speed2.max()))
-    ph = config.phases
-    return (rms < ph.settle_rms_speed and vmax < ph.settle_max_speed), rms, vmax
+    centres, radii, sphere_clump = sim.spheres(w)
+    ph, p = config.phases, config.particle
+    state = settle_state(v, np.unique(sphere_clump), centres, radii, sphere_clump,
+                         rms_limit=ph.settle_rms_speed, max_limit=ph.settle_max_speed,
+                         tolerance=0.05 * p.diameter * p.size_min)
+    return state.settled, state.rms_speed, state.max_speed
 
 
 def _material_top(sim: Simulation, w: int) -> float:

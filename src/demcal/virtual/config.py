@@ -94,16 +94,20 @@ class Phases(_Model):
 
     A phase is *settled* when the root-mean-square clump speed (i.e. the kinetic energy per
     particle, KE/n = m v_rms^2/2) is below ``settle_rms_speed`` and the largest clump speed is
-    below ``settle_max_speed``; a phase that does not settle within its time limit ends the test
-    with the outcome ``unsettled``.
+    below ``settle_max_speed``, both over the clumps that touch another clump (a lone stalk
+    rolling away across the plate is not part of the pile; see :mod:`demcal.virtual.settle`);
+    a phase that does not settle within its time limit ends the test with the outcome
+    ``unsettled``.
     """
 
     lift_speed: float = Field(0.05, gt=0, description="cylinder lifting speed, m/s")
     lift_height: float | None = Field(
         None, gt=0, description="lift distance, m; default: until the cylinder clears the material"
         " (at most its height)")
-    settle_rms_speed: float = Field(0.005, gt=0, description="settled: rms speed below, m/s")
-    settle_max_speed: float = Field(0.03, gt=0, description="settled: max speed below, m/s")
+    settle_rms_speed: float = Field(0.005, gt=0, description="settled: rms speed of the pile's"
+                                    " clumps below, m/s")
+    settle_max_speed: float = Field(0.03, gt=0, description="settled: max speed of the pile's "
+                                    "clumps below, m/s")
     fill_settle_max_time: float = Field(1.5, gt=0, description="time limit to settle the fill, s")
     pile_settle_max_time: float = Field(1.5, gt=0, description="time limit to settle the pile, s")
     min_settle_time: float = Field(0.02, ge=0, description="shortest settle phase, s")
