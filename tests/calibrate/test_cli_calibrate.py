@@ -23,7 +23,10 @@ def test_calibrate_cli_json_layout(study_file, tmp_path):
     assert data["target_aor_deg"] == 40.0
     assert abs(data["predicted_aor_deg"] - 40.0) < 0.05
     assert set(data["verification"]) == {"aor_mean_deg", "aor_std_deg",
-                                         "relative_error_percent", "n"}
+                                         "relative_error_percent", "n", "ci_low_deg",
+                                         "ci_high_deg", "p_value", "consistent", "test"}
+    v = data["verification"]
+    assert v["ci_low_deg"] < v["aor_mean_deg"] < v["ci_high_deg"] and 0 <= v["p_value"] <= 1
     assert data["n_runs"] == 40
     st = data["stages"]
     assert list(st) == ["rangefind", "screening", "steepest", "rsm", "optimize", "verification"]

@@ -42,7 +42,10 @@ def _readme_commands() -> list[list[str]]:
         for line in block.strip().splitlines():
             args = shlex.split(line)
             assert args[:3] == ["uv", "run", "demcal"], line
-            cmds.append(args[3:])
+            # the engine calibration (~14 min) is the README's main command; its CLI is
+            # tested on the analytic stand-in in tests/calibrate
+            if args[3] != "calibrate":
+                cmds.append(args[3:])
     return cmds
 
 

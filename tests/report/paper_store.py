@@ -20,6 +20,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from demcal import doe
+from demcal.calibrate.stages import compare_to_target
 from demcal.store import RunRecord, RunStore, run_key
 
 DATA = Path(__file__).resolve().parents[2] / "examples" / "corn_stalk"
@@ -233,7 +234,8 @@ def build_paper_store(study_dir: Path, stages: Iterable[str] = ALL_STAGES,
                          "aor_mean_deg": mean, "aor_std_deg": float(np.std(VERIFY, ddof=1)),
                          "relative_error_percent": 100 * abs(mean - TARGET) / TARGET, "n": 5,
                          "pile_png": _png(study_dir / "pile_side.png", "simulated pile",
-                                          mean) if photos else None})
+                                          mean) if photos else None,
+                         **compare_to_target(np.array(VERIFY), TARGET)})
     store.close()
     return study_dir
 

@@ -12,6 +12,7 @@ import pytest
 from htmltables import read_tables, section
 from matplotlib.figure import Figure
 from paper_store import DATA, NAME, rsm_fit
+from scipy import stats
 
 from demcal import report
 from demcal.store import RunStore
@@ -178,8 +179,12 @@ def test_optimum_and_verification_tables(paper_report):
         assert_cell(row[cols.index("predicted AoR (deg)")], cand["predicted_aor_deg"], "pred")
         assert_cell(row[cols.index("x4")], cand["params"]["pp.rolling_friction"], "x4")
     v = tables["t-verification_summary"]["rows"][0]
-    assert v == ["5", "43.82", format(np.std([43.1, 44.5, 43.9, 44.2, 43.4], ddof=1), ".5g"),
-                 "44.116", "0.67996"]
+    reps = [43.1, 44.5, 43.9, 44.2, 43.4]
+    sd = np.std(reps, ddof=1)
+    half = stats.t.ppf(0.975, 4) * sd / np.sqrt(5)
+    p = 2 * stats.t.sf(abs(43.82 - 44.12) / (sd / np.sqrt(5)), 4)  # one-sample, target 44.12
+    assert v == ["5", "43.82", format(sd, ".5g"), f"{43.82 - half:.2f}-{43.82 + half:.2f}",
+                 "44.116", "0.67996", f"{p:.4f}", "consistent"]  # p: 4 decimals
     ex = tables["t-excluded_runs"]["rows"]
     assert ex == [["rangefind", "30", "0", "done", "column",
                    "no pile: the material stayed a column"]]

@@ -61,7 +61,10 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       "chosen": {name: value}, "predicted_aor_deg": float}
 - "verification": {"params": {name: value (full set)}, "aor_deg": [float|None],
       "outcomes": [str], "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n",
-      "pile_png": str|None (side view of a verification pile with fitted lines)}
+      "pile_png": str|None (side view of a verification pile with fitted lines),
+      "ci_low_deg", "ci_high_deg" (95 % t-interval of the mean), "p_value", "test",
+      "consistent" (Welch t-test against the measurement when its spread is known, else a
+      one-sample t-test; None with fewer than 2 piles)}
 
 ## runs (RunStore.record_run / runs(stage=...))
 Each RunRecord: stage, point (design row index), replicate, params (full set), seed,

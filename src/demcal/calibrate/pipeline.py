@@ -122,7 +122,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
                     progress=progress, external=external,
                     figures_dir=path.parent / "figures" / "runs")
     return st.Context(study, store, runner, fixed, float(target["aor_deg"]),
-                      [dict(f) for f in factors])
+                      [dict(f) for f in factors], target_std=target.get("std_deg"),
+                      target_n=target.get("n"))
 
 
 def _stage_json(ctx: st.Context) -> dict[str, Any]:
@@ -202,8 +203,9 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         "optimum_full": ver["params"],
         "predicted_aor_deg": opt["predicted_aor_deg"],
         "target_aor_deg": ctx.target,
-        "verification": {k: ver[k] for k in ("aor_mean_deg", "aor_std_deg",
-                                             "relative_error_percent", "n")},
+        "verification": {k: ver.get(k) for k in (
+            "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg",
+            "ci_high_deg", "p_value", "consistent", "test")},
         "n_runs": ctx.store.count(),
         "n_runs_executed": ctx.runner.executed,
         "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},

@@ -32,7 +32,8 @@ class Context:
 
     ``fixed``: full parameter set with every factor at its current centre (SI);
     ``factors``: current ranges [{"name","symbol","low","high","unit"}];
-    ``records``: every run the stages used (for the pile classifier).
+    ``records``: every run the stages used (for the pile classifier);
+    ``target_std``, ``target_n``: spread (deg) and count of the measured AoR, when known.
     """
 
     study: Study
@@ -43,6 +44,8 @@ class Context:
     factors: list[dict[str, Any]]
     records: list[RunRecord] = field(default_factory=list)
     results: dict[str, Any] = field(default_factory=dict)
+    target_std: float | None = None
+    target_n: int | None = None
 
     def full(self, actual: dict[str, float]) -> dict[str, float]:
         """The fixed set with ``actual`` factor values applied (floats)."""
@@ -497,6 +500,39 @@ def optimize(ctx: Context) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------------------ verification
+def compare_to_target(values: np.ndarray, target: float, target_std: float | None = None,
+                      target_n: int | None = None, alpha: float = 0.05) -> dict[str, Any]:
+    """Is the simulated mean AoR consistent with the measured one? (angles in degrees)
+
+    With the measurement's spread and count known, Welch's two-sample t-test of the
+    replicates against the measurement (scipy ``ttest_ind_from_stats``); otherwise a one-sample
+    t-test against the target value. Also the (1 - alpha) t-interval of the simulated mean.
+    Keys: ``ci_low_deg``, ``ci_high_deg``, ``p_value``, ``test`` and ``consistent`` (p >=
+    alpha), all None with fewer than two replicates.
+    """
+    from scipy import stats
+
+    out: dict[str, Any] = {"ci_low_deg": None, "ci_high_deg": None, "p_value": None,
+                           "test": None, "consistent": None}
+    if values.size < 2:
+        return out
+    mean, sd, n = float(values.mean()), float(values.std(ddof=1)), int(values.size)
+    half = float(stats.t.ppf(1 - alpha / 2, n - 1)) * sd / math.sqrt(n)
+    out.update(ci_low_deg=mean - half, ci_high_deg=mean + half)
+    if sd == 0.0 and not target_std:
+        return out
+    if target_std is not None and target_n is not None and target_n >= 2:
+        res = stats.ttest_ind_from_stats(mean, sd, n, target, target_std, target_n,
+                                         equal_var=False)
+        out["test"] = f"Welch t-test against the measurement (n = {target_n})"
+    else:
+        res = stats.ttest_1samp(values, target)
+        out["test"] = "one-sample t-test against the target value"
+    out["p_value"] = float(res.pvalue)
+    out["consistent"] = bool(res.pvalue >= alpha)
+    return out
+
+
 def verification(ctx: Context) -> dict[str, Any]:
     """N replicate runs at the chosen optimum: mean, spread and relative error to the target."""
     n = ctx.study.stages.verification.n
@@ -512,7 +548,8 @@ def verification(ctx: Context) -> dict[str, Any]:
     png = next((r.artefacts.get("pile_png") for r in recs if r.artefacts.get("pile_png")), None)
     summary = {"params": params, "aor_deg": aors, "outcomes": [r.outcome for r in recs],
                "aor_mean_deg": mean, "aor_std_deg": std, "relative_error_percent": rel,
-               "n": n, "n_piles": int(vals.size), "pile_png": png}
+               "n": n, "n_piles": int(vals.size), "pile_png": png,
+               **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)}
     ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
     ctx.results["verification"] = summary
     return summary

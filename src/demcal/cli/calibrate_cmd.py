@@ -38,6 +38,11 @@ def _print_result(result: dict) -> None:
                   f"{result['predicted_aor_deg']:.2f} deg; verification ({v['n']} runs): "
                   f"{mean} +/- {std} deg, relative error {rel}; {result['n_runs']} runs stored "
                   f"({result['n_runs_executed']} run now)")
+    if v.get("p_value") is not None:
+        verdict = "consistent with" if v["consistent"] else "[yellow]differs from[/yellow]"
+        console.print(f"verification: 95 % interval {v['ci_low_deg']:.2f}-"
+                      f"{v['ci_high_deg']:.2f} deg, {verdict} the measurement "
+                      f"(p = {v['p_value']:.3g}, {v['test']})")
     if not result.get("rsm_adequate", True):
         console.print("[yellow]warning:[/yellow] the response-surface model is not adequate "
                       "(see the rsm stage's warnings)")

@@ -399,13 +399,20 @@ def verification_table(summary: Mapping[str, Any]) -> Table:
 
 
 def verification_summary_table(summary: Mapping[str, Any], target: float | None) -> Table:
-    """Mean ± std of the replicates and the relative error against the measurement."""
+    """Mean ± std of the replicates, their 95 % interval, the relative error against the
+    measurement and the t-test's p and verdict (see demcal.calibrate.stages.compare_to_target)."""
+    lo, hi = summary.get("ci_low_deg"), summary.get("ci_high_deg")
+    ok = summary.get("consistent")
     rows = [{"n": summary.get("n"), "mean AoR (deg)": _num(summary.get("aor_mean_deg")),
-             "std (deg)": _num(summary.get("aor_std_deg")), "measured AoR (deg)": target,
-             "relative error %": _num(summary.get("relative_error_percent"))}]
+             "std (deg)": _num(summary.get("aor_std_deg")),
+             "95 % interval (deg)": "" if lo is None else f"{lo:.2f}-{hi:.2f}",
+             "measured AoR (deg)": target,
+             "relative error %": _num(summary.get("relative_error_percent")),
+             "p": _num(summary.get("p_value")),
+             "verdict": "" if ok is None else ("consistent" if ok else "differs")}]
     return Table("verification_summary", "Verification against the measurement",
-                 _frame(rows, ["n", "mean AoR (deg)", "std (deg)", "measured AoR (deg)",
-                               "relative error %"]))
+                 _frame(rows, ["n", "mean AoR (deg)", "std (deg)", "95 % interval (deg)",
+                               "measured AoR (deg)", "relative error %", "p", "verdict"]))
 
 
 def excluded_table(data: ReportData) -> Table:
