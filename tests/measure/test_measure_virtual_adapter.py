@@ -58,3 +58,12 @@ def test_unmeasurable_pile_returns_error():
     c = np.array([[0.0, 0.0, 0.001]])
     out = measure_pile(c, np.array([0.001]), MeasurementOptions())
     assert out["error"].startswith("no measurable pile")
+
+
+def test_adapter_saves_the_picture_or_says_why_not(cone, tmp_path):
+    png = tmp_path / "pile.png"
+    out = measure_pile(*cone, MeasurementOptions(n_views=2), figure=png)
+    assert out["figure"] == str(png) and png.read_bytes()[:4] == b"\x89PNG"
+    bad = measure_pile(*cone, MeasurementOptions(n_views=2), figure=tmp_path / "no" / "p.png")
+    assert "figure" not in bad and "cannot write figure" in bad["figure_error"]
+    assert bad["aor_deg"] == out["aor_deg"]  # the measurement does not depend on the picture

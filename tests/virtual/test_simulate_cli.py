@@ -37,6 +37,7 @@ def test_simulate_aor_json_and_plot(tmp_path):
     (["--test", "dt_fraction=1.5"], "dt_fraction"),
     (["--set", "no.such=1"], "no.such"),
     (["--seeds", "0"], "--seeds"),
+    (["--plot", "/no/such/folder/pile.png"], "--plot"),
 ])
 def test_simulate_aor_refuses_bad_input(args, field):
     res = CliRunner().invoke(app, ["simulate", "aor", "--backend", "cpu", *args])

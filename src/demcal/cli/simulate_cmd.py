@@ -113,6 +113,8 @@ def simulate_aor(
 
     if seeds < 1:
         raise InputError(f"--seeds must be >= 1; got {seeds}")
+    if plot is not None and not plot.parent.is_dir():
+        raise InputError(f"--plot: folder {str(plot.parent)!r} does not exist")
     overrides = parse_assignments(set_ or [])
     params = preset_parameters(preset, overrides)
     config = fidelity_config(fidelity, **parse_test_overrides(test or []))

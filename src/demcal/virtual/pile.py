@@ -35,7 +35,8 @@ def measure_pile(centres: np.ndarray, radii: np.ndarray, options: MeasurementOpt
         Views, the method whose angle is reported as ``aor_deg``, the fit window.
     figure : path, optional
         If given and the pile was measured, a side view of the first view with the fitted
-        flank lines is saved there (PNG) and its path returned as ``figure``.
+        flank lines is saved there (PNG) and its path returned as ``figure`` (or why not, as
+        ``figure_error``).
 
     Returns a dict with ``aor_deg`` (the chosen method's mean over views), ``aor_left_deg``,
     ``aor_right_deg``, ``aor_std_deg``, ``aor_silhouette_deg``, ``aor_profile_deg``,
@@ -77,6 +78,9 @@ def measure_pile(centres: np.ndarray, radii: np.ndarray, options: MeasurementOpt
     if errors:
         out["measure_errors"] = errors
     if figure is not None:
-        measure.plot_pile_aor(main, figure, centres, radii)
-        out["figure"] = str(figure)
+        try:  # a picture that cannot be written must not cost the measurement
+            measure.plot_pile_aor(main, figure, centres, radii)
+            out["figure"] = str(figure)
+        except InputError as exc:
+            out["figure_error"] = str(exc)
     return out
