@@ -71,7 +71,7 @@ def run_bed(steps: int = 5000) -> str:
 def test_trajectories_are_bitwise_identical_for_1_and_2_threads():
     out = []
     for threads in ("1", "2"):
-        env = dict(os.environ, NUMBA_NUM_THREADS=threads)
+        env = dict(os.environ, NUMBA_NUM_THREADS=threads, DEMCAL_SPHERES_PER_THREAD="0")
         code = (f"import sys; sys.path.insert(0, {str(HERE)!r}); "
                 "import test_dem_determinism as t; print(t.run_bed())")
         proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
@@ -145,3 +145,24 @@ def test_contact_history_survives_neighbour_rebuilds():
     print("rebuilds (thin, thick skin):", runs[0][1], runs[1][1])
     assert runs[0][1] > 3 * runs[1][1]
     assert runs[0][0] == runs[1][0]
+
+
+def test_small_systems_run_on_fewer_threads_and_the_count_is_restored(monkeypatch):
+    """A small system runs single-threaded (faster, bitwise the same); the caller's thread
+    count is back afterwards, also after an error."""
+    import numba
+
+    from demcal.dem import _config
+
+    seen = []
+    real = numba.set_num_threads
+    monkeypatch.setattr(numba, "set_num_threads", lambda n: (seen.append(n), real(n))[1])
+    before = numba.get_num_threads()
+    sim = Simulation([bed_world(1)])
+    monkeypatch.setattr(_config, "SPHERES_PER_THREAD", 10**9)
+    sim.advance(10)
+    assert seen[0] == 1 and numba.get_num_threads() == before
+    monkeypatch.setattr(_config, "SPHERES_PER_THREAD", 1)
+    seen.clear()
+    sim.advance(10)
+    assert seen[0] == before

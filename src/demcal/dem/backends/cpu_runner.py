@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from demcal.dem import _config
@@ -24,6 +25,20 @@ class CpuRunner:
         """Host arrays are the truth on the CPU: nothing to copy."""
 
     def run_steps(self, n_steps: int) -> None:
+        """Run ``n_steps`` steps; a small system runs on fewer threads (bitwise the same)."""
+        sim = self.sim
+        threads = numba.get_num_threads()
+        per = _config.SPHERES_PER_THREAD
+        if per > 0:
+            a = sim.arrays
+            n_live = int(np.count_nonzero(a["world_active"][a["c_world"]][a["s_clump"]]))
+            numba.set_num_threads(max(1, min(threads, n_live // per)))
+        try:
+            self._run_steps(n_steps)
+        finally:
+            numba.set_num_threads(threads)
+
+    def _run_steps(self, n_steps: int) -> None:
         sim = self.sim
         done = 0
         while done < n_steps:
