@@ -175,7 +175,7 @@ FIDELITIES: dict[str, dict] = {
     # ~2.5 particle lengths high and stands as a squat column after the lift (measured), so
     # the quick test keeps the fill taller than wide by using the narrower tube.
     # Cost (2026-11-25, one core): 1050 spheres, dt 6.9 us, 1.1-1.9 s simulated, 25-45 s wall.
-    # Seed-to-seed scatter of the angle: about 6-9 deg (std) near 45 deg: average replicates.
+    # Seed-to-seed scatter of the angle: 2-9 deg (std) near 45 deg: average replicates.
     "quick": {"geometry": {"cylinder_inner_diameter": 0.030},
               "fill": {"method": "packing", "count": 150}},
 }
