@@ -1,6 +1,7 @@
 """The settle criterion on constructed states: lone clumps do not hold a phase back."""
 
 import numpy as np
+import pytest
 
 from demcal.virtual.settle import settle_state, touching_clumps
 
@@ -23,7 +24,7 @@ def _stalks(n_touching, lone_at=None):
 
 def _state(v, centres, radii, clump, **kw):
     limits = {"rms_limit": 0.005, "max_limit": 0.03, "tolerance": 1e-4} | kw
-    return settle_state(v, np.unique(clump), centres, radii, clump, **limits)
+    return settle_state(v, lambda: (np.unique(clump), centres, radii, clump), **limits)
 
 
 def test_touching_clumps_are_found_and_a_lone_one_is_not():
@@ -69,6 +70,13 @@ def test_scattered_material_counts_every_clump():
 
 
 def test_empty_world_is_settled():
-    st = settle_state(np.zeros((0, 3)), np.zeros(0, int), np.zeros((0, 3)), np.zeros(0),
-                      np.zeros(0, int), rms_limit=0.005, max_limit=0.03, tolerance=1e-4)
+    st = settle_state(np.zeros((0, 3)), lambda: pytest.fail("no sphere data needed"),
+                      rms_limit=0.005, max_limit=0.03, tolerance=1e-4)
+    assert st.settled
+
+
+def test_settled_speeds_need_no_sphere_data():
+    v = np.full((10, 3), 0.001)
+    st = settle_state(v, lambda: pytest.fail("sphere data fetched"), rms_limit=0.005,
+                      max_limit=0.03, tolerance=1e-4)
     assert st.settled

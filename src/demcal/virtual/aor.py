@@ -276,12 +276,14 @@ def _enter(run: _Run, phase: str, t: float) -> None:
 
 def _settled(sim: Simulation, w: int, config: AoRTestConfig) -> tuple[bool, float, float]:
     """The phase's settle criterion (:mod:`demcal.virtual.settle`): (settled, rms, max)."""
-    v = sim.clump_velocities(w)
-    centres, radii, sphere_clump = sim.spheres(w)
+    def spheres():
+        centres, radii, sphere_clump = sim.spheres(w)
+        # velocity rows are the world's active clumps in index order, as np.unique gives them
+        return np.unique(sphere_clump), centres, radii, sphere_clump
+
     ph, p = config.phases, config.particle
-    state = settle_state(v, np.unique(sphere_clump), centres, radii, sphere_clump,
-                         rms_limit=ph.settle_rms_speed, max_limit=ph.settle_max_speed,
-                         tolerance=0.05 * p.diameter * p.size_min)
+    state = settle_state(sim.clump_velocities(w), spheres, rms_limit=ph.settle_rms_speed,
+                         max_limit=ph.settle_max_speed, tolerance=0.05 * p.diameter * p.size_min)
     return state.settled, state.rms_speed, state.max_speed
 
 

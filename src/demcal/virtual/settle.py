@@ -11,12 +11,16 @@ clumps touch another (the material is scattered, or still falling), every clump 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 __all__ = ["SettleState", "settle_state", "touching_clumps"]
+
+#: (clump ids of the velocity rows, sphere centres, sphere radii, sphere clump ids)
+Spheres = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -45,19 +49,19 @@ def touching_clumps(centres: np.ndarray, radii: np.ndarray, sphere_clump: np.nda
     return np.unique(np.concatenate([sphere_clump[i[keep]], sphere_clump[j[keep]]]))
 
 
-def settle_state(velocities: np.ndarray, clump_ids: np.ndarray, centres: np.ndarray,
-                 radii: np.ndarray, sphere_clump: np.ndarray, *, rms_limit: float,
+def settle_state(velocities: np.ndarray, spheres: Callable[[], Spheres], *, rms_limit: float,
                  max_limit: float, tolerance: float) -> SettleState:
     """Whether clumps with these velocities are at rest (see the module docstring).
 
     Parameters
     ----------
     velocities : (m, 3) ndarray
-        Clump velocities, m/s, one row per clump id in ``clump_ids``.
-    clump_ids : (m,) int ndarray
-        The clumps' ids (as in ``sphere_clump``).
-    centres, radii, sphere_clump : ndarray
-        The clumps' spheres: centres (n, 3) m, radii (n,) m and clump ids (n,).
+        Clump velocities, m/s.
+    spheres : callable
+        Returns ``(clump_ids, centres, radii, sphere_clump)``: the ids of the clumps of
+        ``velocities``' rows (m,), and their spheres' centres (n, 3) m, radii (n,) m and clump
+        ids (n,). Called only when the speeds alone do not decide (most checks need no
+        sphere data, which on a GPU is a copy from the device).
     rms_limit, max_limit : float
         Thresholds on the rms and the largest speed of the pile's clumps, m/s.
     tolerance : float
@@ -66,11 +70,12 @@ def settle_state(velocities: np.ndarray, clump_ids: np.ndarray, centres: np.ndar
     if len(velocities) == 0:
         return SettleState(True, 0.0, 0.0, 0)
     speed2 = np.sum(velocities * velocities, axis=1)
-    n_alone = 0
     if _settled(speed2, rms_limit, max_limit):
         return SettleState(True, *_speeds(speed2), 0)
     # only now is the (costlier) contact test needed: are the fast clumps part of the pile?
+    clump_ids, centres, radii, sphere_clump = spheres()
     touching = np.isin(clump_ids, touching_clumps(centres, radii, sphere_clump, tolerance))
+    n_alone = 0
     if 2 * np.count_nonzero(touching) > len(speed2):
         n_alone = int(np.count_nonzero(~touching))
         speed2 = speed2[touching]
