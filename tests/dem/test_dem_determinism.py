@@ -166,3 +166,39 @@ def test_small_systems_run_on_fewer_threads_and_the_count_is_restored(monkeypatc
     seen.clear()
     sim.advance(10)
     assert seen[0] == before
+
+
+def piston_world() -> World:
+    """Spheres at rest on a floor (no gravity) and a wall moving into them at 0.5 m/s: only
+    the wall's motion can bring contacts, so a wall missing from the candidates would show."""
+    mats = table(Interaction(0.5, 0.5, 0.05), Interaction(0.5, 0.5, 0.05))
+    pos = [[1.6e-3 + 3.3e-3 * k, 0.0, 1.5e-3] for k in range(4)]
+    walls = [PlaneWall(origin=np.zeros(3), normal=np.array([0.0, 0.0, 1.0]), name="floor"),
+             PlaneWall(origin=np.array([-2e-3, 0.0, 0.0]), normal=np.array([1.0, 0.0, 0.0]),
+                       half_size=(0.01, 0.01), velocity=np.array([0.5, 0.0, 0.0]),
+                       name="piston")]
+    group = ClumpGroup(sphere_template(1.5e-3), "p", len(pos), positions=np.array(pos))
+    return World(mats, [group], walls=walls, gravity=(0.0, 0.0, 0.0),
+                 domain_lo=(-0.05, -0.05, -0.01), domain_hi=(0.05, 0.05, 0.05))
+
+
+def test_wall_candidates_give_the_trajectory_of_visiting_every_wall(monkeypatch):
+    """The force pass visits only each sphere's candidate walls (found at neighbour builds;
+    a wall moving half the skin triggers a build): bitwise the run that visits every wall at
+    every step, for a lifted tube over a falling bed and for a piston pushing resting spheres."""
+    runs = {}
+    for use in (True, False):
+        monkeypatch.setattr(_config, "WALL_CANDIDATES", use)
+        bed = Simulation([bed_world(7, n=18)], rolling_friction="C")
+        bed.advance(3000)
+        piston = Simulation([piston_world()])
+        piston.advance(1500)
+        runs[use] = (digest(bed), bed.n_rebuilds, digest(piston), piston.n_rebuilds,
+                     piston.clump_positions(0)[:, 0].copy(), piston.wall_forces(0).copy())
+    on, off = runs[True], runs[False]
+    print("rebuilds (bed, piston):", on[1], on[3], "piston x:", on[4], "wall forces:", on[5])
+    assert on[0] == off[0] and on[2] == off[2]
+    assert on[1] == off[1] and on[3] == off[3]
+    # the piston did reach the spheres and push them along (they start at rest)
+    assert np.all(on[4] > np.array([1.6e-3 + 3.3e-3 * k for k in range(4)]) + 3e-3)
+    assert on[3] > 1

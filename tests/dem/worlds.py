@@ -124,12 +124,16 @@ def randomize_history(sim: Simulation, rng: np.random.Generator, scale: float) -
         a[f"nb_hist_{side}"][i, k] = pair_vals[key][0]
         if rolling_c:
             a[f"nb_rhist_{side}"][i, k] = pair_vals[key][1]
-    for w, world in enumerate(sim.worlds):  # real walls only (padding slots are never used)
-        lo, hi = sim.sphere_range[w]
-        nw = len(world.walls)
-        a["w_hist"][lo:hi, :nw] = rng.normal(0, scale, (hi - lo, nw, 3))
-        if rolling_c:
-            a["w_rhist"][lo:hi, :nw] = rng.normal(0, 1e-6, (hi - lo, nw, 3))
+    # wall slots: those the engine tracks, the candidate walls of the last neighbour build
+    # (the others stay zero between builds); the reference then checks that no wall in
+    # contact is missing from the candidates
+    sim._runner.pull("s_wall_near")
+    bits = (a["s_wall_near"][:, None] >> np.arange(sim.max_walls)) & 1
+    near = bits.astype(bool)
+    n_near = int(near.sum())
+    a["w_hist"][near] = rng.normal(0, scale, (n_near, 3))
+    if rolling_c:
+        a["w_rhist"][near] = rng.normal(0, 1e-6, (n_near, 3))
     sim._runner.push(*names)
 
 

@@ -33,6 +33,9 @@ P_MU_R = 4
 P_GAMMA = 5
 N_PAIR_FIELDS = 6
 
+#: most walls per world: a sphere's wall candidates are the bits of one int64
+MAX_WALLS = 64
+
 # clump states
 INACTIVE = 0
 ACTIVE = 1
@@ -168,15 +171,18 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
                   c_pos, c_veval, c_omega, c_mass, c_world, c_state,
                   nb_count, nb_index, nb_hist, nb_rhist,
                   wall_type, wall_origin, wall_geom, wall_vel, wall_material, w_hist, w_rhist,
-                  pair_params, world_dt, world_active, rolling_model, contact_margin,
-                  max_overlap_fraction,
+                  s_wall_near, pair_params, world_dt, world_active, rolling_model,
+                  contact_margin, max_overlap_fraction,
                   s_force, s_torque, s_roll, s_wall_force, flag_overlap):
     """Gather the contact forces and torques acting on sphere ``i``.
 
     Writes ``s_force[i]`` (N), ``s_torque[i]`` (contact torque about the clump's centre of
     mass plus type-C rolling torque, N m), ``s_roll[i]`` (type-A rolling torque, N m, applied
     with a no-reversal limit by :func:`clump_step`), the forces this sphere exerts on each of
-    its world's walls ``s_wall_force[i, k]`` (N), and its contact histories.
+    its world's walls ``s_wall_force[i, k]`` (N), and its contact histories. Only the walls
+    in the sphere's candidate mask ``s_wall_near[i]`` (bit k: wall k, from
+    :func:`wall_candidates` at the last neighbour build) are visited; the slots of the others
+    are zero and stay so until the next build.
     """
     for i in range(lo, hi):
         ci = s_clump[i]
@@ -362,7 +368,10 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
         viy = c_veval[ci, 1]
         viz = c_veval[ci, 2]
         mass_i = c_mass[ci]
-        for k in range(n_walls):
+        near = s_wall_near[i]
+        for k in range(n_walls if near != 0 else 0):
+            if ((near >> k) & 1) == 0:
+                continue
             wt = wall_type[w, k]
             s_wall_force[i, k, 0] = 0.0
             s_wall_force[i, k, 1] = 0.0
@@ -465,6 +474,47 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
         s_roll[i, 0] = rx
         s_roll[i, 1] = ry
         s_roll[i, 2] = rz
+
+
+@njit(cache=True)
+def wall_candidates(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, wall_type, wall_origin,
+                    wall_geom, extra, s_wall_near, w_hist, w_rhist, s_wall_force, carry_rolling):
+    """Mark the walls each sphere may touch before the next neighbour build.
+
+    Bit ``k`` of ``s_wall_near[i]`` is set when wall ``k`` comes within ``r_i + extra`` of the
+    sphere's centre (``extra`` = skin + contact margin; a conservative bound, see
+    :func:`~demcal.dem.walls.surely_beyond`). The rebuild rule (a sphere or a wall moving half
+    the skin since the build) keeps every unmarked wall out of reach until the next build, so
+    its slots are zeroed here, as the force pass would zero them at every step, and the force
+    pass skips it: the results are bitwise those of visiting every wall at every step.
+    """
+    n_walls = wall_type.shape[1]
+    for i in range(lo, hi):
+        ci = s_clump[i]
+        if c_state[ci] != ACTIVE:
+            s_wall_near[i] = 0
+            continue
+        w = c_world[ci]
+        reach = s_radius[i] + extra
+        near = 0
+        for k in range(n_walls):
+            wt = wall_type[w, k]
+            if wt != WALL_NONE and not surely_beyond(
+                    wt, wall_origin[w, k, 0], wall_origin[w, k, 1], wall_origin[w, k, 2],
+                    wall_geom[w, k], s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], reach):
+                near |= 1 << k
+                continue
+            w_hist[i, k, 0] = 0.0
+            w_hist[i, k, 1] = 0.0
+            w_hist[i, k, 2] = 0.0
+            if carry_rolling:
+                w_rhist[i, k, 0] = 0.0
+                w_rhist[i, k, 1] = 0.0
+                w_rhist[i, k, 2] = 0.0
+            s_wall_force[i, k, 0] = 0.0
+            s_wall_force[i, k, 1] = 0.0
+            s_wall_force[i, k, 2] = 0.0
+        s_wall_near[i] = near
 
 
 @njit(cache=True)

@@ -23,7 +23,15 @@ import numpy as np
 from demcal.dem import _config
 from demcal.dem.backends import resolve_backend
 from demcal.dem.contact import rayleigh_time_step
-from demcal.dem.kernels import ACTIVE, INACTIVE, REMOVED, ROLLING_A, ROLLING_C, ROLLING_NONE
+from demcal.dem.kernels import (
+    ACTIVE,
+    INACTIVE,
+    MAX_WALLS,
+    REMOVED,
+    ROLLING_A,
+    ROLLING_C,
+    ROLLING_NONE,
+)
 from demcal.dem.state import World, rotate, rotate_inverse
 from demcal.dem.walls import pack_walls
 from demcal.errors import InputError, SimulationUnstable
@@ -39,7 +47,10 @@ DYNAMIC_ARRAYS = (
     "nb_count_a", "nb_index_a", "nb_hist_a", "nb_rhist_a", "nb_count_b", "nb_index_b",
     "nb_hist_b", "nb_rhist_b", "w_hist", "w_rhist", "wall_origin", "wall_vel", "world_time",
     "world_steps", "world_active", "flag_rebuild", "flag_nan", "flag_overlap", "stats",
+    "s_wall_near", "wall_ref",
 )
+#: dynamic arrays a snapshot of an older demcal may lack: rebuilt by a neighbour build
+REBUILT_ARRAYS = ("s_wall_near", "wall_ref")
 
 
 def _pow2_at_least(n: float) -> int:
@@ -93,6 +104,8 @@ class Simulation:
     def _build(self, skin: float | None) -> None:
         n_worlds = len(self.worlds)
         max_walls = max(1, max(len(w.walls) for w in self.worlds))
+        if max_walls > MAX_WALLS:
+            raise InputError(f"a world has {max_walls} walls; at most {MAX_WALLS} are allowed")
         n_mat = max(len(w.materials.materials) for w in self.worlds)
         sphere_offsets, sphere_radii, sphere_mats = [], [], []
         c_world, c_first, c_count, c_mass, c_inertia, c_state = [], [], [], [], [], []
@@ -179,6 +192,8 @@ class Simulation:
         if not (self.skin > 0):
             raise InputError(f"skin must be > 0 m; got {self.skin}")
         self.contact_margin = margin
+        # a wall is a sphere's candidate within r + skin + margin (inf: every wall, always)
+        self.wall_reach_extra = (self.skin + margin) if _config.WALL_CANDIDATES else math.inf
         self.cell_size = 2.0 * r_max + self.skin + margin
         a = self.arrays
         a["s_offset"] = np.concatenate(sphere_offsets).astype(np.float64)
@@ -222,6 +237,8 @@ class Simulation:
         a["wall_geom"] = wgeom
         a["wall_vel"] = wvel
         a["wall_material"] = wmat
+        a["wall_ref"] = worigin.copy()
+        a["s_wall_near"] = np.zeros(n_sph, dtype=np.int64)
         a["s_wall_force"] = np.zeros((n_sph, max_walls, 3))
         a["w_hist"] = np.zeros((n_sph, max_walls, 3))
         rolling_c = self.rolling_model == ROLLING_C
@@ -612,7 +629,11 @@ class Simulation:
 
     def load_state(self, state: dict[str, np.ndarray]) -> None:
         """Restore the dynamic arrays saved by :meth:`state_dict` (same worlds and sizes)."""
+        rebuild = False
         for name in DYNAMIC_ARRAYS:
+            if name not in state and name in REBUILT_ARRAYS:
+                rebuild = True
+                continue
             if name not in state:
                 raise InputError(f"snapshot lacks array {name!r}")
             arr = np.asarray(state[name])
@@ -623,4 +644,6 @@ class Simulation:
             self.arrays[name] = arr.astype(mine.dtype if mine is not None else arr.dtype,
                                            copy=True)
         self.parity = int(state.get("parity", 0))
+        if rebuild:
+            self.arrays["flag_rebuild"][0] = 1
         self._runner.push_all()

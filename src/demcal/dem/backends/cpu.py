@@ -24,6 +24,7 @@ from demcal.dem.kernels import (
     neighbor_search,
     place_spheres,
     sphere_forces,
+    wall_candidates,
 )
 
 #: elements per call of a kernel body (amortises the per-call cost of passing ~30 arrays)
@@ -134,6 +135,47 @@ def search_pass(
 
 
 @njit(parallel=True, cache=True)
+def candidates_pass(
+    s_pos,
+    s_radius,
+    s_clump,
+    c_state,
+    c_world,
+    wall_type,
+    wall_origin,
+    wall_geom,
+    extra,
+    s_wall_near,
+    w_hist,
+    w_rhist,
+    s_wall_force,
+    carry_rolling,
+):
+    """Wall candidates of every sphere (:func:`~demcal.dem.kernels.wall_candidates`)."""
+    n = s_pos.shape[0]
+    n_blocks = (n + BLOCK - 1) // BLOCK
+    for blk in prange(n_blocks):
+        wall_candidates(
+            blk * BLOCK,
+            min(blk * BLOCK + BLOCK, n),
+            s_pos,
+            s_radius,
+            s_clump,
+            c_state,
+            c_world,
+            wall_type,
+            wall_origin,
+            wall_geom,
+            extra,
+            s_wall_near,
+            w_hist,
+            w_rhist,
+            s_wall_force,
+            carry_rolling,
+        )
+
+
+@njit(parallel=True, cache=True)
 def force_pass(
     s_pos,
     s_radius,
@@ -156,6 +198,7 @@ def force_pass(
     wall_material,
     w_hist,
     w_rhist,
+    s_wall_near,
     pair_params,
     world_dt,
     world_active,
@@ -195,6 +238,7 @@ def force_pass(
             wall_material,
             w_hist,
             w_rhist,
+            s_wall_near,
             pair_params,
             world_dt,
             world_active,
@@ -332,6 +376,7 @@ def run_chunk(
     grid_lo,
     inv_cell,
     extra,
+    wall_extra,
     half_skin,
     wall_type,
     wall_origin,
@@ -340,6 +385,8 @@ def run_chunk(
     wall_material,
     w_hist,
     w_rhist,
+    s_wall_near,
+    wall_ref,
     pair_params,
     world_dt,
     world_gravity,
@@ -438,6 +485,23 @@ def run_chunk(
                 stats[0] = most
                 return step, STATUS_NEIGHBOR_OVERFLOW, parity
             parity = 1 - parity
+            candidates_pass(
+                s_pos,
+                s_radius,
+                s_clump,
+                c_state,
+                c_world,
+                wall_type,
+                wall_origin,
+                wall_geom,
+                wall_extra,
+                s_wall_near,
+                w_hist,
+                w_rhist,
+                s_wall_force,
+                carry_rolling,
+            )
+            wall_ref[:] = wall_origin
             flag_rebuild[0] = 0
             stats[2] += 1
         if parity == 0:
@@ -463,6 +527,7 @@ def run_chunk(
                 wall_material,
                 w_hist,
                 w_rhist,
+                s_wall_near,
                 pair_params,
                 world_dt,
                 world_active,
@@ -498,6 +563,7 @@ def run_chunk(
                 wall_material,
                 w_hist,
                 w_rhist,
+                s_wall_near,
                 pair_params,
                 world_dt,
                 world_active,
@@ -545,6 +611,12 @@ def run_chunk(
                     wall_origin[w, k, 0] += wall_vel[w, k, 0] * dt
                     wall_origin[w, k, 1] += wall_vel[w, k, 1] * dt
                     wall_origin[w, k, 2] += wall_vel[w, k, 2] * dt
+                    # a wall that moved half the skin since the build renews the candidates
+                    ddx = wall_origin[w, k, 0] - wall_ref[w, k, 0]
+                    ddy = wall_origin[w, k, 1] - wall_ref[w, k, 1]
+                    ddz = wall_origin[w, k, 2] - wall_ref[w, k, 2]
+                    if ddx * ddx + ddy * ddy + ddz * ddz > half_skin * half_skin:
+                        flag_rebuild[0] = 1
                 world_time[w] += dt
                 world_steps[w] += 1
     return n_steps, STATUS_OK, parity

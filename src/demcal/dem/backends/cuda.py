@@ -47,6 +47,7 @@ from demcal.dem.kernels import (
     clump_step,
     neighbor_search,
     sphere_forces,
+    wall_candidates,
 )
 
 log = logging.getLogger("demcal.dem")
@@ -77,6 +78,7 @@ if _simulator():
     clump_step = _unwrapping(clump_step)
     neighbor_search = _unwrapping(neighbor_search)
     sphere_forces = _unwrapping(sphere_forces)
+    wall_candidates = _unwrapping(wall_candidates)
 
 THREADS = 64
 #: steps captured in one CUDA graph (the graph is replayed ceil(n / GRAPH_STEPS) times)
@@ -121,7 +123,8 @@ def _build_kernels():
     def k_search(halt, flag_rebuild, s_pos, s_radius, s_clump, c_state, c_world, s_cellkey,
                  grid_lo, inv_cell, bucket_count, bucket_members, mask, extra, old_count,
                  old_index, old_hist, old_rhist, new_count, new_index, new_hist, new_rhist,
-                 carry_rolling, stats):
+                 carry_rolling, stats, wall_type, wall_origin, wall_geom, wall_extra,
+                 s_wall_near, w_hist, w_rhist, s_wall_force):
         if halt[0] != 0 or flag_rebuild[0] == 0:
             return
         if stats[1] > bucket_members.shape[1]:
@@ -134,6 +137,9 @@ def _build_kernels():
                         old_count, old_index, old_hist, old_rhist, new_count, new_index,
                         new_hist, new_rhist, carry_rolling)
         cuda.atomic.max(stats, 0, new_count[i])
+        wall_candidates(i, i + 1, s_pos, s_radius, s_clump, c_state, c_world, wall_type,
+                        wall_origin, wall_geom, wall_extra, s_wall_near, w_hist, w_rhist,
+                        s_wall_force, carry_rolling)
 
     @cuda.jit
     def k_commit(halt, flag_rebuild, stats, bucket_cap, src_count, src_index, src_hist,
@@ -168,7 +174,7 @@ def _build_kernels():
                 dst_rhist[i, k, 2] = src_rhist[i, k, 2]
 
     @cuda.jit
-    def k_finish(halt, flag_rebuild, stats, nb_cap, bucket_cap):
+    def k_finish(halt, flag_rebuild, stats, nb_cap, bucket_cap, wall_origin, wall_ref):
         if halt[0] != 0 or flag_rebuild[0] == 0:
             return
         if cuda.grid(1) != 0:
@@ -176,6 +182,11 @@ def _build_kernels():
         if stats[0] > nb_cap or stats[1] > bucket_cap:
             halt[0] = 1
         else:
+            for w in range(wall_origin.shape[0]):
+                for k in range(wall_origin.shape[1]):
+                    wall_ref[w, k, 0] = wall_origin[w, k, 0]
+                    wall_ref[w, k, 1] = wall_origin[w, k, 1]
+                    wall_ref[w, k, 2] = wall_origin[w, k, 2]
             flag_rebuild[0] = 0
             stats[2] += 1
             stats[0] = 0
@@ -184,9 +195,9 @@ def _build_kernels():
     @cuda.jit(**({"max_registers": _MAXREG} if _MAXREG else {}))
     def k_forces(halt, s_pos, s_radius, s_clump, s_material, c_pos, c_veval, c_omega, c_mass,
                  c_world, c_state, nb_count, nb_index, nb_hist, nb_rhist, wall_type,
-                 wall_origin, wall_geom, wall_vel, wall_material, w_hist, w_rhist, pair_params,
-                 world_dt, world_active, rolling_model, contact_margin, max_overlap_fraction,
-                 s_force, s_torque, s_roll, s_wall_force, flag_overlap):
+                 wall_origin, wall_geom, wall_vel, wall_material, w_hist, w_rhist, s_wall_near,
+                 pair_params, world_dt, world_active, rolling_model, contact_margin,
+                 max_overlap_fraction, s_force, s_torque, s_roll, s_wall_force, flag_overlap):
         if halt[0] != 0:
             return
         i = cuda.grid(1)
@@ -195,7 +206,7 @@ def _build_kernels():
         sphere_forces(i, i + 1, s_pos, s_radius, s_clump, s_material, c_pos, c_veval, c_omega,
                       c_mass, c_world, c_state, nb_count, nb_index, nb_hist, nb_rhist,
                       wall_type, wall_origin, wall_geom, wall_vel, wall_material, w_hist,
-                      w_rhist, pair_params, world_dt, world_active, rolling_model,
+                      w_rhist, s_wall_near, pair_params, world_dt, world_active, rolling_model,
                       contact_margin, max_overlap_fraction, s_force, s_torque, s_roll,
                       s_wall_force, flag_overlap)
 
@@ -203,7 +214,8 @@ def _build_kernels():
     def k_clumps(halt, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass, c_inertia,
                  c_world, c_state, c_first, c_count, s_offset, s_pos, s_ref, s_force, s_torque,
                  s_roll, world_dt, world_gravity, world_active, world_lo, world_hi, half_skin,
-                 flag_rebuild, flag_nan, wall_origin, wall_vel, world_time, world_steps, stats):
+                 flag_rebuild, flag_nan, wall_origin, wall_vel, world_time, world_steps, stats,
+                 wall_ref):
         if halt[0] != 0:
             return
         c = cuda.grid(1)
@@ -216,6 +228,11 @@ def _build_kernels():
                 wall_origin[c, k, 0] += wall_vel[c, k, 0] * dt
                 wall_origin[c, k, 1] += wall_vel[c, k, 1] * dt
                 wall_origin[c, k, 2] += wall_vel[c, k, 2] * dt
+                ddx = wall_origin[c, k, 0] - wall_ref[c, k, 0]
+                ddy = wall_origin[c, k, 1] - wall_ref[c, k, 1]
+                ddz = wall_origin[c, k, 2] - wall_ref[c, k, 2]
+                if ddx * ddx + ddy * ddy + ddz * ddz > half_skin * half_skin:
+                    flag_rebuild[0] = 1
             world_time[c] += dt
             world_steps[c] += 1
         if c >= c_pos.shape[0]:
@@ -353,18 +370,20 @@ class CudaRunner:
             d["c_world"], d["s_cellkey"], d["grid_lo"], inv_cell, d["bucket_count"],
             d["bucket_members"], mask, extra, d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"],
             d["nb_rhist_a"], d["nb_count_b"], d["nb_index_b"], d["nb_hist_b"], d["nb_rhist_b"],
-            carry, d["stats"])
+            carry, d["stats"], d["wall_type"], d["wall_origin"], d["wall_geom"],
+            sim.wall_reach_extra, d["s_wall_near"], d["w_hist"], d["w_rhist"], d["s_wall_force"])
         k.k_commit[nb, THREADS, s](
             d["halt"], d["flag_rebuild"], d["stats"], bcap, d["nb_count_b"], d["nb_index_b"],
             d["nb_hist_b"], d["nb_rhist_b"], d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"],
             d["nb_rhist_a"], carry, d["s_cellkey"], d["bucket_count"], mask)
-        k.k_finish[1, 32, s](d["halt"], d["flag_rebuild"], d["stats"], nb_cap, bcap)
+        k.k_finish[1, 32, s](d["halt"], d["flag_rebuild"], d["stats"], nb_cap, bcap,
+                             d["wall_origin"], d["wall_ref"])
         k.k_forces[nb, THREADS, s](
             d["halt"], d["s_pos"], d["s_radius"], d["s_clump"], d["s_material"], d["c_pos"],
             d["c_veval"], d["c_omega"], d["c_mass"], d["c_world"], d["c_state"],
             d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"], d["nb_rhist_a"], d["wall_type"],
             d["wall_origin"], d["wall_geom"], d["wall_vel"], d["wall_material"], d["w_hist"],
-            d["w_rhist"], d["pair_params"], d["world_dt"], d["world_active"],
+            d["w_rhist"], d["s_wall_near"], d["pair_params"], d["world_dt"], d["world_active"],
             sim.rolling_model, sim.contact_margin, float(_config.MAX_OVERLAP_FRACTION),
             d["s_force"], d["s_torque"], d["s_roll"], d["s_wall_force"], d["flag_overlap"])
         k.k_clumps[_blocks(max(n_c, sim.n_worlds)), THREADS, s](
@@ -373,7 +392,8 @@ class CudaRunner:
             d["c_first"], d["c_count"], d["s_offset"], d["s_pos"], d["s_ref"], d["s_force"],
             d["s_torque"], d["s_roll"], d["world_dt"], d["world_gravity"], d["world_active"],
             d["world_lo"], d["world_hi"], 0.5 * sim.skin, d["flag_rebuild"], d["flag_nan"],
-            d["wall_origin"], d["wall_vel"], d["world_time"], d["world_steps"], d["stats"])
+            d["wall_origin"], d["wall_vel"], d["world_time"], d["world_steps"], d["stats"],
+            d["wall_ref"])
 
     def _capture(self):
         """Capture GRAPH_STEPS steps into an executable CUDA graph (driver API)."""
