@@ -10,7 +10,9 @@ rows, so a launcher may run them in any order or in parallel:
 - :func:`clump_step` sums a clump's sphere forces, integrates it (leapfrog for translation,
   symmetric free-rotor splitting for rotation) and places its spheres.
 - :func:`neighbor_search` fills sphere ``i``'s neighbour slots from the hash grid, sorts them
-  by neighbour index and carries the contact history over from the previous list.
+  by neighbour index and carries the contact history over from the previous list;
+  :func:`wall_candidates` marks, at the same builds, the walls each sphere may reach before
+  the next build (a Verlet list for walls: the force pass then skips the rest).
 
 The launchers live in :mod:`demcal.dem.backends`.
 """

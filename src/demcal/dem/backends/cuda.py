@@ -5,9 +5,11 @@ One time step is six small kernels, one thread per element:
 1. ``bin``: put each active sphere in its bucket (atomic), remember its reference position
    (only when the rebuild flag is set; buckets are emptied by ``commit`` after each build);
 2. ``search``: fill each sphere's neighbour slots into the scratch buffer ("b"), sorted, with
-   the history carried over from the current buffer ("a");
+   the history carried over from the current buffer ("a"), and mark its candidate walls;
 3. ``commit``: copy scratch to current (unless a buffer overflowed), empty the used buckets;
-4. ``finish``: one thread clears the rebuild flag, or raises the halt flag on overflow;
+4. ``finish``: one thread clears the rebuild flag and records the wall positions of the
+   build (a wall moving half the skin from there triggers the next one), or raises the halt
+   flag on overflow;
 5. ``forces`` and 6. ``clumps``: the shared bodies of :mod:`demcal.dem.kernels`; the first
    threads of ``clumps`` also move their world's walls and advance its clock.
 
