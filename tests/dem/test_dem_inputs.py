@@ -74,6 +74,7 @@ CASES = [
     ("rolling_friction", lambda: _sim(rolling_friction="B")),
     ("backend", lambda: _sim(backend="gpu")),
     ("skin", lambda: _sim(skin=-1.0)),
+    ("at most 64", lambda: Simulation([_world(walls=[floor(z=-0.001 * k) for k in range(65)])])),
     ("at least one world", lambda: Simulation([])),
     ("no particles", lambda: Simulation([_world(group=ClumpGroup(
         sphere_template(1e-3), "p", 0))])),

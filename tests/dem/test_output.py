@@ -225,6 +225,23 @@ def test_snapshot_continuation_is_bitwise_identical(tmp_path, rolling):
         assert np.abs(ref.arrays["nb_rhist_a"]).max() + np.abs(ref.arrays["nb_rhist_b"]).max() > 0
 
 
+def test_a_snapshot_without_wall_candidates_restarts_with_a_neighbour_build(tmp_path):
+    """Snapshots written before the wall candidates existed lack ``s_wall_near`` and
+    ``wall_ref``: the restart rebuilds them (one extra neighbour build), same trajectory."""
+    ref = _sim("C")
+    ref.advance(300)
+    state = ref.state_dict()
+    ref.advance(500)
+    for name in ("s_wall_near", "wall_ref"):
+        del state[name]
+    new = _sim("C")
+    new.load_state(state)
+    new.advance(500)
+    for name in ("c_pos", "c_quat", "c_angmom", "s_wall_force", "w_hist", "wall_origin"):
+        np.testing.assert_array_equal(new.arrays[name], ref.arrays[name], err_msg=name)
+    assert np.abs(ref.arrays["s_wall_force"]).max() > 0  # wall contacts were in play
+
+
 def test_snapshot_restores_into_an_existing_simulation(tmp_path):
     ref = _sim()
     ref.advance(150)
