@@ -168,13 +168,14 @@ def test_small_systems_run_on_fewer_threads_and_the_count_is_restored(monkeypatc
     assert seen[0] == before
 
 
-def piston_world() -> World:
-    """Spheres at rest on a floor (no gravity) and a wall moving into them at 0.5 m/s: only
-    the wall's motion can bring contacts, so a wall missing from the candidates would show."""
+def piston_world(start: float = -2e-3) -> World:
+    """Spheres at rest on a floor (no gravity) and a wall moving into them at 0.5 m/s from
+    x = ``start`` (m): only the wall's motion can bring contacts, so a wall missing from the
+    candidates would show."""
     mats = table(Interaction(0.5, 0.5, 0.05), Interaction(0.5, 0.5, 0.05))
     pos = [[1.6e-3 + 3.3e-3 * k, 0.0, 1.5e-3] for k in range(4)]
     walls = [PlaneWall(origin=np.zeros(3), normal=np.array([0.0, 0.0, 1.0]), name="floor"),
-             PlaneWall(origin=np.array([-2e-3, 0.0, 0.0]), normal=np.array([1.0, 0.0, 0.0]),
+             PlaneWall(origin=np.array([start, 0.0, 0.0]), normal=np.array([1.0, 0.0, 0.0]),
                        half_size=(0.01, 0.01), velocity=np.array([0.5, 0.0, 0.0]),
                        name="piston")]
     group = ClumpGroup(sphere_template(1.5e-3), "p", len(pos), positions=np.array(pos))
@@ -202,3 +203,32 @@ def test_wall_candidates_give_the_trajectory_of_visiting_every_wall(monkeypatch)
     # the piston did reach the spheres and push them along (they start at rest)
     assert np.all(on[4] > np.array([1.6e-3 + 3.3e-3 * k for k in range(4)]) + 3e-3)
     assert on[3] > 1
+
+
+def run_piston(backend: str, steps: int = 200) -> list:
+    """The piston started 0.6 mm from the first sphere, on ``backend``: x of the spheres (m),
+    neighbour builds."""
+    sim = Simulation([piston_world(-0.5e-3)], backend=backend)
+    sim.advance(steps)
+    return [sim.clump_positions(0)[:, 0].tolist(), sim.n_rebuilds]
+
+
+def test_cuda_kernels_under_the_simulator_follow_a_moving_wall_like_the_cpu():
+    """The CUDA step's glue for wall candidates (marked in ``search``, the build's wall
+    positions kept by ``finish``, a wall moving half the skin raising a build in ``clumps``),
+    under numba's CUDA simulator, against the CPU run: the piston reaches the first sphere
+    only after several builds that its own motion triggered."""
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    code = (f"import sys; sys.path.insert(0, {str(HERE)!r}); import json; "
+            "import test_dem_determinism as t; print(json.dumps(t.run_piston('cuda')))")
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                          text=True, timeout=600, cwd=HERE)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    import json
+
+    gpu = json.loads(proc.stdout.strip().splitlines()[-1])
+    cpu = run_piston("cpu")
+    print("x (cpu, cuda-sim):", cpu[0], gpu[0], "builds:", cpu[1], gpu[1])
+    assert cpu[0][0] > 1.6e-3 + 1e-4  # pushed
+    np.testing.assert_allclose(gpu[0], cpu[0], rtol=0, atol=1e-12)
+    assert gpu[1] == cpu[1] and cpu[1] >= 3
