@@ -47,6 +47,7 @@ SPHERES_PER_THREAD: int = int(os.environ.get("DEMCAL_SPHERES_PER_THREAD", "2000"
 
 #: Visit only each sphere's candidate walls (those within reach at the last neighbour build,
 #: :func:`~demcal.dem.kernels.wall_candidates`); False visits every wall at every step. Both
-#: give bitwise the same results (a test checks it); the candidates made the 7000-sphere bed's
-#: step 1.3x faster on one thread (five walls per sphere, a few dozen spheres near each).
+#: give bitwise the same results (a test checks it). Measured on one thread: the 7000-sphere
+#: bed of benchmarks/engine.py (five walls) 1.64 -> 1.05-1.1 ms per step, the quick AoR test
+#: (plate and tube) 195-200 -> 153-165 us per step.
 WALL_CANDIDATES: bool = True
