@@ -22,8 +22,6 @@ import os
 import platform
 import time
 
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-
 from demcal.doe.designs import box_behnken
 from demcal.doe.factors import Factor, FactorSpace
 from demcal.virtual.aor import run_aor

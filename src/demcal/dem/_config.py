@@ -38,10 +38,10 @@ MAX_SPEED: float = 100.0
 #: Default fraction of the Rayleigh time step used as the time step (EDEM's 20 %).
 DT_FRACTION: float = 0.2
 
-#: CPU backend: live spheres per thread below which a run uses fewer threads (waking idle
-#: threads for each of a step's parallel loops costs more than they give on a small system:
-#: the quick AoR test, 1050 spheres, took 137 us per step on one thread, 200 us on two; the
-#: 7000-sphere bed of benchmarks/engine.py 1314 us on one, 732 us on two).
+#: CPU backend: live spheres per thread below which a run uses fewer threads (a second thread
+#: gives little on a small system: the quick AoR test, 1050 spheres, took 123 us per step on
+#: one thread and 113 us on two, 200 us when idle threads slept between loops; the
+#: 7000-sphere bed of benchmarks/engine.py takes ~1.05 ms on one and 0.77-0.87 ms on two).
 #: 0 always uses every thread. Environment: DEMCAL_SPHERES_PER_THREAD.
 SPHERES_PER_THREAD: int = int(os.environ.get("DEMCAL_SPHERES_PER_THREAD", "2000"))
 
