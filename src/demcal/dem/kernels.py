@@ -131,6 +131,14 @@ def free_rotation(dt, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz):
 
 
 @njit(cache=True)
+def zero3(arr, i, k):
+    """Set ``arr[i, k, 0:3]`` to zero (a slot's 3-vector: history, rolling spring, force)."""
+    arr[i, k, 0] = 0.0
+    arr[i, k, 1] = 0.0
+    arr[i, k, 2] = 0.0
+
+
+@njit(cache=True)
 def _rolling_c(m_x, m_y, m_z, n_x, n_y, n_z, w_x, w_y, w_z, dt, stiff_n, eff_radius,
                mu_r, f_rep):
     """EPSD rolling spring (type C): torque on body b, updated history (3 floats).
@@ -209,9 +217,7 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             s_roll[i, 1] = 0.0
             s_roll[i, 2] = 0.0
             for k in range(n_walls):
-                s_wall_force[i, k, 0] = 0.0
-                s_wall_force[i, k, 1] = 0.0
-                s_wall_force[i, k, 2] = 0.0
+                zero3(s_wall_force, i, k)
             continue
         w = c_world[ci]
         dt = world_dt[w]
@@ -252,13 +258,9 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             # the clump of j is looked up only for pairs within reach
             cj = s_clump[j] if dist2 < reach * reach else ci
             if dist2 >= reach * reach or c_state[cj] != ACTIVE:
-                nb_hist[i, k, 0] = 0.0
-                nb_hist[i, k, 1] = 0.0
-                nb_hist[i, k, 2] = 0.0
+                zero3(nb_hist, i, k)
                 if use_c:
-                    nb_rhist[i, k, 0] = 0.0
-                    nb_rhist[i, k, 1] = 0.0
-                    nb_rhist[i, k, 2] = 0.0
+                    zero3(nb_rhist, i, k)
                 continue
             if i < j:
                 ca = ci
@@ -306,13 +308,9 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             vn = vx * nx + vy * ny + vz * nz
             fn, frep, arad = normal_contact(overlap, vn, reff, estar, meff, beta, gamma)
             if arad <= 0.0:
-                nb_hist[i, k, 0] = 0.0
-                nb_hist[i, k, 1] = 0.0
-                nb_hist[i, k, 2] = 0.0
+                zero3(nb_hist, i, k)
                 if use_c:
-                    nb_rhist[i, k, 0] = 0.0
-                    nb_rhist[i, k, 1] = 0.0
-                    nb_rhist[i, k, 2] = 0.0
+                    zero3(nb_rhist, i, k)
                 continue
             if overlap > max_overlap_fraction * min(ra, rb):
                 flag_overlap[w] = 1
@@ -375,9 +373,7 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             if ((near >> k) & 1) == 0:
                 continue
             wt = wall_type[w, k]
-            s_wall_force[i, k, 0] = 0.0
-            s_wall_force[i, k, 1] = 0.0
-            s_wall_force[i, k, 2] = 0.0
+            zero3(s_wall_force, i, k)
             if wt == WALL_NONE:
                 continue
             # most spheres are far from most walls: a bound without square roots skips them
@@ -391,13 +387,9 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
                     wall_geom[w, k], pix, piy, piz)
                 overlap = ri - d
             if overlap <= -contact_margin:
-                w_hist[i, k, 0] = 0.0
-                w_hist[i, k, 1] = 0.0
-                w_hist[i, k, 2] = 0.0
+                zero3(w_hist, i, k)
                 if use_c:
-                    w_rhist[i, k, 0] = 0.0
-                    w_rhist[i, k, 1] = 0.0
-                    w_rhist[i, k, 2] = 0.0
+                    zero3(w_rhist, i, k)
                 continue
             mat_w = wall_material[w, k]
             estar = pair_params[w, mat_w, mat_i, P_ESTAR]
@@ -419,13 +411,9 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             vn = vx * nx + vy * ny + vz * nz
             fn, frep, arad = normal_contact(overlap, vn, ri, estar, mass_i, beta, gamma)
             if arad <= 0.0:
-                w_hist[i, k, 0] = 0.0
-                w_hist[i, k, 1] = 0.0
-                w_hist[i, k, 2] = 0.0
+                zero3(w_hist, i, k)
                 if use_c:
-                    w_rhist[i, k, 0] = 0.0
-                    w_rhist[i, k, 1] = 0.0
-                    w_rhist[i, k, 2] = 0.0
+                    zero3(w_rhist, i, k)
                 continue
             if overlap > max_overlap_fraction * ri:
                 flag_overlap[w] = 1
@@ -506,16 +494,10 @@ def wall_candidates(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, wall_typ
                     wall_geom[w, k], s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], reach):
                 near |= 1 << k
                 continue
-            w_hist[i, k, 0] = 0.0
-            w_hist[i, k, 1] = 0.0
-            w_hist[i, k, 2] = 0.0
+            zero3(w_hist, i, k)
             if carry_rolling:
-                w_rhist[i, k, 0] = 0.0
-                w_rhist[i, k, 1] = 0.0
-                w_rhist[i, k, 2] = 0.0
-            s_wall_force[i, k, 0] = 0.0
-            s_wall_force[i, k, 1] = 0.0
-            s_wall_force[i, k, 2] = 0.0
+                zero3(w_rhist, i, k)
+            zero3(s_wall_force, i, k)
         s_wall_near[i] = near
 
 
@@ -790,10 +772,6 @@ def neighbor_search(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, s_cellke
                     new_rhist[i, p, 1] = old_rhist[i, lo, 1]
                     new_rhist[i, p, 2] = old_rhist[i, lo, 2]
             else:
-                new_hist[i, p, 0] = 0.0
-                new_hist[i, p, 1] = 0.0
-                new_hist[i, p, 2] = 0.0
+                zero3(new_hist, i, p)
                 if carry_rolling:
-                    new_rhist[i, p, 0] = 0.0
-                    new_rhist[i, p, 1] = 0.0
-                    new_rhist[i, p, 2] = 0.0
+                    zero3(new_rhist, i, p)
