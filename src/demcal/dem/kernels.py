@@ -372,10 +372,8 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
         for k in range(n_walls if near != 0 else 0):
             if ((near >> k) & 1) == 0:
                 continue
-            wt = wall_type[w, k]
+            wt = wall_type[w, k]  # never WALL_NONE: wall_candidates marks none of those
             zero3(s_wall_force, i, k)
-            if wt == WALL_NONE:
-                continue
             # most spheres are far from most walls: a bound without square roots skips them
             far = surely_beyond(wt, wall_origin[w, k, 0], wall_origin[w, k, 1],
                                 wall_origin[w, k, 2], wall_geom[w, k], pix, piy, piz,
@@ -638,6 +636,29 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
                 or y > world_hi[w, 1] or z > world_hi[w, 2]):
             c_state[c] = REMOVED
             flag_rebuild[0] = 1
+
+
+@njit(cache=True)
+def advance_world(w, world_dt, world_active, world_time, world_steps, wall_origin, wall_vel,
+                  wall_ref, half_skin, flag_rebuild):
+    """End world ``w``'s step (if it is active): move its walls by velocity x dt (m), raise the
+    rebuild flag for a wall that moved more than half the skin since the last neighbour build
+    (its wall candidates must be renewed), and advance its clock (s) and step count."""
+    if world_active[w] == 0:
+        return
+    dt = world_dt[w]
+    hs2 = half_skin * half_skin
+    for k in range(wall_origin.shape[1]):
+        wall_origin[w, k, 0] += wall_vel[w, k, 0] * dt
+        wall_origin[w, k, 1] += wall_vel[w, k, 1] * dt
+        wall_origin[w, k, 2] += wall_vel[w, k, 2] * dt
+        ddx = wall_origin[w, k, 0] - wall_ref[w, k, 0]
+        ddy = wall_origin[w, k, 1] - wall_ref[w, k, 1]
+        ddz = wall_origin[w, k, 2] - wall_ref[w, k, 2]
+        if ddx * ddx + ddy * ddy + ddz * ddz > hs2:
+            flag_rebuild[0] = 1
+    world_time[w] += dt
+    world_steps[w] += 1
 
 
 @njit(cache=True)

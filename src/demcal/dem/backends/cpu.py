@@ -16,6 +16,7 @@ from numba import njit, prange
 
 from demcal.dem.kernels import (
     ACTIVE,
+    advance_world,
     cell_bucket,
     cell_coords,
     cell_key,
@@ -411,7 +412,6 @@ def run_chunk(
     """
     carry_rolling = rolling_model == 2
     n_worlds = world_dt.shape[0]
-    n_walls = wall_type.shape[1]
     for step in range(n_steps):
         if flag_rebuild[0] != 0:
             fullest = bin_spheres(
@@ -604,20 +604,8 @@ def run_chunk(
             flag_nan,
         )
         for w in range(n_worlds):
-            if world_active[w] != 0:
-                dt = world_dt[w]
-                for k in range(n_walls):
-                    wall_origin[w, k, 0] += wall_vel[w, k, 0] * dt
-                    wall_origin[w, k, 1] += wall_vel[w, k, 1] * dt
-                    wall_origin[w, k, 2] += wall_vel[w, k, 2] * dt
-                    # a wall that moved half the skin since the build renews the candidates
-                    ddx = wall_origin[w, k, 0] - wall_ref[w, k, 0]
-                    ddy = wall_origin[w, k, 1] - wall_ref[w, k, 1]
-                    ddz = wall_origin[w, k, 2] - wall_ref[w, k, 2]
-                    if ddx * ddx + ddy * ddy + ddz * ddz > half_skin * half_skin:
-                        flag_rebuild[0] = 1
-                world_time[w] += dt
-                world_steps[w] += 1
+            advance_world(w, world_dt, world_active, world_time, world_steps, wall_origin,
+                          wall_vel, wall_ref, half_skin, flag_rebuild)
     return n_steps, STATUS_OK, parity
 
 

@@ -43,6 +43,7 @@ from demcal.dem.kernels import (
     ACTIVE,
     CELL_BITS,
     CELL_MAX,
+    advance_world,
     cell_bucket,
     cell_coords,
     cell_key,
@@ -78,6 +79,7 @@ if _simulator():
     cell_coords = _unwrapping(cell_coords)
     cell_key = _unwrapping(cell_key)
     clump_step = _unwrapping(clump_step)
+    advance_world = _unwrapping(advance_world)
     neighbor_search = _unwrapping(neighbor_search)
     sphere_forces = _unwrapping(sphere_forces)
     wall_candidates = _unwrapping(wall_candidates)
@@ -224,19 +226,9 @@ def _build_kernels():
         # the first threads also move their world's walls and clock (read next step only)
         if c == 0:
             stats[3] += 1
-        if c < world_dt.shape[0] and world_active[c] != 0:
-            dt = world_dt[c]
-            for k in range(wall_origin.shape[1]):
-                wall_origin[c, k, 0] += wall_vel[c, k, 0] * dt
-                wall_origin[c, k, 1] += wall_vel[c, k, 1] * dt
-                wall_origin[c, k, 2] += wall_vel[c, k, 2] * dt
-                ddx = wall_origin[c, k, 0] - wall_ref[c, k, 0]
-                ddy = wall_origin[c, k, 1] - wall_ref[c, k, 1]
-                ddz = wall_origin[c, k, 2] - wall_ref[c, k, 2]
-                if ddx * ddx + ddy * ddy + ddz * ddz > half_skin * half_skin:
-                    flag_rebuild[0] = 1
-            world_time[c] += dt
-            world_steps[c] += 1
+        if c < world_dt.shape[0]:
+            advance_world(c, world_dt, world_active, world_time, world_steps, wall_origin,
+                          wall_vel, wall_ref, half_skin, flag_rebuild)
         if c >= c_pos.shape[0]:
             return
         clump_step(c, c + 1, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
