@@ -130,10 +130,13 @@ def test_fit_window_changes_the_rows_used():
     assert full.left.fit.residual > 2 * wide.left.fit.residual
 
 
-def test_steep_column_measures_near_90_deg():
+def test_steep_column_is_refused_by_the_gates_and_measures_near_90_deg_without():
     img = np.full((200, 200), 0.8)
     img[40:170, 80:120] = 0.2
-    res = measure.photo_aor(img)
+    with pytest.raises(InputError, match=r"left flank fails the quality gates \(90.0 deg is "
+                       r"steeper than the limit \(80 deg\)\)"):
+        measure.photo_aor(img)
+    res = measure.photo_aor(img, gates=None)
     assert res.left_deg > 85 and res.right_deg > 85
 
 
@@ -187,3 +190,29 @@ def test_bad_files(tmp_path):
     text.write_text("this is not an image")
     with pytest.raises(InputError, match="not a readable image"):
         measure.photo_aor(text)
+
+
+def _darkening_photo(k: float = 0.8):
+    """A 44-degree dark pile on a grey plate in front of a background that darkens towards
+    the bottom (lighting fall-off): Otsu takes the lower background for the pile."""
+    img, info = pile_photo(44.0, 44.0, rng=np.random.default_rng(1), plate="light",
+                           noise=0.02)
+    rows = np.mgrid[0:img.shape[0], 0:img.shape[1]][0]
+    return np.clip(img * (1.0 - k * rows / img.shape[0]), 0, 1), info
+
+
+def test_darkening_background_is_detected_and_the_default_falls_back_to_adaptive():
+    img, info = _darkening_photo()
+    with pytest.raises(InputError, match=r"no plausible base line.*lies inside the object"):
+        measure.photo_aor(img, threshold="otsu")
+    res = measure.photo_aor(img)
+    assert res.threshold_method == "adaptive"
+    assert res.notes and "threshold otsu" in res.notes[0]
+    assert abs(res.base_row - info["base_row"]) <= 2
+    assert abs(res.mean_deg - 44.0) < 1.0
+    assert res.to_dict()["notes"] == list(res.notes)
+
+
+def test_an_ordinary_photo_keeps_otsu_with_no_note():
+    res = measure.photo_aor(_photo(plate="dark"))
+    assert res.threshold_method == "otsu" and res.notes == ()

@@ -95,9 +95,11 @@ def column() -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize("method", sorted(METHODS))
-def test_column_measures_steep_not_error(method):
-    res = METHODS[method](*column())
-    assert res.mean_deg > 85.0
+def test_column_is_refused_by_the_gates_and_measures_steep_without(method):
+    with pytest.raises(InputError, match="no flank of the pile passed the quality gates"):
+        METHODS[method](*column())
+    res = METHODS[method](*column(), gates=None)
+    assert res.mean_deg > 85.0 and res.aor_deg > 85.0 and res.n_rejected == 0
 
 
 def test_views_as_dicts_json_ready_with_failed_view():

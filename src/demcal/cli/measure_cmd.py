@@ -22,14 +22,14 @@ from demcal.measure import (
 
 
 def parse_threshold(text: str) -> str | float:
-    """``otsu``, ``adaptive`` or a grey level in (0, 1)."""
-    if text in ("otsu", "adaptive"):
+    """``auto``, ``otsu``, ``adaptive`` or a grey level in (0, 1)."""
+    if text in ("auto", "otsu", "adaptive"):
         return text
     try:
         return float(text)
     except ValueError:
         raise InputError(
-            f"--threshold must be otsu, adaptive or a grey level in (0, 1); got {text!r}"
+            f"--threshold must be auto, otsu, adaptive or a grey level in (0, 1); got {text!r}"
         ) from None
 
 
@@ -63,8 +63,10 @@ def measure(
     threshold: Annotated[
         str,
         typer.Option("--threshold", "-t",
-                     help="otsu, adaptive (uneven lighting) or a grey level in (0, 1)."),
-    ] = "otsu",
+                     help="auto (Otsu, falling back to adaptive when the base line it gives "
+                     "is implausible), otsu, adaptive (uneven lighting) or a grey level in "
+                     "(0, 1)."),
+    ] = "auto",
     fit_window: Annotated[
         tuple[float, float],
         typer.Option("--fit-window", help="Flank heights fitted, fractions of the pile height "
@@ -114,6 +116,10 @@ def measure(
                        fit=fit, pile=pile, base_line=base_row, roi=roi, roll_deg=roll_deg,
                        pixel_aspect=pixel_aspect)
     console.print(aor_table(table))
+    for r in table.results:
+        for note in r.notes:
+            console.print(f"note: {Path(r.source).name}: {note}", markup=False,
+                          highlight=False)
     targets = [(table.results[0], plot)] if plot is not None else []
     if plot_dir is not None:
         plot_dir.mkdir(parents=True, exist_ok=True)

@@ -82,6 +82,10 @@ class Outline:
         First row below the pile.
     region : (H, W) bool ndarray
         The pile region (largest connected component, holes filled, plate rows removed).
+    below_px : int
+        Rows of the connected region at and below the base line (a plate seen edge-on is a
+        thin band; a region that goes on far below the base line means the base line was
+        put inside the pile, e.g. on a background that darkens towards the bottom).
     """
 
     rows: np.ndarray
@@ -89,6 +93,7 @@ class Outline:
     right: np.ndarray
     base_row: int
     region: np.ndarray
+    below_px: int = 0
 
     @property
     def apex_row(self) -> int:
@@ -140,6 +145,8 @@ def outline(mask: np.ndarray, *, base_row: int | None = None,
                 "the base line is not visible; frame the pile with its base, or give base_line")
     if not 0 < base_row <= region.shape[0]:
         raise InputError(f"base_line must be a row in 1..{region.shape[0]}; got {base_row}")
+    full_rows = np.flatnonzero(region.any(axis=1))
+    below = int(max(0, full_rows[-1] + 1 - base_row))
     region = region.copy()
     region[base_row:] = False
     if not region.any():
@@ -161,7 +168,7 @@ def outline(mask: np.ndarray, *, base_row: int | None = None,
     if rows.size < 2:
         raise InputError(f"the pile region is only {rows.size} pixel row(s) high; too small "
                          "to measure")
-    return Outline(rows, left - 0.5, right + 0.5, int(base_row), region)
+    return Outline(rows, left - 0.5, right + 0.5, int(base_row), region, below)
 
 
 def subpixel_edges(ol: Outline, gray: np.ndarray, threshold: np.ndarray | float,
@@ -188,4 +195,5 @@ def subpixel_edges(ol: Outline, gray: np.ndarray, threshold: np.ndarray | float,
         frac = np.where(ok, gi / np.where(ok, gi - go, 1.0), 0.5)
         return np.where(ok, inner + step * frac, edge)
 
-    return Outline(rows, refine(ol.left, -1), refine(ol.right, +1), ol.base_row, ol.region)
+    return Outline(rows, refine(ol.left, -1), refine(ol.right, +1), ol.base_row, ol.region,
+                   ol.below_px)

@@ -15,9 +15,16 @@ from demcal.measure._checks import (
     check_fit_window,
     check_positive,
 )
-from demcal.measure.boundary import outline, subpixel_edges
-from demcal.measure.image import binarise
+from demcal.measure.boundary import Outline, outline, subpixel_edges
+from demcal.measure.image import Binarised, binarise
 from demcal.measure.linefit import Flank, fit_flank
+from demcal.measure.quality import DEFAULT_GATES, FlankGates, flank_rejection
+
+#: A base line found automatically is doubted when the connected pile region goes on below
+#: it for more than this fraction of the measured pile height (a plate seen from the front is
+#: a thin band; a region that continues far below means the base line was put inside the
+#: pile, e.g. where a background darkening towards the bottom joins the pile's tone).
+MAX_BELOW_FRACTION = 0.5
 
 __all__ = ["PhotoAoR", "photo_aor"]
 
@@ -55,6 +62,10 @@ class PhotoAoR:
         Top-left (row, col) of the region of interest in :attr:`image`.
     image : (H, W) float ndarray
         The roll-corrected grey photo, [0, 1] (for figures).
+    threshold_method : str
+        ``"otsu"``, ``"adaptive"`` or ``"fixed"``: how the threshold was found.
+    notes : tuple of str
+        What the measurement decided on its own (e.g. a threshold given up and why).
     """
 
     source: str
@@ -70,6 +81,8 @@ class PhotoAoR:
     pixel_aspect: float
     offset: tuple[int, int]
     image: np.ndarray = field(repr=False)
+    threshold_method: str = "otsu"
+    notes: tuple[str, ...] = ()
 
     @property
     def left_deg(self) -> float:
@@ -132,6 +145,8 @@ class PhotoAoR:
             "apex_row": self.apex_row,
             "height_px": self.height_px,
             "threshold": self.threshold,
+            "threshold_method": self.threshold_method,
+            "notes": list(self.notes),
             "pile": self.pile,
             "fit_window": list(self.fit_window),
         }
@@ -139,11 +154,45 @@ class PhotoAoR:
                 for k, v in out.items()}
 
 
-def photo_aor(image_or_path: Any, *, threshold: str | float = "otsu",
+def _base_line_doubt(ol: Outline, automatic: bool) -> str | None:
+    """Why an automatically found base line is not the plate, or None when it is plausible."""
+    if not automatic or ol.below_px <= MAX_BELOW_FRACTION * ol.height_px:
+        return None
+    return (f"the base line (row {ol.base_row}) lies inside the object: its region goes on "
+            f"{ol.below_px} px below it, more than {MAX_BELOW_FRACTION:.0%} of the "
+            f"{ol.height_px:.0f} px measured above it")
+
+
+def _measure(binar: Binarised, name: str, base: int | None, aspect: float,
+             window: tuple[float, float], method: str,
+             gates: FlankGates | None) -> tuple[Outline, Flank, Flank]:
+    try:
+        ol = outline(binar.mask, base_row=base)
+        ol = subpixel_edges(ol, binar.level, binar.threshold, binar.pile == "dark")
+    except InputError as exc:
+        raise InputError(f"photo {name}: {exc}") from None
+    z = ol.z(aspect)
+    height = ol.height_px * aspect
+    lo, hi = window
+    try:
+        left = fit_flank(z, ol.left, "left", lo * height, hi * height, method)
+        right = fit_flank(z, ol.right, "right", lo * height, hi * height, method)
+    except InputError as exc:
+        raise InputError(f"photo {name}: {exc}") from None
+    for flank in (left, right):
+        why = flank_rejection(flank, gates)
+        if why is not None:
+            raise InputError(f"photo {name}: the {flank.side} flank fails the quality gates "
+                             f"({why}); check the threshold, roi and base_line")
+    return ol, left, right
+
+
+def photo_aor(image_or_path: Any, *, threshold: str | float = "auto",
               base_line: int | None = None, roi: tuple[int, int, int, int] | None = None,
               roll_deg: float = 0.0, pixel_aspect: float = 1.0,
               fit_window: tuple[float, float] = DEFAULT_FIT_WINDOW, fit: str = "theil_sen",
-              pile: str = "auto", smooth_px: float = 1.5, clean_px: int = 2) -> PhotoAoR:
+              pile: str = "auto", smooth_px: float = 1.5, clean_px: int = 2,
+              gates: FlankGates | None = DEFAULT_GATES) -> PhotoAoR:
     """Angle of repose of the pile in a front photo.
 
     Pipeline: grayscale, roll correction, region of interest, Gaussian denoising, threshold,
@@ -155,10 +204,15 @@ def photo_aor(image_or_path: Any, *, threshold: str | float = "otsu",
     ----------
     image_or_path : str, Path or ndarray
         A JPEG/PNG/TIFF/BMP file, or an ``(H, W)`` grey / ``(H, W, 3|4)`` colour array.
-    threshold : "otsu", "adaptive" or float
-        Otsu's global threshold (default); Otsu after removing a smooth lighting gradient
+    threshold : "auto", "otsu", "adaptive" or float
+        Otsu's global threshold; Otsu after removing a smooth lighting gradient
         (:func:`~demcal.measure.image.flatten_illumination`, for uneven lighting); or a grey
-        level in (0, 1).
+        level in (0, 1). ``"auto"`` (default) tries Otsu, and when the automatic base line
+        is implausible (the region goes on below it for more than half the measured height:
+        a background darkening towards the bottom taken for the pile) the adaptive
+        threshold; if neither gives a plausible base line the photo is refused. The choice
+        and why are in :attr:`PhotoAoR.notes`. With ``"otsu"``, ``"adaptive"`` or a number
+        an implausible base line is refused, never measured.
     base_line : int, optional
         Image row of the plate surface (the first row below the pile), in the roll-corrected
         full frame. Default: found automatically, where the region widens abruptly into a
@@ -182,6 +236,10 @@ def photo_aor(image_or_path: Any, *, threshold: str | float = "otsu",
         Sigma of the Gaussian denoising, px (0: none).
     clean_px : int
         Radius of the morphological opening/closing disc, px (0: none).
+    gates : FlankGates or None
+        Quality gates each flank must pass (:class:`~demcal.measure.quality.FlankGates`:
+        e.g. steeper than 80 deg, too few points, poor fit); a photo with a failing flank is
+        refused. None: no gates.
 
     Returns
     -------
@@ -191,7 +249,8 @@ def photo_aor(image_or_path: Any, *, threshold: str | float = "otsu",
     ------
     InputError
         Unreadable or uniform image, no pile, a pile touching the image border, too few
-        boundary points in the window, or an invalid option (the message names it).
+        boundary points in the window, an implausible base line, a flank failing the gates,
+        or an invalid option (the message names it).
 
     Examples
     --------
@@ -213,33 +272,42 @@ def photo_aor(image_or_path: Any, *, threshold: str | float = "otsu",
         raise InputError(f"smooth_px must be >= 0 px; got {smooth_px!r}")
     if isinstance(clean_px, bool) or not isinstance(clean_px, int | np.integer) or clean_px < 0:
         raise InputError(f"clean_px must be an integer >= 0 px; got {clean_px!r}")
-    binar, name = binarise(image_or_path, threshold=threshold, roi=roi, roll_deg=roll_deg,
-                           pile=pile, smooth_px=smooth, clean_px=int(clean_px))
-    r0, c0 = binar.offset
-    base = None
-    if base_line is not None:
-        if isinstance(base_line, bool) or not isinstance(base_line, int | np.integer):
-            raise InputError(f"base_line must be an integer image row; got {base_line!r}")
-        base = int(base_line) - r0
-        if not 0 < base <= binar.mask.shape[0]:
-            raise InputError(f"base_line must be a row inside the region of interest "
-                             f"({r0 + 1}..{r0 + binar.mask.shape[0]}); got {base_line}")
-    try:
-        ol = outline(binar.mask, base_row=base)
-        ol = subpixel_edges(ol, binar.level, binar.threshold, binar.pile == "dark")
-    except InputError as exc:
-        raise InputError(f"photo {name}: {exc}") from None
-    z = ol.z(aspect)
-    height = ol.height_px * aspect
-    lo, hi = window
-    try:
-        left = fit_flank(z, ol.left, "left", lo * height, hi * height, method)
-        right = fit_flank(z, ol.right, "right", lo * height, hi * height, method)
-    except InputError as exc:
-        raise InputError(f"photo {name}: {exc}") from None
-    return PhotoAoR(
-        source=name, left=left, right=right, base_row=ol.base_row + r0,
-        apex_row=ol.apex_row + r0, height_px=height,
-        boundary=ol.contour() + np.array([r0, c0]), threshold=binar.threshold,
-        pile=binar.pile, fit_window=window, pixel_aspect=aspect, offset=(r0, c0),
-        image=binar.gray)
+    if isinstance(threshold, str) and threshold == "auto":
+        tries: list[Any] = ["otsu", "adaptive"]
+    else:
+        tries = [threshold]
+    doubts: list[str] = []
+    for t in tries:
+        binar, name = binarise(image_or_path, threshold=t, roi=roi, roll_deg=roll_deg,
+                               pile=pile, smooth_px=smooth, clean_px=int(clean_px))
+        r0, c0 = binar.offset
+        base = _base_row(base_line, r0, binar.mask.shape[0])
+        ol, left, right = _measure(binar, name, base, aspect, window, method, gates)
+        doubt = _base_line_doubt(ol, base is None)
+        if doubt is not None:
+            doubts.append(f"threshold {t}: {doubt}")
+            continue
+        notes = tuple(f"{d}; used threshold {t}" for d in doubts)
+        return PhotoAoR(
+            source=name, left=left, right=right, base_row=ol.base_row + r0,
+            apex_row=ol.apex_row + r0, height_px=ol.height_px * aspect,
+            boundary=ol.contour() + np.array([r0, c0]), threshold=binar.threshold,
+            pile=binar.pile, fit_window=window, pixel_aspect=aspect, offset=(r0, c0),
+            image=binar.gray, threshold_method=t if isinstance(t, str) else "fixed",
+            notes=notes)
+    raise InputError(f"photo {name}: no plausible base line ({'; '.join(doubts)}); give "
+                     "base_line (the plate's image row), an roi that ends at the plate, or "
+                     "another threshold")
+
+
+def _base_row(base_line: Any, r0: int, n_rows: int) -> int | None:
+    """The base line as a row of the region of interest (None: find it)."""
+    if base_line is None:
+        return None
+    if isinstance(base_line, bool) or not isinstance(base_line, int | np.integer):
+        raise InputError(f"base_line must be an integer image row; got {base_line!r}")
+    base = int(base_line) - r0
+    if not 0 < base <= n_rows:
+        raise InputError(f"base_line must be a row inside the region of interest "
+                         f"({r0 + 1}..{r0 + n_rows}); got {base_line}")
+    return base

@@ -30,6 +30,14 @@ from demcal.measure._checks import (
 )
 from demcal.measure.boundary import outline
 from demcal.measure.linefit import Flank, fit_flank
+from demcal.measure.quality import (
+    DEFAULT_GATES,
+    FlankGates,
+    check_combine,
+    combine_angles,
+    flank_rejection,
+    spread_deg,
+)
 from demcal.measure.render import Raster, render_discs
 
 __all__ = ["PileAoR", "ViewAoR", "pile_aor_profile", "pile_aor_silhouette", "pile_axis",
@@ -65,6 +73,9 @@ class ViewAoR:
         Height of the measured region above the plate, m.
     error : str or None
         Why this view could not be measured (its angles are then NaN).
+    left_rejected, right_rejected : str or None
+        Why a fitted flank failed the quality gates (:mod:`demcal.measure.quality`); a
+        rejected flank keeps its fit but does not enter the pile's angle.
     """
 
     index: int
@@ -73,6 +84,8 @@ class ViewAoR:
     right: Flank | None = None
     pile_height: float = math.nan
     error: str | None = None
+    left_rejected: str | None = None
+    right_rejected: str | None = None
 
     @property
     def left_deg(self) -> float:
@@ -86,19 +99,28 @@ class ViewAoR:
 
     @property
     def angles(self) -> list[float]:
-        """The measured flank angles of this view, deg."""
+        """Every fitted flank angle of this view, deg (accepted or not)."""
         return [f.angle_deg for f in (self.left, self.right) if f is not None]
+
+    @property
+    def accepted_angles(self) -> list[float]:
+        """The flank angles of this view that passed the quality gates, deg."""
+        return [f.angle_deg for f, why in ((self.left, self.left_rejected),
+                                           (self.right, self.right_rejected))
+                if f is not None and why is None]
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (NaN becomes None)."""
         out: dict[str, Any] = {"view": self.index, "azimuth_deg": self.azimuth_deg}
-        ang = self.angles
+        ang = self.accepted_angles
         out["mean_deg"] = float(np.mean(ang)) if ang else math.nan
-        for f, name in ((self.left, "left"), (self.right, "right")):
+        for f, name, why in ((self.left, "left", self.left_rejected),
+                             (self.right, "right", self.right_rejected)):
             out[f"{name}_deg"] = f.angle_deg if f else math.nan
             out[f"{name}_stderr_deg"] = f.angle_stderr_deg if f else math.nan
             out[f"{name}_residual_m"] = f.fit.residual if f else math.nan
             out[f"{name}_n_points"] = f.fit.n_points if f else 0
+            out[f"{name}_rejected"] = why
         out["pile_height_m"] = self.pile_height
         out["error"] = self.error
         return {k: _nan_to_none(v) for k, v in out.items()}
@@ -112,11 +134,13 @@ class PileAoR:
     ----------
     method : {"silhouette", "profile"}
     mean_deg : float
-        Mean of every measured flank angle (all views, both sides), deg.
+        Mean of the accepted flank angles (all views, both sides), deg.
     left_deg, right_deg : float
-        Mean left / right flank angle, deg (NaN if no flank of that side was measured).
+        Left / right angle (the ``combine`` of that side's accepted flanks), deg (NaN if no
+        flank of that side was accepted).
     std_deg : float
-        Sample standard deviation of the flank angles, deg (0 for a single flank).
+        Within-pile spread: sample standard deviation of the accepted flank angles, deg (0
+        for a single flank).
     pile_height : float
         Height of the pile above the plate, m (largest over the views).
     base_diameter : float
@@ -132,6 +156,13 @@ class PileAoR:
         Height of the plate, m.
     axis : (float, float) or None
         Horizontal position of the pile axis, m (profile method only).
+    aor_deg : float
+        The pile's angle: the ``combine`` (default median) of the accepted flank angles, deg.
+    combine : str
+        How the accepted flanks were combined (:data:`~demcal.measure.quality.COMBINE_METHODS`).
+    n_flanks, n_rejected : int
+        Flanks that passed / failed the quality gates (each rejection with its reason in the
+        views and :meth:`rejections`).
     """
 
     method: str
@@ -146,6 +177,21 @@ class PileAoR:
     pixel_size: float = math.nan
     plate_z: float = 0.0
     axis: tuple[float, float] | None = None
+    aor_deg: float = math.nan
+    combine: str = "median"
+    n_flanks: int = 0
+    n_rejected: int = 0
+
+    def rejections(self) -> list[dict[str, Any]]:
+        """The flanks that failed the gates: ``{"view", "side", "angle_deg", "reason"}``."""
+        out = []
+        for v in self.views:
+            for f, side, why in ((v.left, "left", v.left_rejected),
+                                 (v.right, "right", v.right_rejected)):
+                if f is not None and why is not None:
+                    out.append({"view": v.index, "side": side,
+                                "angle_deg": _nan_to_none(f.angle_deg), "reason": why})
+        return out
 
     def views_as_dicts(self) -> list[dict[str, Any]]:
         """Per-view results as JSON-ready dicts (NaN becomes None)."""
@@ -155,6 +201,10 @@ class PileAoR:
         """JSON-ready summary with the per-view results (NaN becomes None)."""
         out = {
             "method": self.method,
+            "aor_deg": self.aor_deg,
+            "combine": self.combine,
+            "n_flanks": self.n_flanks,
+            "n_rejected": self.n_rejected,
             "mean_deg": self.mean_deg,
             "left_deg": self.left_deg,
             "right_deg": self.right_deg,
@@ -167,6 +217,7 @@ class PileAoR:
             "axis_m": list(self.axis) if self.axis is not None else None,
         }
         out = {k: _nan_to_none(v) for k, v in out.items()}
+        out["rejected"] = self.rejections()
         out["views"] = self.views_as_dicts()
         return out
 
@@ -217,21 +268,39 @@ def _flank_points(raster: Raster) -> tuple[np.ndarray, np.ndarray, np.ndarray, f
     return ol.z() * p, left, right, ol.height_px * p
 
 
+def _gate(view: ViewAoR, gates: FlankGates | None) -> ViewAoR:
+    """The view with each fitted flank checked against the gates."""
+    return replace(view,
+                   left_rejected=None if view.left is None else flank_rejection(view.left, gates),
+                   right_rejected=None if view.right is None else flank_rejection(view.right,
+                                                                                   gates))
+
+
 def _summarise(method: str, views: list[ViewAoR], base_diameters: list[float],
                window: tuple[float, float], p: float, plate_z: float,
-               axis: tuple[float, float] | None = None) -> PileAoR:
-    angles = [a for v in views for a in v.angles]
-    if not angles:
+               axis: tuple[float, float] | None = None, *,
+               gates: FlankGates | None = DEFAULT_GATES, combine: str = "median") -> PileAoR:
+    views = [_gate(v, gates) for v in views]
+    fitted = [a for v in views for a in v.angles]
+    if not fitted:
         errors = "; ".join(f"view {v.index}: {v.error}" for v in views if v.error)
         raise InputError(f"no view of the pile could be measured ({errors})")
-    lefts = [v.left_deg for v in views if v.left is not None]
-    rights = [v.right_deg for v in views if v.right is not None]
+    angles = [a for v in views for a in v.accepted_angles]
+    if not angles:
+        reasons = [f"view {v.index} {side}: {why}" for v in views
+                   for side, why in (("left", v.left_rejected), ("right", v.right_rejected))
+                   if why is not None]
+        shown = "; ".join(reasons[:4]) + (f"; ... ({len(reasons)} in all)"
+                                           if len(reasons) > 4 else "")
+        raise InputError(f"no flank of the pile passed the quality gates ({shown})")
+    lefts = [v.left_deg for v in views if v.left is not None and v.left_rejected is None]
+    rights = [v.right_deg for v in views if v.right is not None and v.right_rejected is None]
     return PileAoR(
         method=method,
         mean_deg=float(np.mean(angles)),
-        left_deg=float(np.mean(lefts)) if lefts else math.nan,
-        right_deg=float(np.mean(rights)) if rights else math.nan,
-        std_deg=float(np.std(angles, ddof=1)) if len(angles) > 1 else 0.0,
+        left_deg=combine_angles(lefts, combine) if lefts else math.nan,
+        right_deg=combine_angles(rights, combine) if rights else math.nan,
+        std_deg=spread_deg(angles),
         pile_height=float(np.nanmax([v.pile_height for v in views])),
         base_diameter=float(np.mean(base_diameters)) if base_diameters else math.nan,
         views=tuple(views),
@@ -239,13 +308,19 @@ def _summarise(method: str, views: list[ViewAoR], base_diameters: list[float],
         pixel_size=p,
         plate_z=plate_z,
         axis=axis,
+        aor_deg=combine_angles(angles, combine),
+        combine=combine,
+        n_flanks=len(angles),
+        n_rejected=len(fitted) - len(angles),
     )
 
 
 def pile_aor_silhouette(centres: np.ndarray, radii: np.ndarray, *, n_views: int = 8,
                         plate_z: float = 0.0,
                         fit_window: tuple[float, float] = DEFAULT_FIT_WINDOW,
-                        pixel_size: float | None = None, fit: str = "theil_sen") -> PileAoR:
+                        pixel_size: float | None = None, fit: str = "theil_sen",
+                        gates: FlankGates | None = DEFAULT_GATES,
+                        combine: str = "median") -> PileAoR:
     """Angle of repose from side silhouettes of a settled pile (the photo method).
 
     Parameters
@@ -268,11 +343,17 @@ def pile_aor_silhouette(centres: np.ndarray, radii: np.ndarray, *, n_views: int 
         so that a view is at most 2000 pixels across.
     fit : {"theil_sen", "least_squares", "ransac"}
         Line-fit method (see :func:`demcal.measure.fit_line`).
+    gates : FlankGates or None
+        Quality gates a flank must pass to count (:class:`~demcal.measure.quality.FlankGates`;
+        None: every fitted flank counts).
+    combine : {"median", "trimmed_mean", "mean"}
+        How the accepted flank angles become the pile's angle ``aor_deg``.
 
     Returns
     -------
     PileAoR
-        Views that cannot be measured carry an ``error`` and NaN angles.
+        Views that cannot be measured carry an ``error`` and NaN angles; flanks that fail the
+        gates carry their reason and do not count.
 
     Raises
     ------
@@ -289,10 +370,11 @@ def pile_aor_silhouette(centres: np.ndarray, radii: np.ndarray, *, n_views: int 
     >>> pts[:, 2] = rng.uniform(0, 0.02, 20000)
     >>> cone = pts[pts[:, 2] <= 0.02 - np.hypot(pts[:, 0], pts[:, 1])]
     >>> res = pile_aor_silhouette(cone, np.full(len(cone), 0.0008))
-    >>> abs(res.mean_deg - 45.0) < 0.5, len(res.views)
+    >>> abs(res.aor_deg - 45.0) < 0.5, len(res.views)
     (True, 8)
     """
     c, r, pz, window, method, p = _common(centres, radii, plate_z, fit_window, fit, pixel_size)
+    combine = check_combine(combine)
     if isinstance(n_views, bool) or not isinstance(n_views, int | np.integer) or not (
             1 <= n_views <= 360):
         raise InputError(f"n_views must be an integer in 1..360; got {n_views!r}")
@@ -309,8 +391,10 @@ def pile_aor_silhouette(centres: np.ndarray, radii: np.ndarray, *, n_views: int 
             views.append(ViewAoR(k, az, error=str(exc)))
             continue
         views.append(ViewAoR(k, az, left, right, height))
-        diameters.append(right.fit.intercept - left.fit.intercept)
-    return _summarise("silhouette", views, diameters, window, p, pz)
+        if flank_rejection(left, gates) is None and flank_rejection(right, gates) is None:
+            diameters.append(right.fit.intercept - left.fit.intercept)
+    return _summarise("silhouette", views, diameters, window, p, pz, gates=gates,
+                      combine=combine)
 
 
 def pile_axis(centres: np.ndarray, radii: np.ndarray, plate_z: float = 0.0) -> np.ndarray:
@@ -338,7 +422,9 @@ def sector_spheres(centres: np.ndarray, axis: tuple[float, float], n_sectors: in
 
 def pile_aor_profile(centres: np.ndarray, radii: np.ndarray, *, plate_z: float = 0.0,
                      fit_window: tuple[float, float] = DEFAULT_FIT_WINDOW, n_sectors: int = 8,
-                     pixel_size: float | None = None, fit: str = "theil_sen") -> PileAoR:
+                     pixel_size: float | None = None, fit: str = "theil_sen",
+                     gates: FlankGates | None = DEFAULT_GATES,
+                     combine: str = "median") -> PileAoR:
     """Angle of repose from the surface profile (outer radius vs height) in azimuthal sectors.
 
     The pile axis is found by :func:`pile_axis`. In each sector the spheres are drawn as
@@ -363,6 +449,10 @@ def pile_aor_profile(centres: np.ndarray, radii: np.ndarray, *, plate_z: float =
         Bin size of the profile, m (default as in :func:`pile_aor_silhouette`).
     fit : {"theil_sen", "least_squares", "ransac"}
         Line-fit method.
+    gates : FlankGates or None
+        Quality gates a sector's flank must pass to count (None: every fitted one counts).
+    combine : {"median", "trimmed_mean", "mean"}
+        How the accepted sector angles become the pile's angle ``aor_deg``.
 
     Returns
     -------
@@ -370,6 +460,7 @@ def pile_aor_profile(centres: np.ndarray, radii: np.ndarray, *, plate_z: float =
         ``base_diameter`` is twice the mean radius the fitted profiles reach at the plate.
     """
     c, r, pz, window, method, p = _common(centres, radii, plate_z, fit_window, fit, pixel_size)
+    combine = check_combine(combine)
     if isinstance(n_sectors, bool) or not isinstance(n_sectors, int | np.integer) or not (
             1 <= n_sectors <= 360):
         raise InputError(f"n_sectors must be an integer in 1..360; got {n_sectors!r}")
@@ -397,6 +488,8 @@ def pile_aor_profile(centres: np.ndarray, radii: np.ndarray, *, plate_z: float =
             views.append(ViewAoR(k, az, left=left, pile_height=height))
         else:
             views.append(ViewAoR(k, az, right=flank, pile_height=height))
-        radii_at_plate.append(flank.fit.intercept)
+        if flank_rejection(flank, gates) is None:
+            radii_at_plate.append(flank.fit.intercept)
     diam = [2.0 * float(np.mean(radii_at_plate))] if radii_at_plate else []
-    return _summarise("profile", views, diam, window, p, pz, (float(axis[0]), float(axis[1])))
+    return _summarise("profile", views, diam, window, p, pz, (float(axis[0]), float(axis[1])),
+                      gates=gates, combine=combine)

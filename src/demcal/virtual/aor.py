@@ -112,6 +112,7 @@ class _Run:
     wall_time: float = 0.0
     sphere_steps: int = 0
     plot_path: str | Path | None = None
+    pile_path: str | Path | None = None
 
 
 def _capacity(config: AoRTestConfig, template) -> int:
@@ -134,6 +135,7 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
             seeds: Sequence[int], backend: str = "auto", progress: Progress | None = None,
             vtk_dir: str | Path | None = None,
             plot_paths: Sequence[str | Path | None] | None = None,
+            pile_paths: Sequence[str | Path | None] | None = None,
             on_result: Callable[[int, AoRResult], None] | None = None) -> list[AoRResult]:
     """Run a batch of cylinder-lifting tests as worlds of one engine.
 
@@ -155,6 +157,10 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
     plot_paths : sequence of path or None, optional
         One entry per run: where to save a side view of its pile with the fitted flank lines
         (PNG; only for a ``pile`` outcome; the path is in ``artefacts["pile_png"]``).
+    pile_paths : sequence of path or None, optional
+        One entry per run: where to save the final spheres (``.npz`` with ``centres`` (n, 3) m
+        and ``radii`` (n,) m, plate at z = 0), whatever the outcome, so that a pile can be
+        measured again later (path in ``artefacts["pile_npz"]``).
     on_result : callable, optional
         Called as ``on_result(run, result)`` the moment a run ends (before the batch ends), so
         a caller can store it at once.
@@ -172,6 +178,9 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
     if plot_paths is not None and len(plot_paths) != len(parameter_sets):
         raise InputError(f"plot_paths needs one entry per parameter set; got {len(plot_paths)} "
                          f"for {len(parameter_sets)} sets")
+    if pile_paths is not None and len(pile_paths) != len(parameter_sets):
+        raise InputError(f"pile_paths needs one entry per parameter set; got {len(pile_paths)} "
+                         f"for {len(parameter_sets)} sets")
     template = make_template(config.particle)
     cap = _capacity(config, template)
     g = config.geometry
@@ -188,7 +197,8 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
         rng = np.random.default_rng(int(seed))
         scales = draw_scales(cap, config.particle, rng)
         runs.append(_Run(i, params, int(seed), rng, scales, cap,
-                         plot_path=None if plot_paths is None else plot_paths[i]))
+                         plot_path=None if plot_paths is None else plot_paths[i],
+                         pile_path=None if pile_paths is None else pile_paths[i]))
         walls = [
             PlaneWall(origin=[0.0, 0.0, 0.0], normal=[0.0, 0.0, 1.0], half_size=(half, half),
                       material="wall", name="plate"),
@@ -423,6 +433,13 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
         if measured.get("error"):
             outcome = Outcome.SCATTERED
             reason = measured["error"]
+    artefacts: dict[str, str] = {}
+    if measured.get("figure"):
+        artefacts["pile_png"] = measured["figure"]
+    if run.pile_path is not None:
+        saved = _save_pile(run.pile_path, centres, radii)
+        if saved is not None:
+            artefacts["pile_npz"] = saved
     lost = sim.n_removed(w)
     run.result = AoRResult(
         outcome=outcome.value,
@@ -447,9 +464,21 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
         reason=reason,
         views_deg=measured.get("views", []),
         phase_times_s=dict(run.phase_times),
-        artefacts={"pile_png": measured["figure"]} if measured.get("figure") else {},
+        artefacts=artefacts,
     )
     run.done = True
+
+
+def _save_pile(path: str | Path, centres: np.ndarray, radii: np.ndarray) -> str | None:
+    """Save a run's final spheres (``centres`` m, ``radii`` m) as ``.npz``; None if it fails."""
+    try:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as fh:
+            np.savez_compressed(fh, centres=centres, radii=radii)
+    except OSError as exc:  # the run's result matters more than its spheres
+        log.warning("no pile file at %s: %s", path, exc.strerror)
+        return None
+    return str(path)
 
 
 class _Snapshots:

@@ -65,12 +65,15 @@ def measure_pile(centres: np.ndarray, radii: np.ndarray, options: MeasurementOpt
         return {"error": f"no measurable pile: {errors[options.method]}"}
     sil, prof = results.get("silhouette"), results.get("profile")
     out: dict[str, Any] = {
-        "aor_deg": _finite(main.mean_deg),
+        "aor_deg": _finite(main.aor_deg),
         "aor_left_deg": _finite(main.left_deg),
         "aor_right_deg": _finite(main.right_deg),
         "aor_std_deg": _finite(main.std_deg),
-        "aor_silhouette_deg": _finite(sil.mean_deg) if sil is not None else None,
-        "aor_profile_deg": _finite(prof.mean_deg) if prof is not None else None,
+        "aor_silhouette_deg": _finite(sil.aor_deg) if sil is not None else None,
+        "aor_profile_deg": _finite(prof.aor_deg) if prof is not None else None,
+        "n_flanks": main.n_flanks,
+        "n_rejected": main.n_rejected,
+        "rejected": main.rejections(),
         "pile_height_m": _finite(main.pile_height),
         "base_diameter_m": _finite(main.base_diameter),
         "views": main.views_as_dicts(),
