@@ -17,6 +17,7 @@ def test_calibrate_cli_json_layout(study_file, tmp_path):
                                    "--workers", "1"])
     assert res.exit_code == 0, res.output
     assert "pp.static_friction" in res.output and "verification (3 runs)" in res.output
+    assert "predicted R^2" in res.output
     data = json.loads(out.read_text())
     assert set(data["optimum"]) == {"pp.static_friction", "pp.rolling_friction",
                                     "pp.surface_energy"}
@@ -24,7 +25,9 @@ def test_calibrate_cli_json_layout(study_file, tmp_path):
     assert abs(data["predicted_aor_deg"] - 40.0) < 0.05
     assert set(data["verification"]) == {"aor_mean_deg", "aor_std_deg",
                                          "relative_error_percent", "n", "ci_low_deg",
-                                         "ci_high_deg", "p_value", "consistent", "test"}
+                                         "ci_high_deg", "p_value", "consistent", "test",
+                                         "half_width_deg", "half_width_goal_deg",
+                                         "half_width_reached", "aor_deg"}
     v = data["verification"]
     assert v["ci_low_deg"] < v["aor_mean_deg"] < v["ci_high_deg"] and 0 <= v["p_value"] <= 1
     assert data["n_runs"] == 40

@@ -156,3 +156,13 @@ def test_interrupt_stops_the_pool_and_keeps_finished_results():
     assert len(got) == 3
     alive = [c.pid for c in multiprocessing.active_children() if c.is_alive()]
     assert not alive, alive
+
+
+def test_default_chunk_batches_replicates_on_cpu_and_a_stage_on_a_gpu():
+    from demcal.execute.local import GPU_CHUNK, default_chunk
+
+    assert default_chunk("cpu", 3) == 3
+    assert default_chunk("cpu", 1) == 1
+    assert default_chunk("cuda", 1) == GPU_CHUNK
+    # "auto" is resolved (no GPU here, so the CPU rule), not read as a string
+    assert default_chunk("auto", 4) == 4

@@ -49,10 +49,15 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
                  "outcome": str, "relative_error_percent": float|None}],
       "best_step": int, "centre": {name: value}, "levels": {name: [low, centre, high]}}
 - "rsm": {"design": "box_behnken"|"ccd", "factors": [{"name","symbol","low","high","unit"}],
-      "runs": [{"point","coded","actual","aor_deg","outcome"}],
+      "runs": [{"point","coded","actual","aor_deg" (mean of the replicates),"outcome",
+                "aor_runs_deg": [float] (each replicate), "aor_std_deg": float|None}],
       "anova": [records], "fit": FitStatistics.to_dict(), "lack_of_fit_p": float|None,
       "coefficients_coded": {term: value}, "coefficients_actual": {term: value},
       "equation_coded": str, "equation_actual": str, "adequate": bool,
+      "adequacy": {"p_model", "lack_of_fit_p", "r2", "adj_r2", "pred_r2", "adeq_precision"}
+      (of the design-point means; Design-Expert's rules, see stages.adequacy),
+      "replicates": int (replicates used, extra ones added while not adequate within
+      stages.rsm.max_runs), "rounds": [{"replicates", "runs", "adequate", "failed", ...}],
       "warnings": [str], "excluded_points": [int]}
 - "optimize": {"target_aor_deg": float,
       "candidates": [{"params": {name: value}, "predicted_aor_deg": float,
@@ -64,7 +69,9 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       "pile_png": str|None (side view of a verification pile with fitted lines),
       "ci_low_deg", "ci_high_deg" (95 % t-interval of the mean), "p_value", "test",
       "consistent" (Welch t-test against the measurement when its spread is known, else a
-      one-sample t-test; None with fewer than 2 piles)}
+      one-sample t-test; None with fewer than 2 piles), "half_width_deg" (of the 95 %
+      interval), "half_width_goal_deg", "half_width_reached" (runs are added from n up to
+      max_n until the half-width reaches the goal)}
 
 ## runs (RunStore.record_run / runs(stage=...))
 Each RunRecord: stage, point (design row index), replicate, params (full set), seed,

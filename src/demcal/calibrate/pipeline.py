@@ -20,7 +20,7 @@ from demcal.calibrate import stages as st
 from demcal.calibrate.runner import Runner
 from demcal.calibrate.study import Study, load_study
 from demcal.errors import InputError
-from demcal.execute.local import default_workers
+from demcal.execute.local import default_chunk, default_workers
 from demcal.execute.tasks import TestDef
 from demcal.store import RunStore
 
@@ -115,7 +115,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     store.set_meta("versions", {"demcal": dv, "python": platform.python_version(),
                                 "numpy": np.__version__, "engine_backend": study.backend})
     ex = study.executor
-    chunk = ex.chunk or (100_000 if study.backend == "cuda" else 1)
+    chunk = ex.chunk or (1 if study.test.kind != "aor" else
+                         default_chunk(study.backend, study.replicates))
     runner = Runner(store, test_def(study),
                     workers=workers or ex.workers or default_workers(),
                     dask=dask if dask is not None else ex.dask, chunk=chunk,
@@ -147,7 +148,9 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
                 out[name]["selected"] = s["selected"]
             else:
                 out[name].update(adequate=s["adequate"], warnings=s["warnings"],
-                                 equation_actual=s["equation_actual"])
+                                 equation_actual=s["equation_actual"],
+                                 adequacy=s.get("adequacy"), replicates=s.get("replicates"),
+                                 rounds=s.get("rounds"))
         elif name == "steepest":
             out[name] = {"design": "steepest path", "factors": s["factors"],
                          "responses": s["steps"], "best_step": s["best_step"],
@@ -205,11 +208,13 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         "target_aor_deg": ctx.target,
         "verification": {k: ver.get(k) for k in (
             "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg",
-            "ci_high_deg", "p_value", "consistent", "test")},
+            "ci_high_deg", "p_value", "consistent", "test", "half_width_deg",
+            "half_width_goal_deg", "half_width_reached", "aor_deg")},
         "n_runs": ctx.store.count(),
         "n_runs_executed": ctx.runner.executed,
         "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
         "rsm_adequate": ctx.results["rsm"]["adequate"],
+        "rsm_adequacy": ctx.results["rsm"].get("adequacy"),
         "stages": _stage_json(ctx),
     }
     ctx.store.set_meta("result", result)

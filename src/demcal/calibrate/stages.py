@@ -23,7 +23,8 @@ from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord, RunStore, params_hash
 from demcal.virtual import PARAMETERS
 
-__all__ = ["Context", "optimize", "rangefind", "rsm", "screening", "steepest", "verification"]
+__all__ = ["Context", "adequacy", "optimize", "rangefind", "rsm", "screening", "steepest",
+           "verification"]
 
 
 @dataclass
@@ -56,8 +57,17 @@ class Context:
     def factor(self, name: str) -> dict[str, Any]:
         return next(f for f in self.factors if f["name"] == name)
 
-    def seed(self, point: int, replicate: int) -> int:
-        """Seed of a run: distinct per design row, so replicated centre points differ."""
+    def seed(self, point: int, replicate: int, copy: int | None = None) -> int:
+        """Seed of a run.
+
+        By default distinct per design row (``point``), so replicated centre points differ.
+        With the study's ``common_seeds`` (common random numbers) every design point of a
+        stage gets the same seed set (one seed per replicate), so the differences between
+        points are not blurred by the particle packings; identical rows (centre points) still
+        differ through ``copy``, their rank among the identical rows.
+        """
+        if self.study.common_seeds and copy is not None:
+            return int(self.study.seed + 1000 * replicate + copy)
         return int(self.study.seed + 1000 * replicate + point)
 
     def run(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:
@@ -85,38 +95,91 @@ def _space(factors: Sequence[dict[str, Any]]) -> doe.FactorSpace:
 
 def _point_responses(recs: Sequence[RunRecord], n_points: int) -> tuple[np.ndarray, list[str]]:
     """Mean AoR per design point over its replicates; NaN if any replicate formed no pile."""
+    y, outcome, _ = _point_runs(recs, n_points)
+    return y, outcome
+
+
+def _point_runs(recs: Sequence[RunRecord], n_points: int
+                ) -> tuple[np.ndarray, list[str], list[list[float]]]:
+    """Per design point: mean AoR (NaN if any replicate formed no pile), outcome, and the
+    replicates' angles in replicate order (empty for a point without a pile)."""
     y = np.full(n_points, math.nan)
     outcome = ["pile"] * n_points
+    runs: list[list[float]] = [[] for _ in range(n_points)]
     by: dict[int, list[RunRecord]] = {}
     for r in recs:
         by.setdefault(r.point, []).append(r)
     for i in range(n_points):
-        rs = by.get(i, [])
+        rs = sorted(by.get(i, []), key=lambda r: r.replicate)
         bad = [r.outcome for r in rs if r.outcome != "pile" or r.aor_deg is None]
         if bad or not rs:
             outcome[i] = bad[0] if bad else "missing"
         else:
-            y[i] = float(np.mean([r.aor_deg for r in rs]))
-    return y, outcome
+            runs[i] = [float(r.aor_deg) for r in rs]  # type: ignore[arg-type]
+            y[i] = float(np.mean(runs[i]))
+    return y, outcome, runs
 
 
-def _design_points(ctx: Context, design: doe.Design) -> list[Point]:
+def _copies(design: doe.Design) -> list[int]:
+    """Rank of each row among the rows with identical coded settings (0 for a unique row)."""
+    seen: dict[tuple[float, ...], int] = {}
+    out = []
+    for row in np.round(design.coded, 9):
+        key = tuple(float(v) for v in row)
+        out.append(seen.get(key, 0))
+        seen[key] = out[-1] + 1
+    return out
+
+
+def _design_points(ctx: Context, design: doe.Design, replicates: Sequence[int] | None = None
+                   ) -> list[Point]:
     actual = design.actual
+    copies = _copies(design)
+    reps = range(ctx.study.replicates) if replicates is None else replicates
     pts = []
     for i in range(design.n_runs):
         values = {n: float(actual[i, j]) for j, n in enumerate(design.names)}
-        for r in range(ctx.study.replicates):
-            pts.append(Point(i, r, ctx.full(values), ctx.seed(i, r)))
+        for r in reps:
+            pts.append(Point(i, r, ctx.full(values), ctx.seed(i, r, copies[i])))
     return pts
 
 
-def _run_rows(design: doe.Design, y: np.ndarray, outcomes: list[str]) -> list[dict[str, Any]]:
+def _replicated(design: doe.Design, runs: list[list[float]], n_reps: int
+                ) -> tuple[doe.Design, np.ndarray]:
+    """The design with one row per replicate run, and their angles (NaN rows: no pile).
+
+    Fitting every replicate as its own row (as Design-Expert does) gives the pure error of the
+    replicates and a lack-of-fit test with their degrees of freedom; with one replicate it is
+    the design itself.
+    """
+    if n_reps == 1:
+        return design, np.array([r[0] if r else math.nan for r in runs])
+    idx = np.repeat(np.arange(design.n_runs), n_reps)
+    y = np.array([runs[i][k] if runs[i] else math.nan
+                  for i in range(design.n_runs) for k in range(n_reps)])
+    rep = doe.Design(design.coded[idx], design.names, design.kind,
+                     np.arange(1, idx.size + 1), design.factors, design.point_type[idx],
+                     design.dummies[idx] if design.dummies.size else np.empty((idx.size, 0)),
+                     design.info)
+    return rep, y
+
+
+def _run_rows(design: doe.Design, y: np.ndarray, outcomes: list[str],
+              runs: list[list[float]] | None = None) -> list[dict[str, Any]]:
     actual = design.actual
-    return [{"point": i,
-             "coded": {n: float(design.coded[i, j]) for j, n in enumerate(design.names)},
-             "actual": {n: float(actual[i, j]) for j, n in enumerate(design.names)},
-             "aor_deg": None if math.isnan(y[i]) else float(y[i]), "outcome": outcomes[i]}
-            for i in range(design.n_runs)]
+    rows = []
+    for i in range(design.n_runs):
+        row: dict[str, Any] = {
+            "point": i,
+            "coded": {n: float(design.coded[i, j]) for j, n in enumerate(design.names)},
+            "actual": {n: float(actual[i, j]) for j, n in enumerate(design.names)},
+            "aor_deg": None if math.isnan(y[i]) else float(y[i]), "outcome": outcomes[i]}
+        if runs is not None:
+            r = runs[i]
+            row["aor_runs_deg"] = r
+            row["aor_std_deg"] = float(np.std(r, ddof=1)) if len(r) > 1 else None
+        rows.append(row)
+    return rows
 
 
 def _exclusion_note(excluded: list[int], outcomes: list[str]) -> str:
@@ -167,7 +230,7 @@ def rangefind(ctx: Context) -> dict[str, Any]:
             for j, v in enumerate(np.linspace(f["low"], f["high"], opts.points)):
                 pt = 100 * fi + j
                 for r in range(ctx.study.replicates):
-                    points.append(Point(pt, r, ctx.full({name: float(v)}), ctx.seed(pt, r)))
+                    points.append(Point(pt, r, ctx.full({name: float(v)}), ctx.seed(pt, r, 0)))
                 index.append((name, float(v), pt))
         recs = ctx.run("rangefind", points)
         y, outcomes = _point_responses(recs, 100 * len(names))
@@ -263,13 +326,13 @@ def screening(ctx: Context) -> dict[str, Any]:
     except InputError as exc:
         raise InputError(f"stages.screening.runs: {exc}") from None
     recs = ctx.run("screening", _design_points(ctx, design))
-    y, outcomes = _point_responses(recs, design.n_runs)
+    y, outcomes, point_runs = _point_runs(recs, design.n_runs)
     excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
     summary: dict[str, Any] = {
         "design": "plackett_burman", "n_runs": design.n_runs, "alpha": opts.alpha,
         "factors": [dict(f) for f in ctx.factors],
         "dummies": [f"dummy{j + 1}" for j in range(design.dummies.shape[1])],
-        "runs": _run_rows(design, y, outcomes), "excluded_points": excluded}
+        "runs": _run_rows(design, y, outcomes, point_runs), "excluded_points": excluded}
     try:
         rs = doe.fit(design, y, model="linear")
         if rs.df_resid < 1:
@@ -341,7 +404,7 @@ def steepest(ctx: Context) -> dict[str, Any]:
         actual = design.actual
         path = [{n: _clip(n, actual[i, j]) for j, n in enumerate(design.names)}
                 for i in range(design.n_runs)]
-        pts = [Point(i, r, ctx.full(path[i]), ctx.seed(i, r))
+        pts = [Point(i, r, ctx.full(path[i]), ctx.seed(i, r, 0))
                for i in range(len(path)) for r in range(ctx.study.replicates)]
         recs = ctx.run("steepest", pts)  # earlier steps are stored: only new ones run
         y, outcomes = _point_responses(recs, len(path))
@@ -393,13 +456,61 @@ def steepest(ctx: Context) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------------------ rsm
+def adequacy(model: Any, lof_p: float | None) -> tuple[bool, list[str], dict[str, Any]]:
+    """Is a response-surface model adequate, as Design-Expert judges it?
+
+    Inadequate when: the model is not significant (p >= 0.05); the lack of fit is
+    significant (p < 0.05); adjusted R^2 < 0.7; predicted R^2 is negative or more than 0.2
+    below the adjusted R^2 (the model does not predict new runs); or Adeq Precision (signal
+    to noise) < 4. Returns (adequate, the failed rules as warnings, the statistics).
+    """
+    p_model = float(model.f_pvalue)
+    adj, pred, adeq = float(model.adj_r2), float(model.pred_r2), float(model.adeq_precision)
+    fails = []
+    if not p_model < 0.05:
+        fails.append(f"model not significant (p = {p_model:.3g} >= 0.05)")
+    if lof_p is not None and lof_p < 0.05:
+        fails.append(f"significant lack of fit (p = {lof_p:.3g} < 0.05)")
+    if not adj >= 0.7:
+        fails.append(f"adjusted R^2 = {adj:.3f} < 0.7")
+    if not math.isfinite(pred) or pred < 0:
+        fails.append(f"predicted R^2 = {pred:.3f} is negative: the model predicts new runs "
+                     "worse than their mean")
+    elif adj - pred > 0.2:
+        fails.append(f"predicted R^2 = {pred:.3f} is more than 0.2 below the adjusted R^2 "
+                     f"({adj:.3f})")
+    if not adeq >= 4:
+        fails.append(f"Adeq Precision = {adeq:.2f} < 4 (signal too weak against the noise)")
+    stats_ = {"p_model": p_model, "lack_of_fit_p": lof_p, "r2": float(model.r2),
+              "adj_r2": adj, "pred_r2": pred if math.isfinite(pred) else None,
+              "adeq_precision": adeq if math.isfinite(adeq) else None}
+    return not fails, fails, stats_
+
+
+def _lof_p(table: Any) -> float | None:
+    for row in table.rows:
+        if row.source == "Lack of Fit" and math.isfinite(row.p):
+            return float(row.p)
+    return None
+
+
 def rsm(ctx: Context) -> dict[str, Any]:
-    """Box-Behnken (or face-centred CCD) around the centre, quadratic model, full ANOVA."""
+    """Box-Behnken (or face-centred CCD) around the centre, quadratic model, full ANOVA.
+
+    Every replicate is a row of the fit and the ANOVA (pure error from the replicates, lack
+    of fit against it); R^2, predicted R^2 and Adeq Precision are those of the design-point
+    means (the same coefficients), which is what the optimum is read from. When the model is
+    not adequate (:func:`adequacy`) and the stage's run budget (``stages.rsm.max_runs``)
+    allows, one more replicate of every design point is run and the model refitted, until it
+    is adequate or the budget is spent:
+    more replicates rather than an optimum read off noise.
+    """
     opts = ctx.study.stages.rsm
     levels = ctx.results["steepest"]["levels"]
     factors = [{**ctx.factor(n), "low": lv[0], "high": lv[2]} for n, lv in levels.items()]
     h = ctx.begin("rsm", {"factors": factors, "opts": opts.model_dump(mode="json"),
-                          "fixed": ctx.fixed, "reps": ctx.study.replicates})
+                          "fixed": ctx.fixed, "reps": ctx.study.replicates,
+                          "crn": ctx.study.common_seeds})
     space = _space(factors)
     try:
         if opts.design == "bbd":
@@ -409,41 +520,53 @@ def rsm(ctx: Context) -> dict[str, Any]:
                                            randomize=False)
     except InputError as exc:
         raise InputError(f"stages.rsm.design: {exc}") from None
-    recs = ctx.run("rsm", _design_points(ctx, design))
-    y, outcomes = _point_responses(recs, design.n_runs)
-    excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
-    base = {"design": "box_behnken" if opts.design == "bbd" else "ccd",
-            "factors": factors, "runs": _run_rows(design, y, outcomes),
-            "excluded_points": excluded}
-    try:
-        model = doe.fit(design, y, model="quadratic")
-        if model.df_resid < 1:
-            raise InputError("no residual degrees of freedom")
-    except InputError as exc:
-        err = f"rsm: the quadratic model cannot be fitted ({exc}); " + _exclusion_note(
-            excluded, outcomes)
-        ctx.store.set_stage("rsm", "failed", {**base, "error": err}, inputs_hash=h)
-        raise StudyError(err) from None
-    table = model.anova()
-    lof_p = None
-    for row in table.rows:
-        if row.source == "Lack of Fit" and math.isfinite(row.p):
-            lof_p = float(row.p)
+    n_reps = ctx.study.replicates
+    budget = opts.max_runs if opts.max_runs is not None else design.n_runs * n_reps
+    rounds: list[dict[str, Any]] = []
+    while True:
+        recs = ctx.run("rsm", _design_points(ctx, design, range(n_reps)))
+        y, outcomes, runs = _point_runs(recs, design.n_runs)
+        excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
+        base = {"design": "box_behnken" if opts.design == "bbd" else "ccd",
+                "factors": factors, "runs": _run_rows(design, y, outcomes, runs),
+                "excluded_points": excluded, "replicates": n_reps}
+        rep_design, y_rows = _replicated(design, runs, n_reps)
+        try:
+            model = doe.fit(rep_design, y_rows, model="quadratic")
+            if model.df_resid < 1:
+                raise InputError("no residual degrees of freedom")
+        except InputError as exc:
+            err = f"rsm: the quadratic model cannot be fitted ({exc}); " + _exclusion_note(
+                excluded, outcomes)
+            ctx.store.set_stage("rsm", "failed", {**base, "error": err}, inputs_hash=h)
+            raise StudyError(err) from None
+        table = model.anova()
+        lof_p = _lof_p(table)
+        # R^2, predicted R^2 and Adeq Precision of the design-point means: the rows' R^2 is
+        # capped by the run-to-run noise however many replicates, the means' grows with them
+        # (same coefficients: the replication is balanced)
+        means = model if n_reps == 1 else doe.fit(design, y, model="quadratic")
+        adequate, fails, stats_ = adequacy(means, lof_p)
+        rounds.append({"replicates": n_reps, "runs": design.n_runs * n_reps,
+                       "adequate": adequate, "failed": fails, **stats_})
+        more = design.n_runs * (n_reps + 1)
+        if adequate or not opts.add_replicates or more > budget:
+            break
+        n_reps += 1
     warnings = []
     if excluded:
         warnings.append(_exclusion_note(excluded, outcomes))
-    p_model = float(model.f_pvalue)
-    if not p_model < 0.05:
-        warnings.append(f"model not significant (p = {p_model:.3g} >= 0.05)")
-    if lof_p is not None and lof_p < 0.05:
-        warnings.append(f"significant lack of fit (p = {lof_p:.3g} < 0.05)")
+    warnings += fails
     if lof_p is None:
         warnings.append("no lack-of-fit test (no replicated points with spare df)")
-    if model.adj_r2 < 0.7:
-        warnings.append(f"adjusted R^2 = {model.adj_r2:.3f} < 0.7")
-    adequate = p_model < 0.05 and (lof_p is None or lof_p >= 0.05) and model.adj_r2 >= 0.7
+    if not adequate:
+        spent = design.n_runs * n_reps
+        warnings.append(
+            f"the model is not adequate after {n_reps} replicate(s) of each design point "
+            f"({spent} runs; budget stages.rsm.max_runs = {budget}): its optimum is a guess "
+            "within the noise; raise the budget or the fidelity, or narrow the ranges")
     summary = {**base, "anova": table.to_records(), "fit": table.fit.to_dict(),
-               "lack_of_fit_p": lof_p,
+               "lack_of_fit_p": lof_p, "adequacy": stats_, "rounds": rounds,
                "coefficients_coded": {k: float(v) for k, v in model.coefficients_coded.items()},
                "coefficients_actual": {k: float(v) for k, v in
                                        model.coefficients_actual.items()},
@@ -533,22 +656,68 @@ def compare_to_target(values: np.ndarray, target: float, target_std: float | Non
     return out
 
 
+def _half_width(values: np.ndarray, alpha: float = 0.05) -> float:
+    """Half-width of the (1 - alpha) t-interval of the mean of ``values`` (inf below two)."""
+    from scipy import stats
+
+    if values.size < 2:
+        return math.inf
+    return float(stats.t.ppf(1 - alpha / 2, values.size - 1) * values.std(ddof=1)
+                 / math.sqrt(values.size))
+
+
+def verification_size(values: np.ndarray, half_width: float, max_n: int) -> int:
+    """Replicates whose 95 % interval half-width should reach ``half_width`` deg (<= max_n).
+
+    From the spread of the runs so far: the smallest n with t(n-1) s / sqrt(n) <= half_width,
+    at least one more than now while the interval is still too wide.
+    """
+    from scipy import stats
+
+    n = values.size
+    if n >= max_n or _half_width(values) <= half_width:
+        return n
+    s = float(values.std(ddof=1)) if n > 1 else math.inf
+    want = n + 1
+    while want < max_n and stats.t.ppf(0.975, want - 1) * s / math.sqrt(want) > half_width:
+        want += 1
+    return min(max_n, want)
+
+
 def verification(ctx: Context) -> dict[str, Any]:
-    """N replicate runs at the chosen optimum: mean, spread and relative error to the target."""
-    n = ctx.study.stages.verification.n
+    """Replicate runs at the chosen optimum, on fresh seeds: mean, spread, error to the target.
+
+    Starts with ``stages.verification.n`` runs; while the 95 % interval of the mean is wider
+    than ``half_width_deg`` either side, adds the runs its spread says are needed, up to
+    ``max_n``.
+    """
+    opts = ctx.study.stages.verification
     params = ctx.full(ctx.results["optimize"]["chosen"])
-    h = ctx.begin("verification", {"params": params, "n": n})
-    pts = [Point(0, i, params, ctx.study.seed + 10_000 + i) for i in range(n)]
-    recs = ctx.run("verification", pts)
-    aors = [r.aor_deg if r.outcome == "pile" else None for r in recs]
-    vals = np.array([a for a in aors if a is not None])
+    h = ctx.begin("verification", {"params": params, "n": opts.n})
+    n = opts.n
+    while True:
+        pts = [Point(0, i, params, ctx.study.seed + 10_000 + i) for i in range(n)]
+        recs = ctx.run("verification", pts)
+        aors = [r.aor_deg if r.outcome == "pile" else None for r in recs]
+        vals = np.array([a for a in aors if a is not None])
+        if opts.half_width_deg is None or vals.size < 2 or vals.size < len(recs):
+            break
+        want = verification_size(vals, opts.half_width_deg, max(opts.max_n, opts.n))
+        if want <= n:
+            break
+        n = want
     mean = float(vals.mean()) if vals.size else None
     std = float(vals.std(ddof=1)) if vals.size > 1 else (0.0 if vals.size else None)
     rel = None if mean is None else abs(mean - ctx.target) / ctx.target * 100.0
     png = next((r.artefacts.get("pile_png") for r in recs if r.artefacts.get("pile_png")), None)
+    hw = _half_width(vals)
     summary = {"params": params, "aor_deg": aors, "outcomes": [r.outcome for r in recs],
                "aor_mean_deg": mean, "aor_std_deg": std, "relative_error_percent": rel,
                "n": n, "n_piles": int(vals.size), "pile_png": png,
+               "half_width_deg": hw if math.isfinite(hw) else None,
+               "half_width_goal_deg": opts.half_width_deg,
+               "half_width_reached": bool(opts.half_width_deg is not None
+                                          and hw <= opts.half_width_deg),
                **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)}
     ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
     ctx.results["verification"] = summary

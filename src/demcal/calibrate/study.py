@@ -182,6 +182,11 @@ class RsmOptions(_M):
 
     design: Literal["bbd", "ccd"] = "bbd"
     center_points: int = Field(3, ge=2, le=10)
+    add_replicates: bool = Field(True, description="when the model is not adequate, run one "
+                                 "more replicate of every point (within max_runs) and refit")
+    max_runs: int | None = Field(None, ge=1, le=10_000, description="run budget of the stage "
+                                 "(all replicates); default: the design once per replicate, "
+                                 "so no extra replicates")
 
 
 class OptimizeOptions(_M):
@@ -195,7 +200,11 @@ class OptimizeOptions(_M):
 class VerificationOptions(_M):
     """Replicates at the optimum."""
 
-    n: int = Field(3, ge=1, le=50)
+    n: int = Field(3, ge=1, le=50, description="runs to start with")
+    half_width_deg: float | None = Field(
+        1.5, gt=0, le=90, description="add runs until the 95 % interval of the mean is at "
+        "most this wide either side, deg (None: exactly n runs)")
+    max_n: int = Field(12, ge=1, le=200, description="most verification runs")
 
 
 class Stages(_M):
@@ -212,8 +221,10 @@ class Executor(_M):
 
     workers: int | None = Field(None, ge=1, le=1024, description="default: CPU count")
     dask: str | None = None
-    chunk: int | None = Field(None, ge=1, description="runs per task, batched as worlds of "
-                              "one engine; default 1 on CPU, a whole stage with backend cuda")
+    chunk: int | None = Field(None, ge=1, le=100_000, description="runs per task, batched "
+                              "as worlds of one engine; default: a design point's replicates "
+                              "on the CPU, a whole stage on a GPU (backend cuda, or auto "
+                              "with a GPU present)")
 
 
 class Study(_M):
@@ -222,6 +233,9 @@ class Study(_M):
     name: str = "study"
     seed: int = Field(1, ge=0)
     replicates: int = Field(1, ge=1, le=20, description="seeds per design point")
+    common_seeds: bool = Field(False, description="common random numbers: every design point "
+                               "of a stage runs on the same seed set (verification keeps "
+                               "fresh seeds)")
     backend: Literal["auto", "cpu", "cuda"] = "auto"
     material: Material = Material()
     target: Target
@@ -298,6 +312,7 @@ EXAMPLE_STUDY = '''\
 name = "my material"
 seed = 1                  # base seed of every run (replicates use seed, seed+1, ...)
 replicates = 1            # seeds per design point
+common_seeds = false      # true: every design point of a stage on the same seeds (CRN)
 backend = "auto"          # engine backend: auto | cpu | cuda
 
 [material]
@@ -361,12 +376,15 @@ step = "auto"             # or a coded step, e.g. 0.5
 [stages.rsm]
 design = "bbd"            # bbd | ccd
 center_points = 3
+# max_runs = 45           # run budget: replicates are added while the model is not adequate
 
 [stages.optimize]
 n_solutions = 5
 
 [stages.verification]
-n = 3
+n = 3                     # runs to start with, on fresh seeds
+half_width_deg = 1.5      # add runs until the 95 % interval is +/- this (deg) ...
+max_n = 12                # ... or this many runs
 
 [executor]
 # workers = 2             # local process pool (default: CPU count)

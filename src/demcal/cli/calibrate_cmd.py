@@ -43,9 +43,17 @@ def _print_result(result: dict) -> None:
         console.print(f"verification: 95 % interval {v['ci_low_deg']:.2f}-"
                       f"{v['ci_high_deg']:.2f} deg, {verdict} the measurement "
                       f"(p = {v['p_value']:.3g}, {v['test']})")
+    a = result.get("rsm_adequacy") or {}
+    if a:
+        def f(key: str, fmt: str) -> str:
+            return "n/a" if a.get(key) is None else format(a[key], fmt)
+        console.print(f"response surface: adjusted R^2 {f('adj_r2', '.3f')}, predicted R^2 "
+                      f"{f('pred_r2', '.3f')}, Adeq Precision {f('adeq_precision', '.2f')}, "
+                      f"model p {f('p_model', '.3g')}, lack of fit p {f('lack_of_fit_p', '.3g')}",
+                      highlight=False)
     if not result.get("rsm_adequate", True):
         console.print("[yellow]warning:[/yellow] the response-surface model is not adequate "
-                      "(see the rsm stage's warnings)")
+                      "(see the rsm stage's warnings): its optimum is a guess within the noise")
 
 
 def _build_report(study_dir: Path) -> Path | None:

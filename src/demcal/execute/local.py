@@ -18,7 +18,10 @@ from typing import Any
 from demcal.execute import tasks as _tasks
 from demcal.execute.tasks import RunTask
 
-__all__ = ["default_workers", "run_local"]
+__all__ = ["default_chunk", "default_workers", "run_local"]
+
+#: Runs per task on a GPU: a whole stage in one engine (worlds batched on the device).
+GPU_CHUNK = 100_000
 
 OnResult = Callable[[dict[str, Any]], None]
 
@@ -29,6 +32,20 @@ def default_workers() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def default_chunk(backend: str, replicates: int) -> int:
+    """Runs per task when the study does not set ``executor.chunk``.
+
+    The backend is resolved first (``"auto"`` is a GPU when one is present): on a GPU a whole
+    stage is one batch; on the CPU the replicates of one design point (same parameters,
+    different seeds, so they end at about the same time) are worlds of one engine.
+    """
+    from demcal.dem.backends import resolve_backend
+
+    if resolve_backend(backend) == "cuda":
+        return GPU_CHUNK
+    return max(1, int(replicates))
 
 
 def _init_worker(threads: int) -> None:

@@ -1,0 +1,109 @@
+"""Studies that use the noise: replicate rows in the fit, Design-Expert's adequacy rules,
+extra replicates within a run budget, verification sized to a 95 % interval, common seeds."""
+
+from __future__ import annotations
+
+import shutil
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from demcal import doe
+from demcal.calibrate import calibrate
+from demcal.calibrate.stages import adequacy, verification_size
+from demcal.store import RunStore
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "analytic" / "study.toml"
+
+
+def _write(tmp_path: Path, edit) -> Path:
+    text = EXAMPLE.read_text()
+    path = tmp_path / "study.toml"
+    shutil.copy(EXAMPLE, path)
+    path.write_text(edit(text))
+    tomllib.loads(path.read_text())  # still valid TOML
+    return path
+
+
+def _bbd(y_fn, noise: float, seed: int = 0):
+    d = doe.box_behnken(3, center_points=3, randomize=False)
+    rng = np.random.default_rng(seed)
+    y = np.array([y_fn(row) for row in d.coded]) + noise * rng.standard_normal(d.n_runs)
+    return doe.fit(d, y, model="quadratic")
+
+
+def test_adequacy_rejects_a_model_that_does_not_predict():
+    clean = _bbd(lambda x: 40 + 5 * x[0] - 3 * x[1] + 2 * x[0] ** 2, noise=0.3)
+    ok, fails, stats = adequacy(clean, None)
+    assert ok and fails == [] and stats["pred_r2"] > 0.9
+    noisy = _bbd(lambda x: 40 + 0.5 * x[0], noise=4.0, seed=3)
+    ok, fails, stats = adequacy(noisy, None)
+    assert not ok
+    assert any("predicted R^2" in f for f in fails)
+    assert stats["pred_r2"] < stats["adj_r2"] - 0.2 or stats["pred_r2"] < 0
+
+
+def test_verification_size_reaches_the_half_width():
+    v = np.array([40.0, 42.0, 38.0])  # s = 2: t(n-1) 2 / sqrt(n) <= 1.5 first at n = 10
+    assert verification_size(v, 1.5, 50) == 10
+    assert verification_size(v, 1.5, 6) == 6
+    assert verification_size(np.array([40.0, 40.1, 39.9]), 1.5, 12) == 3
+
+
+@pytest.fixture(scope="module")
+def noisy_study(tmp_path_factory):
+    """The analytic study with 3 deg of noise: the BBD at one replicate is not adequate, so
+    the stage adds replicates within its budget of 3 x 15 runs; verification grows too."""
+    def edit(text: str) -> str:
+        text = text.replace("noise_deg = 0.3", "noise_deg = 3.0")
+        text = text.replace("center_points = 3", "center_points = 3\nmax_runs = 45")
+        return text.replace("[stages.verification]\nn = 3",
+                            "[stages.verification]\nn = 3\nhalf_width_deg = 1.5\nmax_n = 10")
+    path = _write(tmp_path_factory.mktemp("noisy"), edit)
+    return calibrate(path), path
+
+
+def test_rsm_adds_replicates_until_adequate_or_the_budget_is_spent(noisy_study):
+    res, path = noisy_study
+    with RunStore(path.parent) as store:
+        rsm = store.stage("rsm").summary
+        rounds = rsm["rounds"]
+        assert [r["replicates"] for r in rounds] == list(range(1, len(rounds) + 1))
+        assert len(rounds) >= 2 and not rounds[0]["adequate"]
+        assert rounds[-1]["adequate"] or rounds[-1]["runs"] == 45
+        reps = rsm["replicates"]
+        assert len(store.runs(stage="rsm")) == 15 * reps
+        # every replicate is a row: pure error has 15 (reps - 1) + 2 df
+        pe = next(r for r in rsm["anova"] if r["term"] == "Pure Error")
+        assert pe["df"] == 15 * (reps - 1) + 2
+        spreads = [row["aor_std_deg"] for row in rsm["runs"]]
+        assert all(s is not None and s >= 0 for s in spreads)
+    assert res["rsm_adequate"] == rsm["adequate"]
+
+
+def test_verification_adds_runs_for_its_interval(noisy_study):
+    res, path = noisy_study
+    v = res["verification"]
+    with RunStore(path.parent) as store:
+        ver = store.stage("verification").summary
+    assert v["n"] == len(ver["aor_deg"]) and 3 < v["n"] <= 10
+    assert ver["half_width_reached"] == (ver["half_width_deg"] <= 1.5)
+    assert ver["half_width_reached"] or v["n"] == 10
+
+
+def test_common_seeds_share_the_seed_set_but_not_between_centre_points(tmp_path):
+    path = _write(tmp_path, lambda t: t.replace("replicates = 1",
+                                                "replicates = 2\ncommon_seeds = true"))
+    calibrate(path)
+    with RunStore(path.parent) as store:
+        runs = store.runs(stage="rsm")
+        by_point: dict[int, set[int]] = {}
+        for r in runs:
+            by_point.setdefault(r.point, set()).add(r.seed)
+        seed_sets = {frozenset(s) for s in by_point.values()}
+        # 12 edge points share {1, 1001}; the 3 centre points take copies 0, 1, 2
+        assert frozenset({1, 1001}) in seed_sets and len(seed_sets) == 3
+        ver = store.runs(stage="verification")
+        assert all(r.seed >= 10_000 for r in ver)  # verification keeps fresh seeds
