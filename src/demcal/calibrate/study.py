@@ -118,7 +118,7 @@ class TestSpec(_M):
     """The virtual test: the engine's AoR test, or the analytic stand-in (a test double)."""
 
     kind: Literal["aor", "analytic"] = "aor"
-    fidelity: Literal["quick", "paper"] = "quick"
+    fidelity: Literal["quick", "standard", "paper"] = "quick"
     overrides: dict[str, Any] = Field(default_factory=dict,
                                       description="nested AoRTestConfig overrides")
     analytic: dict[str, Any] = Field(default_factory=dict,
@@ -232,7 +232,9 @@ class Study(_M):
 
     name: str = "study"
     seed: int = Field(1, ge=0)
-    replicates: int = Field(1, ge=1, le=20, description="seeds per design point")
+    replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point; "
+                                   "default: the test fidelity's (quick 1, standard "
+                                   "FIDELITY_REPLICATES['standard'], paper 1)")
     common_seeds: bool = Field(False, description="common random numbers: every design point "
                                "of a stage runs on the same seed set (verification keeps "
                                "fresh seeds)")
@@ -243,6 +245,15 @@ class Study(_M):
     test: TestSpec = TestSpec()
     stages: Stages = Stages()
     executor: Executor = Executor()
+
+    @model_validator(mode="after")
+    def _replicates(self) -> Study:
+        if self.replicates is None:
+            from demcal.virtual import FIDELITY_REPLICATES
+
+            self.replicates = (FIDELITY_REPLICATES[self.test.fidelity]
+                               if self.test.kind == "aor" else 1)
+        return self
 
     @model_validator(mode="after")
     def _refs(self) -> Study:
@@ -352,7 +363,7 @@ high = 0.02
 
 [test]
 kind = "aor"              # aor (the DEM engine) | analytic (a planted stand-in, for tests)
-fidelity = "quick"        # quick | paper
+fidelity = "quick"        # quick | standard | paper
 # overrides = { fill = { count = 200 } }
 
 [stages.rangefind]

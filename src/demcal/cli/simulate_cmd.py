@@ -92,14 +92,19 @@ def _view_angles(result) -> list[float]:
 def simulate_aor(
     preset: Annotated[str, typer.Option(help="Material preset (corn_stalk, corn_stalk_dry).")]
     = "corn_stalk",
-    fidelity: Annotated[str, typer.Option(help="Test fidelity: quick or paper.")] = "quick",
+    fidelity: Annotated[str, typer.Option(
+        help="Test fidelity: quick (150 stalks, a demonstration), standard (the calibration "
+        "fidelity: seed scatter near the lab's) or paper (the paper's factory fill).")]
+    = "quick",
     set_: Annotated[list[str] | None, typer.Option(
         "--set", help="Override a parameter: NAME=VALUE (SI units), repeatable.")] = None,
     test: Annotated[list[str] | None, typer.Option(
         "--test", help="Override a test setting: KEY=VALUE with a dotted key, e.g. "
         "geometry.cylinder_inner_diameter=0.05 or fill.count=300 (SI units), repeatable.")]
     = None,
-    seeds: Annotated[int, typer.Option(help="Replicates with seeds 0..N-1 (batched).")] = 1,
+    seeds: Annotated[int | None, typer.Option(
+        help="Replicates with seeds SEED..SEED+N-1, batched as worlds of one engine "
+        "(default: the fidelity's replicates, e.g. 3 for standard).")] = None,
     seed0: Annotated[int, typer.Option("--seed", help="First seed.")] = 0,
     vtk: Annotated[Path | None, typer.Option(help="Write VTK snapshots to this folder.")] = None,
     plot: Annotated[Path | None, typer.Option(help="Save a side view of the pile (PNG).")]
@@ -109,8 +114,16 @@ def simulate_aor(
     backend: Annotated[str, typer.Option(help="Engine backend: auto, cpu or cuda.")] = "auto",
 ) -> None:
     """Run the cylinder-lifting angle-of-repose test and report the angle (degrees)."""
-    from demcal.virtual import fidelity_config, parse_assignments, preset_parameters, run_aor
+    from demcal.virtual import (
+        FIDELITY_REPLICATES,
+        fidelity_config,
+        parse_assignments,
+        preset_parameters,
+        run_aor,
+    )
 
+    if seeds is None:
+        seeds = FIDELITY_REPLICATES.get(fidelity, 1)
     if seeds < 1:
         raise InputError(f"--seeds must be >= 1; got {seeds}")
     if plot is not None and not plot.parent.is_dir():

@@ -2,16 +2,18 @@
 
 ``run_aor`` runs a batch of tests (one engine world each) and returns :class:`AoRResult`
 objects with a typed :class:`Outcome`; ``fidelity_config`` and ``preset_parameters`` give the
-paper's and the quick configurations and the corn-stalk material.
+quick, standard and paper configurations (``FIDELITY_REPLICATES``: their default seeds per
+point) and the corn-stalk material.
 """
 
 from demcal.virtual.aor import AoRResult, run_aor
-from demcal.virtual.config import AoRTestConfig, fidelity_config
+from demcal.virtual.config import FIDELITY_REPLICATES, AoRTestConfig, fidelity_config
 from demcal.virtual.outcome import Outcome
 from demcal.virtual.parameters import PARAMETERS, check_parameters, parse_assignments
 from demcal.virtual.presets import PRESETS, preset_parameters
 
 __all__ = [
+    "FIDELITY_REPLICATES",
     "PARAMETERS",
     "PRESETS",
     "AoRResult",

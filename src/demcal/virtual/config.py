@@ -14,6 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 __all__ = [
     "FIDELITIES",
+    "FIDELITY_REPLICATES",
     "AoRTestConfig",
     "Fill",
     "Geometry",
@@ -178,11 +179,22 @@ FIDELITIES: dict[str, dict] = {
     # Seed-to-seed scatter of the angle: 2-9 deg (std) near 45 deg: average replicates.
     "quick": {"geometry": {"cylinder_inner_diameter": 0.030},
               "fill": {"method": "packing", "count": 150}},
+    # STANDARD_FILL stalks dropped as a loose packing in a STANDARD_TUBE tube: the cheapest pile
+    # whose seed-to-seed scatter is near the physical test's own (benchmarks/precision.py,
+    # benchmarks/README.md), with FIDELITY_REPLICATES["standard"] seeds per design point for
+    # a standard error <= 1 deg.
+    "standard": {"geometry": {"cylinder_inner_diameter": 0.040},
+                 "fill": {"method": "packing", "count": 450}},
 }
+
+#: Default replicates (seeds) per design point of each fidelity: ``simulate aor`` runs this
+#: many when ``--seeds`` is not given, and a study's ``replicates`` defaults to it.
+FIDELITY_REPLICATES: dict[str, int] = {"quick": 1, "standard": 3, "paper": 1}
 
 
 def fidelity_config(name: str, **overrides) -> AoRTestConfig:
-    """The test configuration of a fidelity (``paper`` or ``quick``), with nested overrides."""
+    """The test configuration of a fidelity (``quick``, ``standard`` or ``paper``), with
+    nested overrides."""
     from demcal.errors import InputError
 
     if name not in FIDELITIES:
