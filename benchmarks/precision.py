@@ -8,7 +8,8 @@ For each case (a fill of N stalks in a tube of diameter D, or the paper's factor
   of every fitted flank, no gates: demcal before the gates) and ``profile`` (the azimuthal
   surface-profile method);
 - the within-pile spread of the flank angles (median over the piles of each pile's spread);
-- the wall time per test (the batch's wall time / replicates) and per phase (fill, fill
+- the wall time per test (the batch's wall time / replicates), the CPU time per test (all
+  threads; robust to other load on the machine) and the wall time per phase (fill, fill
   settle, lift, pile settle: each check's wall time shared among the worlds still running);
 - the replicates that give a standard error of the design-point mean <= ``--se`` deg and
   their cost in wall-seconds.
@@ -120,10 +121,11 @@ def summarise(name: str, measured: list[dict], wall_per_test: float | None,
     return row
 
 
-def run_case(case: str, seeds: list[int], out_dir: Path, backend: str, se: float) -> dict:
+def run_case(case: str, seeds: list[int], out_dir: Path, backend: str, se: float,
+             sets: dict[str, float] | None = None) -> dict:
     """Simulate one case's replicates as one batch, save the piles, measure them."""
     config = case_config(case)
-    params = preset_parameters("corn_stalk", BASE)
+    params = preset_parameters("corn_stalk", {**BASE, **(sets or {})})
     folder = out_dir / case.replace(":", "_")
     paths = [folder / f"seed{s}.npz" for s in seeds]
     n = len(seeds)
@@ -140,10 +142,10 @@ def run_case(case: str, seeds: list[int], out_dir: Path, backend: str, se: float
     def on_result(run: int, result) -> None:
         live.discard(run)
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     results = run_aor([params] * n, config=config, seeds=seeds, backend=backend,
                       progress=on_progress, on_result=on_result, pile_paths=paths)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     measured = []
     for r, p in zip(results, paths, strict=True):
         m = measure_saved(p, config) if r.outcome == "pile" else {
@@ -151,7 +153,7 @@ def run_case(case: str, seeds: list[int], out_dir: Path, backend: str, se: float
         m["seed"], m["outcome"], m["sim_time_s"] = r.seed, r.outcome, r.sim_time_s
         m["phase_times_s"] = r.phase_times_s
         measured.append(m)
-    timing = {"wall_per_test_s": wall / n, "batch_wall_s": wall,
+    timing = {"wall_per_test_s": wall / n, "batch_wall_s": wall, "cpu_per_test_s": cpu / n,
               "phase_wall_per_test_s": {k: v / n for k, v in phase_wall.items()},
               "n_particles": [r.n_particles for r in results],
               "sim_phase_times_s": [r.phase_times_s for r in results]}
@@ -159,6 +161,7 @@ def run_case(case: str, seeds: list[int], out_dir: Path, backend: str, se: float
     row = summarise(case, measured, timing["wall_per_test_s"],
                     timing["phase_wall_per_test_s"], timing["n_particles"], se)
     row["batch_wall_s"] = wall
+    row["cpu_per_test_s"] = timing["cpu_per_test_s"]
     return row
 
 
@@ -173,6 +176,7 @@ def remeasure(folder: Path, se: float) -> list[dict]:
         t = json.loads(tfile.read_text()) if tfile.exists() else {}
         rows.append(summarise(case, measured, t.get("wall_per_test_s"),
                               t.get("phase_wall_per_test_s", {}), t.get("n_particles", []), se))
+        rows[-1]["cpu_per_test_s"] = t.get("cpu_per_test_s")
     return rows
 
 
@@ -182,15 +186,16 @@ def _f(x, fmt=".2f") -> str:
 
 def print_table(rows: list[dict]) -> None:
     head = (f"{'case':>10} {'piles':>5} {'AoR':>6} {'std':>5} {'legacy':>6} {'profile':>7} "
-            f"{'spread':>6} {'s/test':>7} {'fill':>6} {'settle':>6} {'lift':>6} {'pile':>6} "
-            f"{'reps':>4} {'s/point':>7}")
+            f"{'spread':>6} {'s/test':>7} {'cpu/test':>8} {'fill':>6} {'settle':>6} "
+            f"{'lift':>6} {'pile':>6} {'reps':>4} {'s/point':>7}")
     print(head)
     for r in rows:
         ph = r["phase_wall_per_test_s"]
         print(f"{r['case']:>10} {r['n_piles']:>2}/{r['n_runs']:<2} {_f(r['aor_mean_deg']):>6} "
               f"{_f(r['seed_std_gated_deg']):>5} {_f(r['seed_std_legacy_deg']):>6} "
               f"{_f(r['seed_std_profile_deg']):>7} {_f(r['flank_spread_gated_deg']):>6} "
-              f"{_f(r['wall_per_test_s'], '.0f'):>7} {_f(ph.get('fill'), '.0f'):>6} "
+              f"{_f(r['wall_per_test_s'], '.0f'):>7} {_f(r.get('cpu_per_test_s'), '.0f'):>8} "
+              f"{_f(ph.get('fill'), '.0f'):>6} "
               f"{_f(ph.get('fill_settle'), '.0f'):>6} {_f(ph.get('lift'), '.0f'):>6} "
               f"{_f(ph.get('pile_settle'), '.0f'):>6} {_f(r['replicates_for_se'], 'd'):>4} "
               f"{_f(r['wall_per_design_point_s'], '.0f'):>7}  (gated std by combine: "
@@ -209,7 +214,10 @@ def main() -> None:
     ap.add_argument("--out", default="out/precision", help="folder for the saved piles")
     ap.add_argument("--remeasure", help="measure the piles saved in this folder; no runs")
     ap.add_argument("--json", help="write the numbers to this file")
+    ap.add_argument("--set", dest="sets", nargs="*", default=[],
+                    help="parameter overrides NAME=VALUE (SI) on top of the reference point")
     args = ap.parse_args()
+    sets = {k: float(v) for k, _, v in (a.partition("=") for a in args.sets)}
     machine = {"platform": platform.platform(), "cpus": os.cpu_count(),
                "backend": args.backend}
     rows: list[dict] = []
@@ -217,7 +225,8 @@ def main() -> None:
     def dump() -> None:
         if args.json:
             Path(args.json).write_text(json.dumps(
-                {"machine": machine, "params": BASE, "se_target_deg": args.se, "cases": rows},
+                {"machine": machine, "params": {**BASE, **sets}, "se_target_deg": args.se,
+                 "cases": rows},
                 indent=1, default=float))
 
     if args.remeasure:
@@ -228,7 +237,7 @@ def main() -> None:
     seeds = list(range(args.seed0, args.seed0 + args.seeds))
     for case in args.cases:
         t0 = time.perf_counter()
-        rows.append(run_case(case, seeds, Path(args.out), args.backend, args.se))
+        rows.append(run_case(case, seeds, Path(args.out), args.backend, args.se, sets))
         print(f"# {case}: {time.perf_counter() - t0:.0f} s for {len(seeds)} seeds", flush=True)
         print_table(rows[-1:])
         dump()

@@ -74,4 +74,4 @@ def test_a_stalk_standing_at_the_edge_is_rejected_not_averaged_in():
     assert abs(gated.aor_deg - 45.0) < 1.0
     assert abs(legacy.mean_deg - 45.0) > abs(gated.aor_deg - 45.0) + 0.5
     d = gated.to_dict()
-    assert d["n_rejected"] == len(d["rejected"]) and d["combine"] == "median"
+    assert d["n_rejected"] == len(d["rejected"]) and d["combine"] == "mean"

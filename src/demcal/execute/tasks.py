@@ -13,7 +13,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["RunTask", "TestDef", "run_chunk"]
+__all__ = ["MEASUREMENT_VERSION", "RunTask", "TestDef", "run_chunk"]
+
+#: How an engine pile is measured, part of every engine run's identity: runs measured by an
+#: older method are not mixed with new ones in a resumed study (they are run again).
+#: 2: flank quality gates, mean of the accepted flanks (demcal.measure.quality).
+MEASUREMENT_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -32,7 +37,8 @@ class TestDef:
         """What defines the test's results (the backend does not)."""
         if self.kind == "analytic":
             return {"kind": "analytic", "analytic": self.analytic}
-        return {"kind": "aor", "fidelity": self.fidelity, "overrides": self.overrides}
+        return {"kind": "aor", "fidelity": self.fidelity, "overrides": self.overrides,
+                "measurement": MEASUREMENT_VERSION}
 
 
 @dataclass(frozen=True)

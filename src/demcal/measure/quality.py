@@ -4,7 +4,7 @@ A pile's angle is a statement about its straight flank. A fit that follows one s
 at the edge (a "flank" of 95 deg), a flank with a handful of boundary points, or points that
 scatter about the line as much as the window is high, says nothing about it and must not be
 averaged in. :func:`flank_rejection` names why a flank fails; :func:`combine_angles` reduces
-the angles that pass to one value (median by default) and their spread.
+the angles that pass to one value (their mean by default) and their spread.
 
 The same gates serve photos (two flanks) and simulated piles (two flanks per view or one per
 sector).
@@ -26,7 +26,7 @@ __all__ = ["COMBINE_METHODS", "DEFAULT_GATES", "FlankGates", "combine_angles",
            "flank_rejection", "spread_deg"]
 
 #: How the accepted flank angles of a pile become its angle.
-COMBINE_METHODS: tuple[str, ...] = ("median", "trimmed_mean", "mean")
+COMBINE_METHODS: tuple[str, ...] = ("mean", "median", "trimmed_mean")
 #: Fraction cut from each end by ``trimmed_mean``.
 TRIM_FRACTION = 0.2
 
@@ -113,11 +113,12 @@ def check_combine(combine: str, field: str = "combine") -> str:
     return str(combine)
 
 
-def combine_angles(angles: Sequence[float], combine: str = "median") -> float:
+def combine_angles(angles: Sequence[float], combine: str = "mean") -> float:
     """One angle (deg) from a pile's accepted flank angles.
 
-    ``median`` (default) and ``trimmed_mean`` (20 % cut at each end) are not swung by one or
-    two odd flanks; ``mean`` is the plain mean.
+    ``mean`` (default: the most efficient once the gates have removed the outliers),
+    ``median`` or ``trimmed_mean`` (20 % cut at each end), which are not swung by one or two
+    odd flanks that pass the gates.
     """
     check_combine(combine)
     a = np.asarray(angles, dtype=np.float64)
