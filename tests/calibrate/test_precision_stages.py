@@ -94,10 +94,15 @@ def test_verification_adds_runs_for_its_interval(noisy_study):
 
 
 def test_common_seeds_share_the_seed_set_but_not_between_centre_points(tmp_path):
-    path = _write(tmp_path, lambda t: t.replace("replicates = 1",
-                                                "replicates = 2\ncommon_seeds = true"))
+    def edit(text: str) -> str:
+        text = text.replace("replicates = 1", "replicates = 2\ncommon_seeds = true")
+        return text.replace("runs = 12", "runs = 12\nreplicates = 1")  # screening: its own
+
+    path = _write(tmp_path, edit)
     calibrate(path)
     with RunStore(path.parent) as store:
+        assert len(store.runs(stage="screening")) == 12
+        assert len(store.runs(stage="steepest")) == 2 * 5
         runs = store.runs(stage="rsm")
         by_point: dict[int, set[int]] = {}
         for r in runs:

@@ -54,6 +54,11 @@ class Context:
         out.update({k: float(v) for k, v in actual.items()})
         return out
 
+    def reps(self, stage: str) -> int:
+        """Replicates per design point of a stage: its own ``replicates`` or the study's."""
+        own = getattr(getattr(self.study.stages, stage), "replicates", None)
+        return int(own if own is not None else self.study.replicates)
+
     def factor(self, name: str) -> dict[str, Any]:
         return next(f for f in self.factors if f["name"] == name)
 
@@ -131,11 +136,11 @@ def _copies(design: doe.Design) -> list[int]:
     return out
 
 
-def _design_points(ctx: Context, design: doe.Design, replicates: Sequence[int] | None = None
+def _design_points(ctx: Context, design: doe.Design, replicates: Sequence[int]
                    ) -> list[Point]:
     actual = design.actual
     copies = _copies(design)
-    reps = range(ctx.study.replicates) if replicates is None else replicates
+    reps = replicates
     pts = []
     for i in range(design.n_runs):
         values = {n: float(actual[i, j]) for j, n in enumerate(design.names)}
@@ -229,7 +234,7 @@ def rangefind(ctx: Context) -> dict[str, Any]:
             f = ctx.factor(name)
             for j, v in enumerate(np.linspace(f["low"], f["high"], opts.points)):
                 pt = 100 * fi + j
-                for r in range(ctx.study.replicates):
+                for r in range(ctx.reps("rangefind")):
                     points.append(Point(pt, r, ctx.full({name: float(v)}), ctx.seed(pt, r, 0)))
                 index.append((name, float(v), pt))
         recs = ctx.run("rangefind", points)
@@ -318,14 +323,14 @@ def screening(ctx: Context) -> dict[str, Any]:
     """Plackett-Burman design, linear fit, effects and ANOVA, the significant factors."""
     opts = ctx.study.stages.screening
     h = ctx.begin("screening", {"factors": ctx.factors, "opts": opts.model_dump(mode="json"),
-                                "fixed": ctx.fixed, "reps": ctx.study.replicates})
+                                "fixed": ctx.fixed, "reps": ctx.reps("screening")})
     space = _space(ctx.factors)
     k = len(space)
     try:
         design = doe.plackett_burman(space, n_runs=opts.runs, randomize=False)
     except InputError as exc:
         raise InputError(f"stages.screening.runs: {exc}") from None
-    recs = ctx.run("screening", _design_points(ctx, design))
+    recs = ctx.run("screening", _design_points(ctx, design, range(ctx.reps("screening"))))
     y, outcomes, point_runs = _point_runs(recs, design.n_runs)
     excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
     summary: dict[str, Any] = {
@@ -405,7 +410,7 @@ def steepest(ctx: Context) -> dict[str, Any]:
         path = [{n: _clip(n, actual[i, j]) for j, n in enumerate(design.names)}
                 for i in range(design.n_runs)]
         pts = [Point(i, r, ctx.full(path[i]), ctx.seed(i, r, 0))
-               for i in range(len(path)) for r in range(ctx.study.replicates)]
+               for i in range(len(path)) for r in range(ctx.reps("steepest"))]
         recs = ctx.run("steepest", pts)  # earlier steps are stored: only new ones run
         y, outcomes = _point_responses(recs, len(path))
         err = [None if math.isnan(v) else abs(v - ctx.target) / ctx.target * 100 for v in y]
@@ -509,7 +514,7 @@ def rsm(ctx: Context) -> dict[str, Any]:
     levels = ctx.results["steepest"]["levels"]
     factors = [{**ctx.factor(n), "low": lv[0], "high": lv[2]} for n, lv in levels.items()]
     h = ctx.begin("rsm", {"factors": factors, "opts": opts.model_dump(mode="json"),
-                          "fixed": ctx.fixed, "reps": ctx.study.replicates,
+                          "fixed": ctx.fixed, "reps": ctx.reps("rsm"),
                           "crn": ctx.study.common_seeds})
     space = _space(factors)
     try:
@@ -520,7 +525,7 @@ def rsm(ctx: Context) -> dict[str, Any]:
                                            randomize=False)
     except InputError as exc:
         raise InputError(f"stages.rsm.design: {exc}") from None
-    n_reps = ctx.study.replicates
+    n_reps = ctx.reps("rsm")
     budget = opts.max_runs if opts.max_runs is not None else design.n_runs * n_reps
     rounds: list[dict[str, Any]] = []
     while True:

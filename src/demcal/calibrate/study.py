@@ -148,6 +148,8 @@ class RangefindOptions(_M):
     enabled: bool = True
     factors: list[str] | None = Field(None, description="names or symbols; default all")
     points: int = Field(5, ge=3, le=21)
+    replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point "
+                                   "of this stage (default: the study's replicates)")
     move_ranges: bool = Field(False, description="shift ranges within hard_limits when the "
                               "target lies outside the response seen")
     hard_limits: dict[str, tuple[float, float]] = Field(default_factory=dict)
@@ -164,6 +166,8 @@ class ScreeningOptions(_M):
     min_factors: int = Field(3, ge=1, le=7, description="filled up by rank if fewer are "
                              "significant (Box-Behnken needs 3)")
     factors: list[str] | None = Field(None, description="skip the choice: use these")
+    replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point "
+                                   "of this stage (default: the study's replicates)")
 
 
 class SteepestOptions(_M):
@@ -175,6 +179,8 @@ class SteepestOptions(_M):
                            "while the error still falls at its end, up to this many points")
     step: Literal["auto"] | float = Field(
         "auto", description="'auto': the path spans each factor's range; a number: coded step")
+    replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point "
+                                   "of this stage (default: the study's replicates)")
 
 
 class RsmOptions(_M):
@@ -182,6 +188,8 @@ class RsmOptions(_M):
 
     design: Literal["bbd", "ccd"] = "bbd"
     center_points: int = Field(3, ge=2, le=10)
+    replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point "
+                                   "of this stage (default: the study's replicates)")
     add_replicates: bool = Field(True, description="when the model is not adequate, run one "
                                  "more replicate of every point (within max_runs) and refit")
     max_runs: int | None = Field(None, ge=1, le=10_000, description="run budget of the stage "
