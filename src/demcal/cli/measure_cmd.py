@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 from rich.table import Table
+from rich.text import Text
 
 from demcal.cli import app
 from demcal.cli._common import cli_errors, console, log
@@ -46,9 +47,10 @@ def aor_table(table: AoRTable) -> Table:
         out.add_column(col, justify="right")
     for i, r in enumerate(table.results, 1):
         out.add_row(str(i), Path(r.source).name, _fmt(r.left_deg), _fmt(r.left_stderr_deg),
-                    _fmt(r.right_deg), _fmt(r.right_stderr_deg), f"[bold]{_fmt(r.mean_deg)}")
+                    _fmt(r.right_deg), _fmt(r.right_stderr_deg),
+                    Text(_fmt(r.mean_deg), style="bold"))
     out.add_section()
-    out.add_row("", "mean", "", "", "", "", f"[bold]{_fmt(table.mean_deg)}")
+    out.add_row("", "mean", "", "", "", "", Text(_fmt(table.mean_deg), style="bold"))
     out.add_row("", "standard deviation", "", "", "", "", _fmt(table.std_deg))
     return out
 

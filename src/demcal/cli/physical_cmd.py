@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from demcal.cli import app
-from demcal.cli._common import cli_errors, console, log
+from demcal.cli._common import cli_errors, console, log, styled
 from demcal.physical import PARAMETERS, PhysicalResult, derive_parameters, load_measurements
 from demcal.physical.stats import RepeatSummary
 
@@ -164,10 +164,10 @@ def physical(
     console.print(_parameter_table(result))
     if result.missing:
         console.print(
-            "[yellow]not set yet:[/yellow] " + ", ".join(result.missing), highlight=False
+            styled(("not set yet:", "yellow"), " " + ", ".join(result.missing))
         )
     for note in result.notes:
-        console.print(f"[dim]note: {note}[/dim]", highlight=False)
+        console.print(styled((f"note: {note}", "dim")))
     console.print(_summary_table(result))
     for line in _template_lines(result):
         console.print(line, highlight=False)

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from demcal.cli import app
-from demcal.cli._common import cli_errors, console
+from demcal.cli._common import cli_errors, console, styled
 from demcal.report import build_report, load_report_data
 
 
@@ -25,8 +25,8 @@ def report(
     data = load_report_data(study_dir)
     for view in data.stages.values():
         colour = {"done": "green", "failed": "red", "running": "yellow"}.get(view.status, "dim")
-        line = f"  {view.title}: [{colour}]{view.status}[/{colour}]"
+        line = styled(f"  {view.title}: ", (str(view.status), colour))
         if view.error:
-            line += f" ({view.error})"
-        console.print(line, highlight=False, soft_wrap=True)
+            line.append(f" ({view.error})")
+        console.print(line, soft_wrap=True)
     console.print(f"report: {path}", highlight=False, soft_wrap=True)

@@ -13,7 +13,14 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from demcal.cli import app
-from demcal.cli._common import EXIT_FAILURE, cli_errors, console
+from demcal.cli._common import (
+    EXIT_FAILURE,
+    check_output_dir,
+    check_output_file,
+    cli_errors,
+    console,
+    styled,
+)
 from demcal.errors import InputError
 
 simulate_app = typer.Typer(help="Run virtual tests on demcal's DEM engine.",
@@ -113,8 +120,9 @@ def simulate_aor(
 
     if seeds < 1:
         raise InputError(f"--seeds must be >= 1; got {seeds}")
-    if plot is not None and not plot.parent.is_dir():
-        raise InputError(f"--plot: folder {str(plot.parent)!r} does not exist")
+    check_output_file(plot, "--plot")
+    check_output_file(json_out, "--json")
+    check_output_dir(vtk, "--vtk")
     overrides = parse_assignments(set_ or [])
     params = preset_parameters(preset, overrides)
     config = fidelity_config(fidelity, **parse_test_overrides(test or []))
@@ -151,11 +159,11 @@ def simulate_aor(
                       f", time step {summary['time_step_s']:.3g} s")
     else:
         reasons = {r.reason for r in results if r.reason}
-        console.print(f"outcome: [bold]{summary['outcome']}[/bold] (no angle). "
-                      + "; ".join(sorted(reasons)))
+        console.print(styled("outcome: ", (str(summary["outcome"]), "bold"),
+                             " (no angle). " + "; ".join(sorted(reasons))))
     if plot is not None and "pile_png" not in results[0].artefacts:
-        console.print(f"[yellow]no pile picture: the first run ended as "
-                      f"{results[0].outcome}[/yellow]")
+        console.print(styled((f"no pile picture: the first run ended as "
+                              f"{results[0].outcome}", "yellow")))
     if json_out is not None:
         json_out.write_text(json.dumps(summary, indent=1, default=float))
     if any(r.outcome == "unstable" for r in results):
