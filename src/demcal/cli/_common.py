@@ -139,6 +139,33 @@ def check_output_dir(path: Path | None, option: str) -> Path | None:
     return path
 
 
+def check_report_problems(html_path: Path) -> None:
+    """Refuse to pass quietly a report that was written with problems (exit 3, one line).
+
+    Parameters
+    ----------
+    html_path : Path
+        The written ``report.html``; its ``report.json`` lists the problems (figures that
+        could not be drawn, sections that could not be built, images refused).
+
+    Raises
+    ------
+    StudyError
+        When the report has problems; the message names the first and the count.
+    """
+    import json
+
+    try:
+        doc = json.loads((Path(html_path).parent / "report.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return
+    problems = [str(p) for p in doc.get("problems") or []]
+    if problems:
+        more = f" (and {len(problems) - 1} more, see report.json)" if len(problems) > 1 else ""
+        raise StudyError(f"report {html_path} written with {len(problems)} problem(s): "
+                         f"{problems[0]}{more}")
+
+
 def _fail(prefix: str, message: object, code: int) -> typer.Exit:
     err_console.print(styled((prefix, "red"), " ", one_line(message)), soft_wrap=True)
     return typer.Exit(code)

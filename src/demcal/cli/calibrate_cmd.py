@@ -22,6 +22,7 @@ from demcal.cli._common import (
     EXIT_INTERRUPTED,
     check_output_dir,
     check_output_file,
+    check_report_problems,
     cli_errors,
     console,
     styled,
@@ -147,6 +148,7 @@ def calibrate_cmd(
         path = _build_report(study_dir)
         if path is not None:
             console.print(f"report: {path}")
+            check_report_problems(path)
 
 
 @app.command("init")
