@@ -424,10 +424,33 @@ class RunStore:
 
     # -- plumbing -------------------------------------------------------------------------
     @contextmanager
+    def batch(self) -> Iterator[RunStore]:
+        """Group writes into one transaction: all of them are stored, or none.
+
+        Examples
+        --------
+        >>> with store.batch():  # doctest: +SKIP
+        ...     for run in runs:
+        ...         store.record_run(run)
+        """
+        if getattr(self, "_in_batch", False):
+            yield self
+            return
+        with self._tx():
+            self._in_batch = True
+            try:
+                yield self
+            finally:
+                self._in_batch = False
+
+    @contextmanager
     def _tx(self) -> Iterator[sqlite3.Connection]:
         if self.readonly:
             raise StoreError(f"{self.path}: opened read-only")
         assert self._conn is not None
+        if getattr(self, "_in_batch", False):  # inside batch(): its transaction
+            yield self._conn
+            return
         self._conn.execute("BEGIN IMMEDIATE")
         try:
             yield self._conn
