@@ -23,7 +23,7 @@ from typing import Any
 import pandas as pd
 
 __all__ = ["MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "csv_cell", "csv_safe", "image_problem",
-           "safe_filename", "study_image"]
+           "photo_too_large", "safe_filename", "study_image"]
 
 MAX_IMAGE_BYTES = 50 * 1024 * 1024
 MAX_IMAGE_PIXELS = 100_000_000
@@ -99,6 +99,36 @@ def image_problem(path: Path) -> str | None:
     except Exception as exc:  # any decoder complaint: not an image we read
         return f"not a readable image ({type(exc).__name__})"
     if w * h > MAX_IMAGE_PIXELS or not math.isfinite(w * h):
+        return f"{w} x {h} pixels, more than {MAX_IMAGE_PIXELS:,} (a decompression bomb?)"
+    return None
+
+
+def photo_too_large(path: str | Path) -> str | None:
+    """Why a photo must not be decoded (too many pixels or bytes), else None.
+
+    Only the header is read, so a decompression bomb is refused before it takes memory. A
+    file that is not an image passes: its reader says so.
+    """
+    p = Path(path)
+    try:
+        if p.stat().st_size > MAX_IMAGE_BYTES:
+            return f"larger than {MAX_IMAGE_BYTES // (1024 * 1024)} MB"
+    except OSError:
+        return None
+    try:
+        import warnings
+
+        from PIL import Image
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with Image.open(p) as im:
+                w, h = im.size
+    except Exception as exc:
+        if type(exc).__name__ == "DecompressionBombError":
+            return f"more than {MAX_IMAGE_PIXELS:,} pixels (a decompression bomb?)"
+        return None
+    if w * h > MAX_IMAGE_PIXELS:
         return f"{w} x {h} pixels, more than {MAX_IMAGE_PIXELS:,} (a decompression bomb?)"
     return None
 

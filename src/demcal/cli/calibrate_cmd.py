@@ -100,6 +100,10 @@ def calibrate_cmd(
         raise InputError(f"study file not found (or not a file): {study}")
     if report:
         check_output_dir(study_dir / "report", "report folder")
+    if dask is not None:
+        from demcal.execute.dask_exec import check_address
+
+        dask = check_address(dask)
 
     columns = (TextColumn("{task.description}", markup=False), BarColumn(),
                MofNCompleteColumn(), TimeElapsedColumn(), TextColumn("left"),

@@ -20,6 +20,7 @@ from demcal.measure import (
     plot_photo_aor,
     save_table,
 )
+from demcal.safety import photo_too_large
 
 
 def parse_threshold(text: str) -> str | float:
@@ -111,6 +112,9 @@ def measure(
     """Measure the angle of repose of each photo; print each, the mean and the std."""
     if plot is not None and len(photos) != 1:
         raise InputError(f"--plot takes one photo ({len(photos)} given); use --plot-dir")
+    for photo in photos:
+        if why := photo_too_large(photo):
+            raise InputError(f"photo {photo}: {why}")
     log.info("measuring %d photo(s)", len(photos))
     table = photos_aor(photos, threshold=parse_threshold(threshold), fit_window=fit_window,
                        fit=fit, pile=pile, base_line=base_row, roi=roi, roll_deg=roll_deg,

@@ -22,6 +22,9 @@ from demcal.cli._common import (
     styled,
 )
 from demcal.errors import InputError
+from demcal.limits import MAX_REPLICATES, MAX_SEED, check_test_size
+
+PROGRESS_ROWS = 16
 
 simulate_app = typer.Typer(help="Run virtual tests on demcal's DEM engine.",
                            no_args_is_help=True)
@@ -118,23 +121,35 @@ def simulate_aor(
     """Run the cylinder-lifting angle-of-repose test and report the angle (degrees)."""
     from demcal.virtual import fidelity_config, parse_assignments, preset_parameters, run_aor
 
-    if seeds < 1:
-        raise InputError(f"--seeds must be >= 1; got {seeds}")
+    if not 1 <= seeds <= MAX_REPLICATES:
+        raise InputError(f"--seeds must be in 1..{MAX_REPLICATES}; got {seeds}")
+    if not 0 <= seed0 <= MAX_SEED - seeds + 1:
+        raise InputError(f"--seed must be in 0..{MAX_SEED - seeds + 1}; got {seed0}")
     check_output_file(plot, "--plot")
     check_output_file(json_out, "--json")
     check_output_dir(vtk, "--vtk")
     overrides = parse_assignments(set_ or [])
     params = preset_parameters(preset, overrides)
     config = fidelity_config(fidelity, **parse_test_overrides(test or []))
+    try:
+        check_test_size(config, seeds)  # before the engine allocates anything
+    except ValueError as exc:
+        raise InputError(f"--test: {exc}") from None
     seed_list = [seed0 + k for k in range(seeds)]
+    # one row per run up to PROGRESS_ROWS runs; beyond, one row for the batch (the display
+    # redraws every row at each update: rows x updates grows with the square of the runs)
+    rows = seeds if seeds <= PROGRESS_ROWS else 1
     with Progress(TextColumn("[bold]run {task.fields[run]}"), TextColumn("{task.fields[phase]}"),
                   BarColumn(), TextColumn("t = {task.fields[t]:.3f} s"), TimeElapsedColumn(),
                   console=console, transient=True) as progress:
-        tasks = [progress.add_task("", total=None, run=k, phase="start", t=0.0)
-                 for k in range(seeds)]
+        tasks = [progress.add_task("", total=None, run=k if rows > 1 else f"0-{seeds - 1}",
+                                   phase="start", t=0.0) for k in range(rows)]
 
         def on_progress(run: int, phase: str, t: float, wall: float) -> None:
-            progress.update(tasks[run], phase=phase, t=t)
+            if rows > 1:
+                progress.update(tasks[run], phase=phase, t=t)
+            elif run == 0:
+                progress.update(tasks[0], phase=phase, t=t)
 
         results = run_aor([params] * seeds, config=config, seeds=seed_list, backend=backend,
                           progress=on_progress, vtk_dir=vtk,
