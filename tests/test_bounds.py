@@ -119,3 +119,20 @@ def test_decompression_bomb_photo(tmp_path):
     assert "decompression bomb" in _one_line_refusal(["measure", str(tmp_path / "bomb.png")])
     path = _study(tmp_path, "aor_deg = 40.0\nstd_deg = 1.0\nn = 5", 'photos = ["bomb.png"]')
     assert "decompression bomb" in _one_line_refusal(["calibrate", path, "--no-report"])
+
+
+def test_dask_without_workers_says_so_and_times_out(caplog):
+    distributed = pytest.importorskip("distributed")
+    from demcal.errors import StudyError
+    from demcal.execute.dask_exec import run_dask
+    from demcal.execute.tasks import RunTask, TestDef
+
+    task = RunTask("k", TestDef(kind="analytic", analytic={}), {}, 1, 1.0, None)
+    with distributed.LocalCluster(n_workers=0, processes=False,
+                                  dashboard_address=None) as cluster:
+        t0 = time.monotonic()
+        with pytest.raises(StudyError, match=r"no Dask worker connected.*timeout 1 s"):
+            run_dask([[task]], lambda r: None, address=cluster.scheduler_address,
+                     idle_timeout=1.0, poll_s=0.2)
+        assert time.monotonic() - t0 < 20
+    assert "no Dask worker connected" in caplog.text

@@ -215,6 +215,8 @@ class Executor(_M):
 
     workers: int | None = Field(None, ge=1, le=1024, description="default: CPU count")
     dask: str | None = None
+    dask_timeout: float | None = Field(None, gt=0, le=7 * 86400, description="give up after "
+                                       "this many seconds with no Dask worker (default: wait)")
     chunk: int | None = Field(None, ge=1, le=MAX_CHUNK, description="runs per task, batched "
                               "as worlds of one engine; default 1 on CPU, a whole stage with "
                               "backend cuda")

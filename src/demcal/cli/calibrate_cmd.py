@@ -80,6 +80,9 @@ def calibrate_cmd(
     = False,
     dask: Annotated[str | None, typer.Option(help="Dask scheduler address (tcp://...).")]
     = None,
+    dask_timeout: Annotated[float | None, typer.Option(
+        "--dask-timeout", help="Give up after this many seconds with no Dask worker "
+        "(default: the study's, else wait and say so).")] = None,
     workers: Annotated[int | None, typer.Option(
         min=1, help="Local worker processes (default: the study's, else the CPU count).")]
     = None,
@@ -100,6 +103,8 @@ def calibrate_cmd(
         raise InputError(f"study file not found (or not a file): {study}")
     if report:
         check_output_dir(study_dir / "report", "report folder")
+    if dask_timeout is not None and not 0 < dask_timeout <= 7 * 86400:
+        raise InputError(f"--dask-timeout must be in (0, 604800] s; got {dask_timeout!r}")
     if dask is not None:
         from demcal.execute.dask_exec import check_address
 
@@ -124,6 +129,8 @@ def calibrate_cmd(
     try:
         ctx = open_study(study, workers=workers, dask=dask, external=external,
                          progress=on_progress, break_lock=break_lock)
+        ctx.runner.dask_timeout = dask_timeout if dask_timeout is not None else \
+            ctx.study.executor.dask_timeout
         try:
             result = run_stages(ctx)
         except KeyboardInterrupt:
