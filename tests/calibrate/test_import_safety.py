@@ -67,10 +67,12 @@ def test_a_duplicated_run_is_refused(sheet, study_file):
 
 @pytest.mark.parametrize("content", [b"", b"\x00\xff\xfe" * 100, b"key,stage\n",
                                      b'"unterminated\n1,2'])
-def test_empty_binary_or_broken_sheets(tmp_path, study_file, content):
+def test_empty_binary_or_broken_sheets(tmp_path, sheet, study_file, content):
     bad = tmp_path / "bad.csv"
     bad.write_bytes(content)
-    _refused(_import(bad, study_file))
+    line = _refused(_import(bad, study_file))
+    assert "run store" not in line
+    assert _stored(study_file) == 0
 
 
 def test_nan_point_is_one_line(sheet, study_file):
@@ -79,3 +81,10 @@ def test_nan_point_is_one_line(sheet, study_file):
     frame.loc[0, "point"] = float("nan")
     frame.to_csv(sheet, index=False)
     assert "point must be an integer" in _refused(_import(sheet, study_file))
+
+
+def test_import_without_a_store_makes_none(tmp_path, study_file):
+    bad = tmp_path / "sheet.csv"
+    bad.write_text("key,stage\n")
+    assert "--external" in _refused(_import(bad, study_file))
+    assert not (study_file.parent / "demcal.sqlite").exists()

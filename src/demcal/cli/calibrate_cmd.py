@@ -191,6 +191,11 @@ def import_cmd(
     from demcal.calibrate.external import import_results
     from demcal.calibrate.pipeline import open_study
 
+    from demcal.store import STORE_NAME
+
+    if not (study.resolve().parent / STORE_NAME).is_file():  # a sheet comes from a store
+        raise InputError(f"no run store {STORE_NAME} next to {study}: run `demcal calibrate "
+                         f"{study} --external` first, it writes the run sheets")
     ctx = open_study(study, external=True, break_lock=break_lock)
     try:
         n = import_results(results, ctx.runner)
