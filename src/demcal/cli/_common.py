@@ -66,7 +66,8 @@ def format_validation_error(exc: Exception) -> str:
     return "; ".join(parts)
 
 
-def check_output_file(path: Path | None, option: str) -> Path | None:
+def check_output_file(path: Path | None, option: str, *,
+                      make_parents: bool = False) -> Path | None:
     """Refuse an output file that cannot be written, before any work starts.
 
     Parameters
@@ -75,6 +76,9 @@ def check_output_file(path: Path | None, option: str) -> Path | None:
         The file the command will write (None: nothing to check).
     option : str
         The option that named it (for the message), e.g. ``"--json"``.
+    make_parents : bool
+        The command creates missing folders: then only the nearest existing one must be a
+        writable folder.
 
     Returns
     -------
@@ -92,6 +96,9 @@ def check_output_file(path: Path | None, option: str) -> Path | None:
     if path.is_dir():
         raise InputError(f"{option}: {path} is a directory; give a file name")
     parent = path.parent if str(path.parent) else Path(".")
+    if make_parents and not parent.exists():
+        check_output_dir(parent, option)
+        return path
     if not parent.is_dir():
         raise InputError(f"{option}: folder {parent} does not exist (create it first)")
     if path.exists() and not os.access(path, os.W_OK):

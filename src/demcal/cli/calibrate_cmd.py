@@ -190,7 +190,6 @@ def import_cmd(
     """Store the responses of an externally run sheet; `demcal calibrate` then goes on."""
     from demcal.calibrate.external import import_results
     from demcal.calibrate.pipeline import open_study
-
     from demcal.store import STORE_NAME
 
     if not (study.resolve().parent / STORE_NAME).is_file():  # a sheet comes from a store

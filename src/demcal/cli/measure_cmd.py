@@ -11,7 +11,7 @@ from rich.table import Table
 from rich.text import Text
 
 from demcal.cli import app
-from demcal.cli._common import cli_errors, console, log
+from demcal.cli._common import check_output_dir, check_output_file, cli_errors, console, log
 from demcal.errors import InputError
 from demcal.measure import (
     DEFAULT_FIT_WINDOW,
@@ -112,6 +112,10 @@ def measure(
     """Measure the angle of repose of each photo; print each, the mean and the std."""
     if plot is not None and len(photos) != 1:
         raise InputError(f"--plot takes one photo ({len(photos)} given); use --plot-dir")
+    check_output_file(plot, "--plot", make_parents=True)
+    check_output_file(csv, "--csv", make_parents=True)
+    check_output_file(json_out, "--json", make_parents=True)
+    check_output_dir(plot_dir, "--plot-dir")
     for photo in photos:
         if why := photo_too_large(photo):
             raise InputError(f"photo {photo}: {why}")
