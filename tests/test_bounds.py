@@ -136,3 +136,16 @@ def test_dask_without_workers_says_so_and_times_out(caplog):
                      idle_timeout=1.0, poll_s=0.2)
         assert time.monotonic() - t0 < 20
     assert "no Dask worker connected" in caplog.text
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ("std_deg = 1.0", "std_deg = inf", "std_deg"),
+    ("n = 5", "n = 10000000000", "target.n"),
+    ('factors = ["x8"]', 'factors = ["x8"]\nhard_limits = { x8 = [0.0, inf] }', "hard_limits"),
+    ("[stages.steepest]\nsteps = 5", "[stages.steepest]\nsteps = 5\nstep = nan", "step"),
+    ("[material]", '[material]\noverrides = { "particle.density" = inf }', "overrides"),
+])
+def test_study_numbers_are_finite_and_bounded(tmp_path, old, new, words):
+    path = _study(tmp_path, old, new)
+    line = _one_line_refusal(["calibrate", path, "--external", "--no-report"])
+    assert words in line

@@ -16,6 +16,7 @@ Units: SI for every parameter, degrees for angles.
 
 from __future__ import annotations
 
+import math
 import tomllib
 from pathlib import Path
 from typing import Any, Literal
@@ -29,7 +30,8 @@ __all__ = ["EXAMPLE_STUDY", "FactorSpec", "Study", "load_study", "parse_study"]
 
 
 class _M(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # every number of a study is finite: NaN and infinities are refused with the field's name
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class Material(_M):
@@ -64,8 +66,8 @@ class Target(_M):
     """The measured angle of repose: a value, photos to measure, or a measurements file."""
 
     aor_deg: float | None = Field(None, gt=0, lt=90)
-    std_deg: float | None = Field(None, ge=0)
-    n: int | None = Field(None, ge=1)
+    std_deg: float | None = Field(None, ge=0, le=90)
+    n: int | None = Field(None, ge=1, le=1_000_000)
     photos: list[str] | None = None
     measurements: str | None = None
 
@@ -100,6 +102,10 @@ class FactorSpec(_M):
     def _range(self) -> FactorSpec:
         from demcal.virtual import PARAMETERS
 
+        if not (math.isfinite(self.low) and math.isfinite(self.high)
+                and math.isfinite(self.high - self.low)):
+            raise ValueError(f"low and high must be finite numbers with a finite span; got "
+                             f"low={self.low:g}, high={self.high:g}")
         if not self.low < self.high:
             raise ValueError(f"low must be < high; got low={self.low:g}, high={self.high:g}")
         spec = PARAMETERS[self.name]
