@@ -4,13 +4,15 @@
   field and the allowed range. The CLI prints it on one line and exits with code 2.
 - :class:`SimulationUnstable`: a numerical failure of the DEM engine (NaN, energy blow-up,
   excessive overlap); the message names the world, the simulated time and the likely cause.
+- :class:`StoreError`: the run store cannot be used (damaged, not a demcal store, written by a
+  newer demcal, or held by another writer); an InputError, so the CLI exits with 2.
 - :class:`StudyError`: a calibration study cannot continue (a stage failed, the store is
   inconsistent with the study file).
 """
 
 from __future__ import annotations
 
-__all__ = ["DemcalError", "InputError", "SimulationUnstable", "StudyError"]
+__all__ = ["DemcalError", "InputError", "SimulationUnstable", "StoreError", "StudyError"]
 
 
 class DemcalError(Exception):
@@ -19,6 +21,10 @@ class DemcalError(Exception):
 
 class InputError(DemcalError, ValueError):
     """Invalid user input. The message names the field and the allowed values."""
+
+
+class StoreError(InputError):
+    """The run store cannot be used; the message says why and how to recover."""
 
 
 class SimulationUnstable(DemcalError, RuntimeError):

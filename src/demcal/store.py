@@ -18,15 +18,38 @@ Tables
     ``verification``): status ``running``, ``done`` or ``failed``, and a JSON summary whose keys
     are documented in ``demcal.calibrate`` (the report reads them).
 ``meta``
-    key -> JSON value: the validated study, the target, the physical measurements, versions.
+    key -> JSON value: the validated study, the target, the physical measurements, versions;
+    ``writer`` holds the study's writer lock while a calibration runs (see below).
+
+Safety
+------
+Opening checks that the file is a demcal store before anything is written: a 0-byte file,
+a file that is not SQLite, a damaged database (``PRAGMA quick_check``), an SQLite database of
+something else, or a store of a newer schema is refused with a :class:`demcal.errors.StoreError`
+(one line, saying how to recover; :func:`salvage` copies the runs that can still be read into
+a new store). A row whose JSON cannot be read is refused the same way. ``readonly=True`` opens
+a store for reading only (the report): it never creates or changes a file.
+
+One writer per study: ``lock=True`` (``demcal calibrate`` and ``demcal import``) takes the
+writer lock, the meta row ``writer`` = ``{pid, host, started, command}``, in one immediate
+transaction, and :meth:`RunStore.close` gives it back. A second writer is refused with one line
+naming the holder. A lock whose process is gone (same host, pid no longer running) is taken
+over at once; a lock held from another host is broken only with ``break_lock=True``
+(``--break-lock``). Readers never look at the lock.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
+import os
+import shutil
+import socket
 import sqlite3
+import sys
+import tempfile
 import time
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -34,10 +57,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["STORE_NAME", "RunRecord", "RunStore", "StageRecord", "params_hash", "run_key"]
+from demcal.errors import StoreError
+
+__all__ = ["STORE_NAME", "RunRecord", "RunStore", "StageRecord", "params_hash", "run_key",
+           "salvage"]
 
 STORE_NAME = "demcal.sqlite"
 SCHEMA_VERSION = 1
+LOCK_KEY = "writer"
+_SQLITE_HEADER = b"SQLite format 3\x00"
+_TABLES = {"runs", "stages", "meta"}
+log = logging.getLogger("demcal")
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (
@@ -161,32 +191,290 @@ class StageRecord:
     updated_at: float
 
 
+def _loads(text: Any, where: str) -> Any:
+    """``json.loads`` of a stored cell; a damaged cell is a StoreError naming ``where``."""
+    try:
+        return json.loads(text)
+    except (TypeError, ValueError) as exc:
+        raise StoreError(f"{where}: unreadable JSON ({exc}); the store is damaged (`demcal "
+                         "store salvage` copies the readable runs into a new store)") from None
+
+
+def _proc_start(pid: int) -> str | None:
+    """Start time of process ``pid`` (Linux clock ticks since boot), or None if unknown."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+        return stat.rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return None
+
+
+def _holder_alive(holder: Mapping[str, Any]) -> bool | None:
+    """Whether the lock holder still runs: True, False, or None (another host: unknown)."""
+    if holder.get("host") != socket.gethostname():
+        return None
+    try:
+        pid = int(holder.get("pid"))  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return False
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    except OSError:
+        return False
+    start = _proc_start(pid)
+    recorded = holder.get("proc_start")
+    return not (start is not None and recorded is not None and start != recorded)
+
+
+def describe_holder(holder: Mapping[str, Any]) -> str:
+    """``pid 123 on host h since 2026-01-01 12:00:00 UTC (demcal calibrate s.toml)``."""
+    when = holder.get("started")
+    since = "" if not isinstance(when, int | float) else \
+        time.strftime(" since %Y-%m-%d %H:%M:%S UTC", time.gmtime(when))
+    cmd = holder.get("command")
+    return (f"pid {holder.get('pid')} on host {holder.get('host')}{since}"
+            + (f" ({cmd})" if cmd else ""))
+
+
 class RunStore:
     """The study's SQLite store at ``path`` (a file, or a study folder holding STORE_NAME).
 
     Safe to open from several processes; every method commits before returning.
+
+    Parameters
+    ----------
+    path : str or Path
+        The store file, or the study folder (then ``<path>/demcal.sqlite``).
+    readonly : bool
+        Open for reading only: the store must exist, and nothing is ever written (the
+        report). Default False: a missing store is created.
+    lock : bool
+        Take the study's writer lock (refused while another writer holds it).
+    break_lock : bool
+        With ``lock``: take the lock even when it is held from another host (its process
+        cannot be checked from here).
+
+    Raises
+    ------
+    StoreError
+        The file is empty, not SQLite, damaged, not a demcal store, of another schema
+        version, or (with ``lock``) held by another writer.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, readonly: bool = False, lock: bool = False,
+                 break_lock: bool = False) -> None:
         path = Path(path)
         if path.is_dir() or path.suffix == "":
             path = path / STORE_NAME
-        path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
-        self._conn = sqlite3.connect(path, timeout=60.0, isolation_level=None)
-        self._conn.execute("PRAGMA journal_mode=WAL")
-        self._conn.execute("PRAGMA synchronous=NORMAL")
-        self._conn.executescript(_SCHEMA)
+        self.readonly = readonly
+        self._lock_value: str | None = None
+        self._conn: sqlite3.Connection | None = None
+        exists = path.exists()
+        if not exists and readonly:
+            raise StoreError(f"{path}: no run store there (run `demcal calibrate` first)")
+        if not exists:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self._create(path)
+            exists = True
+        self._check_file(path)
+        try:
+            if readonly:
+                self._conn = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True,
+                                             timeout=60.0, isolation_level=None)
+            else:
+                self._conn = sqlite3.connect(path, timeout=60.0, isolation_level=None)
+            self._open(exists)
+        except sqlite3.DatabaseError as exc:
+            self.close()
+            raise StoreError(f"{path}: damaged run store ({exc}); {self._recovery()}") \
+                from None
+        except BaseException:
+            self.close()
+            raise
+        if lock:
+            try:
+                self.acquire_lock(break_lock=break_lock)
+            except BaseException:
+                self.close()
+                raise
+
+    @staticmethod
+    def _create(path: Path) -> None:
+        """Create an empty store at ``path`` atomically: built under a temporary name, then
+        linked into place, so that no other process ever sees a half-made (0-byte) file; if
+        another process created it first, its store is kept."""
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.{time.monotonic_ns()}.tmp")
+        conn = sqlite3.connect(tmp, isolation_level=None)
+        try:
+            conn.execute("PRAGMA journal_mode=WAL")
+            conn.executescript(_SCHEMA)
+            conn.execute("INSERT INTO meta VALUES (?, ?)",
+                         ("schema_version", _dumps(SCHEMA_VERSION)))
+        finally:
+            conn.close()
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            pass
+        finally:
+            for leftover in (tmp, tmp.with_name(tmp.name + "-wal"),
+                             tmp.with_name(tmp.name + "-shm")):
+                leftover.unlink(missing_ok=True)
+
+    @staticmethod
+    def _check_file(path: Path) -> None:
+        """Refuse, before SQLite touches it, a file that cannot be a demcal store."""
+        if not path.is_file():
+            raise StoreError(f"{path}: not a file; a run store is an SQLite file")
+        size = path.stat().st_size
+        if size == 0:
+            raise StoreError(f"{path}: empty file (0 bytes), not a demcal run store; delete "
+                             "it to start the study over")
+        with path.open("rb") as fh:
+            head = fh.read(len(_SQLITE_HEADER))
+        if head != _SQLITE_HEADER:
+            raise StoreError(f"{path}: not a demcal run store (not an SQLite database); move "
+                             "it away to start the study over")
+
+    def _recovery(self) -> str:
+        return (f"`demcal store salvage {self.path.parent}` copies the runs that can still be "
+                "read into a new store")
+
+    def _open(self, existed: bool) -> None:
+        conn = self._conn
+        assert conn is not None
+        if existed:
+            check = conn.execute("PRAGMA quick_check").fetchall()
+            if [tuple(r) for r in check] != [("ok",)]:
+                raise StoreError(f"{self.path}: damaged run store (integrity check: "
+                                 f"{check[0][0]}); {self._recovery()}")
+            tables = {r[0] for r in conn.execute(
+                "SELECT name FROM sqlite_master WHERE type = 'table'")}
+        else:
+            tables = set()
+        if tables and not _TABLES <= tables:
+            raise StoreError(f"{self.path}: an SQLite database but not a demcal run store "
+                             f"(tables: {', '.join(sorted(tables))}); nothing was written")
+        if not tables:
+            if self.readonly:
+                raise StoreError(f"{self.path}: an empty database, no run stored yet")
+            conn.execute("PRAGMA journal_mode=WAL")
+            conn.execute("PRAGMA synchronous=NORMAL")
+            conn.executescript(_SCHEMA)
+            self.set_meta("schema_version", SCHEMA_VERSION)
+            return
+        if not self.readonly:
+            conn.execute("PRAGMA synchronous=NORMAL")
         version = self.meta("schema_version")
         if version is None:
-            self.set_meta("schema_version", SCHEMA_VERSION)
-        elif version != SCHEMA_VERSION:
-            raise ValueError(f"{path}: store schema version {version}, this demcal reads "
-                             f"{SCHEMA_VERSION}")
+            raise StoreError(f"{self.path}: not a demcal run store (no schema_version); "
+                             "nothing was written")
+        if version != SCHEMA_VERSION:
+            newer = isinstance(version, int) and version > SCHEMA_VERSION
+            raise StoreError(f"{self.path}: store schema version {version!r}, this demcal "
+                             f"reads {SCHEMA_VERSION}"
+                             + ("; it was written by a newer demcal: upgrade demcal"
+                                if newer else ""))
+
+    # -- the writer lock -------------------------------------------------------------------
+    def lock_holder(self) -> dict[str, Any] | None:
+        """The writer lock's holder ``{pid, host, started, command}``, or None if free."""
+        holder = self.meta(LOCK_KEY)
+        return holder if isinstance(holder, dict) else None
+
+    def acquire_lock(self, *, break_lock: bool = False) -> None:
+        """Take the study's writer lock (one immediate transaction: check, then write).
+
+        Parameters
+        ----------
+        break_lock : bool
+            Take a lock held from another host too (its process cannot be checked here).
+
+        Raises
+        ------
+        StoreError
+            Another live writer holds the lock (the message names its pid and host).
+        """
+        if self._lock_value is not None:
+            return
+        if self.readonly:
+            raise StoreError(f"{self.path}: opened read-only; cannot take the writer lock")
+        me = {"pid": os.getpid(), "host": socket.gethostname(), "started": time.time(),
+              "proc_start": _proc_start(os.getpid()),
+              "command": " ".join(["demcal", *sys.argv[1:]])[:200]}
+        value = _dumps(me)
+        with self._tx() as c:
+            row = c.execute("SELECT value_json FROM meta WHERE key = ?",
+                            (LOCK_KEY,)).fetchone()
+            holder = None
+            if row is not None:
+                try:
+                    holder = json.loads(row[0])
+                except ValueError:
+                    holder = None
+            if isinstance(holder, dict):
+                alive = _holder_alive(holder)
+                who = describe_holder(holder)
+                if alive is True:
+                    raise StoreError(f"{self.path.parent}: study is being written by {who}; "
+                                     "one writer per study: wait for it or stop it "
+                                     "(`demcal report` can read meanwhile)")
+                if alive is None and not break_lock:
+                    raise StoreError(f"{self.path.parent}: study is locked by {who}; if that "
+                                     "process is gone, run again with --break-lock")
+                log.warning("taking over the writer lock of %s (%s)", who,
+                            "no longer running" if alive is False else "--break-lock")
+            c.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (LOCK_KEY, value))
+        self._lock_value = value
+
+    def release_lock(self) -> None:
+        """Give the writer lock back (only if this store still holds it)."""
+        if self._lock_value is None or self._conn is None:
+            return
+        value, self._lock_value = self._lock_value, None
+        try:
+            with self._tx() as c:
+                c.execute("DELETE FROM meta WHERE key = ? AND value_json = ?",
+                          (LOCK_KEY, value))
+        except sqlite3.Error:  # a store gone bad: the lock is stale, taken over later
+            pass
 
     # -- plumbing -------------------------------------------------------------------------
     @contextmanager
+    def batch(self) -> Iterator[RunStore]:
+        """Group writes into one transaction: all of them are stored, or none.
+
+        Examples
+        --------
+        >>> with store.batch():  # doctest: +SKIP
+        ...     for run in runs:
+        ...         store.record_run(run)
+        """
+        if getattr(self, "_in_batch", False):
+            yield self
+            return
+        with self._tx():
+            self._in_batch = True
+            try:
+                yield self
+            finally:
+                self._in_batch = False
+
+    @contextmanager
     def _tx(self) -> Iterator[sqlite3.Connection]:
+        if self.readonly:
+            raise StoreError(f"{self.path}: opened read-only")
+        assert self._conn is not None
+        if getattr(self, "_in_batch", False):  # inside batch(): its transaction
+            yield self._conn
+            return
         self._conn.execute("BEGIN IMMEDIATE")
         try:
             yield self._conn
@@ -196,8 +484,12 @@ class RunStore:
         self._conn.execute("COMMIT")
 
     def close(self) -> None:
-        """Close the connection (the store stays on disk)."""
+        """Give back the writer lock if held and close the connection (the store stays)."""
+        if self._conn is None:
+            return
+        self.release_lock()
         self._conn.close()
+        self._conn = None
 
     def __enter__(self) -> RunStore:
         return self
@@ -220,16 +512,16 @@ class RunStore:
             c.execute("INSERT OR REPLACE INTO runs VALUES "
                       "(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)", row)
 
-    @staticmethod
-    def _run_from_row(row: tuple) -> RunRecord:
+    def _run_from_row(self, row: tuple) -> RunRecord:
         (key, stage, point, replicate, params, _h, seed, engine, status, outcome, aor, result,
          reason, attempts, started, finished, wall, artefacts) = row
+        where = f"{self.path}: run {key!r}"
         return RunRecord(key=key, stage=stage, point=point, replicate=replicate,
-                         params=json.loads(params), seed=seed, status=status, outcome=outcome,
-                         aor_deg=aor, result=json.loads(result), reason=reason,
-                         attempts=attempts, engine_version=engine, started_at=started,
-                         finished_at=finished, wall_time_s=wall,
-                         artefacts=json.loads(artefacts))
+                         params=_loads(params, where), seed=seed, status=status,
+                         outcome=outcome, aor_deg=aor, result=_loads(result, where),
+                         reason=reason, attempts=attempts, engine_version=engine,
+                         started_at=started, finished_at=finished, wall_time_s=wall,
+                         artefacts=_loads(artefacts, where))
 
     def get_run(self, key: str) -> RunRecord | None:
         """The stored run with this key, or None."""
@@ -273,12 +565,14 @@ class RunStore:
         row = self._conn.execute("SELECT * FROM stages WHERE name = ?", (name,)).fetchone()
         if row is None:
             return None
-        return StageRecord(row[0], row[1], json.loads(row[2]), row[3], row[4])
+        return StageRecord(row[0], row[1], _loads(row[2], f"{self.path}: stage {name!r}"),
+                           row[3], row[4])
 
     def stages(self) -> list[StageRecord]:
         """All stored stages in the order they were last written."""
         rows = self._conn.execute("SELECT * FROM stages ORDER BY updated_at").fetchall()
-        return [StageRecord(r[0], r[1], json.loads(r[2]), r[3], r[4]) for r in rows]
+        return [StageRecord(r[0], r[1], _loads(r[2], f"{self.path}: stage {r[0]!r}"), r[3], r[4])
+                for r in rows]
 
     def delete_stage(self, name: str) -> None:
         """Forget a stage's summary (its runs stay and are reused when still valid)."""
@@ -294,4 +588,127 @@ class RunStore:
     def meta(self, key: str, default: Any = None) -> Any:
         """The stored value of ``key``, or ``default``."""
         row = self._conn.execute("SELECT value_json FROM meta WHERE key = ?", (key,)).fetchone()
-        return default if row is None else json.loads(row[0])
+        return default if row is None else _loads(row[0], f"{self.path}: meta {key!r}")
+
+
+def _readable_rows(conn: sqlite3.Connection, table: str,
+                   max_gap: int = 10_000) -> Iterator[tuple]:
+    """Rows of ``table`` that SQLite can still read, in rowid order.
+
+    A damaged page stops a scan; the scan then goes on after the row it stopped at, up to
+    ``max_gap`` unreadable rowids in a row.
+    """
+    last, misses = 0, 0
+    while misses <= max_gap:
+        try:
+            for row in conn.execute(f"SELECT rowid, * FROM {table} WHERE rowid > ? "
+                                    "ORDER BY rowid", (last,)):
+                last, misses = row[0], 0
+                yield tuple(row[1:])
+            return
+        except sqlite3.DatabaseError:
+            last += 1
+            misses += 1
+
+
+def _patch_header(path: Path, *, keep_wal: bool) -> None:
+    """Make a damaged copy readable: page count from the file size, legacy journal mode.
+
+    A truncated file still says, in its header, how many pages it had; SQLite then refuses
+    even its schema. The copy's header gets the pages the file really holds.
+    """
+    with path.open("r+b") as fh:
+        head = bytearray(fh.read(100))
+        if len(head) < 100:
+            return
+        page = int.from_bytes(head[16:18], "big")
+        page = 65536 if page == 1 else page
+        if page < 512 or page & (page - 1):
+            return
+        size = path.stat().st_size
+        pages = size // page
+        fh.truncate(pages * page)
+        head[28:32] = pages.to_bytes(4, "big")
+        if not keep_wal:
+            head[18] = head[19] = 1
+        fh.seek(0)
+        fh.write(head)
+
+
+def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
+    """Copy what can still be read of a damaged store into a new store.
+
+    Rows that SQLite cannot read, or whose JSON is damaged, are skipped. The source is only
+    read; the target must not exist yet.
+
+    Parameters
+    ----------
+    source : str or Path
+        The damaged store file (or the study folder holding it).
+    target : str or Path
+        The new store file to write.
+
+    Returns
+    -------
+    dict
+        ``{"runs": copied, "runs_skipped": n, "stages": copied, "meta": copied}``.
+
+    Raises
+    ------
+    StoreError
+        The source is not an SQLite file, or the target exists.
+    """
+    src = Path(source)
+    if src.is_dir():
+        src = src / STORE_NAME
+    dst = Path(target)
+    if dst.exists():
+        raise StoreError(f"{dst}: exists; give a new file for the salvaged store")
+    if not src.is_file() or src.stat().st_size == 0:
+        raise StoreError(f"{src}: no readable run store there (nothing to salvage)")
+    with src.open("rb") as fh:
+        if fh.read(len(_SQLITE_HEADER)) != _SQLITE_HEADER:
+            raise StoreError(f"{src}: not an SQLite database (nothing to salvage)")
+    tmp = Path(tempfile.mkdtemp(prefix="demcal-salvage-"))
+    copy = tmp / STORE_NAME
+    shutil.copyfile(src, copy)
+    wal = src.with_name(src.name + "-wal")
+    if wal.is_file():
+        shutil.copyfile(wal, copy.with_name(copy.name + "-wal"))
+    _patch_header(copy, keep_wal=wal.is_file())
+    conn = sqlite3.connect(copy)
+    counts = {"runs": 0, "runs_skipped": 0, "stages": 0, "meta": 0}
+    try:
+        out = RunStore(dst)
+        with out:
+            for row in _readable_rows(conn, "runs"):
+                try:
+                    out.record_run(out._run_from_row(row))
+                    counts["runs"] += 1
+                except (StoreError, ValueError, TypeError):
+                    counts["runs_skipped"] += 1
+            for row in _readable_rows(conn, "stages"):
+                try:
+                    out.set_stage(row[0], row[1], json.loads(row[2]), row[3])
+                    counts["stages"] += 1
+                except (ValueError, TypeError, IndexError):
+                    pass
+            for row in _readable_rows(conn, "meta"):
+                if row[0] in ("schema_version", LOCK_KEY):
+                    continue
+                try:
+                    out.set_meta(row[0], json.loads(row[1]))
+                    counts["meta"] += 1
+                except (ValueError, TypeError, IndexError):
+                    pass
+            try:
+                total = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+                counts["runs_skipped"] = max(counts["runs_skipped"], total - counts["runs"])
+            except sqlite3.DatabaseError:
+                pass
+    except sqlite3.DatabaseError as exc:
+        raise StoreError(f"{src}: cannot be read ({exc}); nothing salvaged") from None
+    finally:
+        conn.close()
+        shutil.rmtree(tmp, ignore_errors=True)
+    return counts

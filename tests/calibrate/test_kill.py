@@ -9,7 +9,7 @@ import subprocess
 import sys
 import time
 
-from demcal.store import RunStore
+from demcal.store import RunStore, StoreError
 
 
 def test_sigkill_mid_stage_then_resume(study_file):
@@ -24,7 +24,11 @@ def test_sigkill_mid_stage_then_resume(study_file):
         while time.monotonic() < deadline:
             time.sleep(0.1)
             if (study_file.parent / "demcal.sqlite").exists():
-                with RunStore(study_file.parent) as store:
+                try:
+                    store = RunStore(study_file.parent)
+                except StoreError:  # caught between the file's creation and its header
+                    continue
+                with store:
                     if store.count("screening") >= 3:
                         proc.send_signal(signal.SIGKILL)
                         proc.wait(30)

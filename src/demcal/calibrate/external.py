@@ -17,6 +17,7 @@ import pandas as pd
 
 from demcal.calibrate.runner import ExternalPending, Point, Runner
 from demcal.errors import InputError
+from demcal.limits import MAX_INPUT_FILE_BYTES
 from demcal.virtual import PARAMETERS
 
 __all__ = ["OUTCOMES", "import_results", "write_run_sheet"]
@@ -43,25 +44,54 @@ def import_results(csv: str | Path, runner: Runner) -> int:
 
     A row needs ``aor_deg`` (then the outcome defaults to ``pile``) or an ``outcome`` other
     than pile. The row's key is recomputed from its stage, parameters and seed and must match
-    (the sheet belongs to this study and test).
+    (the sheet belongs to this study and test). Every row is checked first and the runs are
+    stored in one transaction: a bad row (or a run given twice) stores nothing.
     """
     path = Path(csv)
     if not path.is_file():
-        raise InputError(f"results file not found: {path}")
-    frame = pd.read_csv(path)
+        raise InputError(f"results file not found (or not a file): {path}")
+    if path.stat().st_size > MAX_INPUT_FILE_BYTES:
+        raise InputError(f"{path}: larger than {MAX_INPUT_FILE_BYTES // 2**20} MB; not a run "
+                         "sheet")
+    try:
+        frame = pd.read_csv(path, encoding="utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text (UTF-8) file; a run sheet is a CSV file") \
+            from None
+    except pd.errors.EmptyDataError:
+        raise InputError(f"{path}: empty; a run sheet has a header and one row per run") \
+            from None
+    except (pd.errors.ParserError, ValueError) as exc:
+        raise InputError(f"{path}: not a readable CSV run sheet ({one_line(exc)})") from None
     need = {"key", "stage", "point", "replicate", "seed", "aor_deg", "outcome"}
     if missing := need - set(frame.columns):
         raise InputError(f"{path}: missing column(s) {', '.join(sorted(missing))}")
-    stored = 0
+    # every row is checked before any is stored; then all are stored in one transaction
+    todo: list[tuple[str, Point, dict, int]] = []
+    seen: dict[str, int] = {}
     for i, row in frame.iterrows():
-        where = f"{path.name} row {int(i) + 2}"  # type: ignore[call-overload]
-        params = {n: float(row[n]) for n in PARAMETERS if n in frame.columns}
-        p = Point(int(row["point"]), int(row["replicate"]), params, int(row["seed"]))
-        if runner.key(str(row["stage"]), p) != row["key"]:
+        line = int(i) + 2  # type: ignore[call-overload]
+        where = f"{path.name} row {line}"
+        try:
+            params = {n: _finite(row[n], n) for n in PARAMETERS if n in frame.columns}
+            p = Point(_int(row["point"], "point"), _int(row["replicate"], "replicate"), params,
+                      _int(row["seed"], "seed"))
+        except ValueError as exc:
+            raise InputError(f"{where}: {exc}") from None
+        stage = str(row["stage"])
+        if runner.key(stage, p) != row["key"]:
             raise InputError(f"{where}: key does not match its stage, parameters and seed "
                              "(a sheet of another study, or edited parameters)")
+        if row["key"] in seen:
+            raise InputError(f"{where}: the same run (key {row['key']}) as row "
+                             f"{seen[row['key']]}; give each run once")
+        seen[row["key"]] = line
         aor = row["aor_deg"]
-        aor = None if aor is None or (isinstance(aor, float) and math.isnan(aor)) else float(aor)
+        try:
+            aor = None if aor is None or (isinstance(aor, float) and math.isnan(aor)) \
+                else float(aor)
+        except ValueError:
+            raise InputError(f"{where}: aor_deg must be a number; got {aor!r}") from None
         outcome = row["outcome"]
         outcome = None if not isinstance(outcome, str) or not outcome.strip() else \
             outcome.strip()
@@ -73,9 +103,38 @@ def import_results(csv: str | Path, runner: Runner) -> int:
                              f"got {outcome!r}")
         if outcome == "pile" and (aor is None or not 0 < aor < 90):
             raise InputError(f"{where}: aor_deg must be in (0, 90) for a pile; got {aor!r}")
-        runner.record(str(row["stage"]), p, {"outcome": outcome, "aor_deg": aor,
-                                             "reason": "imported" if outcome != "pile" else
-                                             None, "result": {"imported_from": str(path)}},
-                      attempts=2 if outcome in ("unstable", "unsettled") else 1, started=0.0)
-        stored += 1
-    return stored
+        todo.append((stage, p, {"outcome": outcome, "aor_deg": aor,
+                                "reason": "imported" if outcome != "pile" else None,
+                                "result": {"imported_from": str(path)}},
+                     2 if outcome in ("unstable", "unsettled") else 1))
+    with runner.store.batch():
+        for stage, p, res, attempts in todo:
+            runner.record(stage, p, res, attempts=attempts, started=0.0)
+    return len(todo)
+
+
+def _int(value: object, name: str) -> int:
+    """An integer cell (``3`` or ``3.0``), else ValueError naming the column."""
+    try:
+        f = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an integer; got {value!r}") from None
+    if not math.isfinite(f) or f != int(f) or abs(f) > 2**53:
+        raise ValueError(f"{name} must be an integer; got {value!r}")
+    return int(f)
+
+
+def _finite(value: object, name: str) -> float:
+    """A finite number cell, else ValueError naming the column."""
+    try:
+        f = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number; got {value!r}") from None
+    if not math.isfinite(f):
+        raise ValueError(f"{name} must be a finite number; got {value!r}")
+    return f
+
+
+def one_line(exc: object) -> str:
+    """An error message on one line."""
+    return " ".join(str(exc).split())

@@ -91,13 +91,18 @@ def _fixed(study: Study) -> tuple[dict[str, float], dict[str, Any] | None]:
 
 def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any = None,
                external: bool = False,
-               progress: Callable[[str, int, int], None] | None = None) -> st.Context:
-    """Load the study, open its store, write the meta keys and build the stage context."""
+               progress: Callable[[str, int, int], None] | None = None,
+               break_lock: bool = False) -> st.Context:
+    """Load the study, open its store, write the meta keys and build the stage context.
+
+    The store is opened (created) only once the study's inputs are read, with the study's
+    writer lock (``break_lock``: see :class:`demcal.store.RunStore`).
+    """
     path = Path(study_file).resolve()
     study = load_study(path)
-    store = RunStore(path.parent)
     target = resolve_target(study, figures=path.parent / "figures")
     fixed, physical = _fixed(study)
+    store = RunStore(path.parent, lock=True, break_lock=break_lock)
     factors = [{"name": f.name, "symbol": f.symbol, "low": f.low, "high": f.high,
                 "unit": f.unit} for f in study.factors]
     store.set_meta("study", study.model_dump(mode="json"))

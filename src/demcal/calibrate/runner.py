@@ -80,6 +80,8 @@ class Runner:
         self.external = external
         self.figures_dir = None if figures_dir is None else Path(figures_dir)
         self.executed = 0
+        #: with Dask: give up after this many seconds without a worker (None: wait)
+        self.dask_timeout: float | None = None
 
     def key(self, stage: str, p: Point) -> str:
         """The store key of a point's run."""
@@ -160,7 +162,7 @@ class Runner:
         if self.dask is not None:
             from demcal.execute.dask_exec import run_dask
 
-            run_dask(chunks, on_result, address=self.dask)
+            run_dask(chunks, on_result, address=self.dask, idle_timeout=self.dask_timeout)
         else:
             run_local(chunks, on_result, workers=self.workers)
         return retry

@@ -16,6 +16,7 @@ Units: SI for every parameter, degrees for angles.
 
 from __future__ import annotations
 
+import math
 import tomllib
 from pathlib import Path
 from typing import Any, Literal
@@ -23,12 +24,14 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from demcal.errors import InputError
+from demcal.limits import MAX_CHUNK, MAX_INPUT_FILE_BYTES, MAX_STUDY_SEED
 
 __all__ = ["EXAMPLE_STUDY", "FactorSpec", "Study", "load_study", "parse_study"]
 
 
 class _M(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # every number of a study is finite: NaN and infinities are refused with the field's name
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class Material(_M):
@@ -63,8 +66,8 @@ class Target(_M):
     """The measured angle of repose: a value, photos to measure, or a measurements file."""
 
     aor_deg: float | None = Field(None, gt=0, lt=90)
-    std_deg: float | None = Field(None, ge=0)
-    n: int | None = Field(None, ge=1)
+    std_deg: float | None = Field(None, ge=0, le=90)
+    n: int | None = Field(None, ge=1, le=1_000_000)
     photos: list[str] | None = None
     measurements: str | None = None
 
@@ -99,6 +102,10 @@ class FactorSpec(_M):
     def _range(self) -> FactorSpec:
         from demcal.virtual import PARAMETERS
 
+        if not (math.isfinite(self.low) and math.isfinite(self.high)
+                and math.isfinite(self.high - self.low)):
+            raise ValueError(f"low and high must be finite numbers with a finite span; got "
+                             f"low={self.low:g}, high={self.high:g}")
         if not self.low < self.high:
             raise ValueError(f"low must be < high; got low={self.low:g}, high={self.high:g}")
         spec = PARAMETERS[self.name]
@@ -127,14 +134,16 @@ class TestSpec(_M):
     @model_validator(mode="after")
     def _config(self) -> TestSpec:
         if self.kind == "aor":
+            from demcal.limits import check_test_size
             from demcal.virtual import fidelity_config
 
             try:
-                fidelity_config(self.fidelity, **self.overrides)
+                config = fidelity_config(self.fidelity, **self.overrides)
             except ValidationError as exc:
                 raise ValueError("overrides: " + "; ".join(
                     ".".join(map(str, e["loc"])) + ": " + e["msg"] for e in exc.errors())
                 ) from None
+            check_test_size(config)
         else:
             from demcal.execute.analytic import AnalyticOptions
 
@@ -229,17 +238,32 @@ class Executor(_M):
 
     workers: int | None = Field(None, ge=1, le=1024, description="default: CPU count")
     dask: str | None = None
-    chunk: int | None = Field(None, ge=1, le=100_000, description="runs per task, batched "
+    dask_timeout: float | None = Field(None, gt=0, le=7 * 86400, description="give up after "
+                                       "this many seconds with no Dask worker (default: wait)")
+    chunk: int | None = Field(None, ge=1, le=MAX_CHUNK, description="runs per task, batched "
                               "as worlds of one engine; default: a design point's replicates "
                               "on the CPU, a whole stage on a GPU (backend cuda, or auto "
                               "with a GPU present)")
+
+
+    @field_validator("dask")
+    @classmethod
+    def _dask(cls, v: str | None) -> str | None:
+        from demcal.execute.dask_exec import check_address
+
+        if v is None:
+            return v
+        try:
+            return check_address(v)
+        except InputError as exc:
+            raise ValueError(str(exc)) from None
 
 
 class Study(_M):
     """A whole calibration study."""
 
     name: str = "study"
-    seed: int = Field(1, ge=0)
+    seed: int = Field(1, ge=0, le=MAX_STUDY_SEED)
     replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point; "
                                    "default: the test fidelity's (quick 1, standard "
                                    "FIDELITY_REPLICATES['standard'], paper 1)")
@@ -311,6 +335,11 @@ def parse_study(data: dict[str, Any], *, base: Path | None = None) -> Study:
         study.target.measurements = rel(study.target.measurements)
         if study.target.photos:
             study.target.photos = [rel(p) for p in study.target.photos]  # type: ignore[misc]
+            from demcal.safety import photo_too_large
+
+            for p in study.target.photos:
+                if why := photo_too_large(p):  # type: ignore[arg-type]
+                    raise InputError(f"study: target.photos: {p}: {why}")
     return study
 
 
@@ -318,9 +347,15 @@ def load_study(path: str | Path) -> Study:
     """Read and validate a study TOML file (relative paths are taken from its folder)."""
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"study file not found: {path}")
+        raise InputError(f"study file not found (or not a file): {path}")
+    if path.stat().st_size > MAX_INPUT_FILE_BYTES:
+        raise InputError(f"{path}: larger than {MAX_INPUT_FILE_BYTES // 2**20} MB; not a "
+                         "study file")
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text (UTF-8) file; a study is a TOML file") \
+            from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
     return parse_study(data, base=path.parent.resolve())

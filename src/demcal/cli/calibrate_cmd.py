@@ -18,7 +18,15 @@ from rich.progress import (
 from rich.table import Table
 
 from demcal.cli import app
-from demcal.cli._common import cli_errors, console
+from demcal.cli._common import (
+    EXIT_INTERRUPTED,
+    check_output_dir,
+    check_output_file,
+    check_report_problems,
+    cli_errors,
+    console,
+    styled,
+)
 from demcal.errors import InputError
 
 
@@ -39,10 +47,10 @@ def _print_result(result: dict) -> None:
                   f"{mean} +/- {std} deg, relative error {rel}; {result['n_runs']} runs stored "
                   f"({result['n_runs_executed']} run now)")
     if v.get("p_value") is not None:
-        verdict = "consistent with" if v["consistent"] else "[yellow]differs from[/yellow]"
-        console.print(f"verification: 95 % interval {v['ci_low_deg']:.2f}-"
-                      f"{v['ci_high_deg']:.2f} deg, {verdict} the measurement "
-                      f"(p = {v['p_value']:.3g}, {v['test']})")
+        verdict = ("consistent with", "") if v["consistent"] else ("differs from", "yellow")
+        console.print(styled(f"verification: 95 % interval {v['ci_low_deg']:.2f}-"
+                             f"{v['ci_high_deg']:.2f} deg, ", verdict, " the measurement "
+                             f"(p = {v['p_value']:.3g}, {v['test']})"))
     a = result.get("rsm_adequacy") or {}
     if a:
         def f(key: str, fmt: str) -> str:
@@ -52,8 +60,9 @@ def _print_result(result: dict) -> None:
                       f"model p {f('p_model', '.3g')}, lack of fit p {f('lack_of_fit_p', '.3g')}",
                       highlight=False)
     if not result.get("rsm_adequate", True):
-        console.print("[yellow]warning:[/yellow] the response-surface model is not adequate "
-                      "(see the rsm stage's warnings): its optimum is a guess within the noise")
+        console.print(styled(("warning:", "yellow"), " the response-surface model is not "
+                             "adequate (see the rsm stage's warnings): its optimum is a guess "
+                             "within the noise"))
 
 
 def _build_report(study_dir: Path) -> Path | None:
@@ -63,8 +72,8 @@ def _build_report(study_dir: Path) -> Path | None:
         return None
     build = getattr(report, "build_report", None)
     if build is None:
-        console.print("[yellow]note:[/yellow] demcal.report.build_report is not available in "
-                      "this version; no report written")
+        console.print(styled(("note:", "yellow"), " demcal.report.build_report is not "
+                             "available in this version; no report written"))
         return None
     return Path(build(study_dir))
 
@@ -80,54 +89,86 @@ def calibrate_cmd(
     = False,
     dask: Annotated[str | None, typer.Option(help="Dask scheduler address (tcp://...).")]
     = None,
+    dask_timeout: Annotated[float | None, typer.Option(
+        "--dask-timeout", help="Give up after this many seconds with no Dask worker "
+        "(default: the study's, else wait and say so).")] = None,
     workers: Annotated[int | None, typer.Option(
         min=1, help="Local worker processes (default: the study's, else the CPU count).")]
     = None,
     report: Annotated[bool, typer.Option(help="Build the HTML report at the end.")] = True,
+    break_lock: Annotated[bool, typer.Option(
+        "--break-lock", help="Take the study's writer lock even if another host holds it "
+        "(only when that process is gone).")] = False,
 ) -> None:
     """Run (or resume) a calibration study; print the calibrated parameters."""
     from demcal.calibrate.external import write_run_sheet
     from demcal.calibrate.pipeline import run_stages
     from demcal.calibrate.runner import ExternalPending
 
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-               TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn())
-    with Progress(*columns, console=console, transient=False,
-                  disable=external) as progress:
-        tasks: dict[str, int] = {}
+    # every output path is checked before the first run (not after the whole study)
+    check_output_file(json_out, "--json")
+    study_dir = Path(study).resolve().parent
+    if not Path(study).is_file():
+        raise InputError(f"study file not found (or not a file): {study}")
+    if report:
+        check_output_dir(study_dir / "report", "report folder")
+    if dask_timeout is not None and not 0 < dask_timeout <= 7 * 86400:
+        raise InputError(f"--dask-timeout must be in (0, 604800] s; got {dask_timeout!r}")
+    if dask is not None:
+        from demcal.execute.dask_exec import check_address
 
-        def on_progress(stage: str, done: int, total: int) -> None:
-            if stage not in tasks:
-                tasks[stage] = progress.add_task(stage, total=total)
-            progress.update(tasks[stage], completed=done, total=total)
+        dask = check_address(dask)
 
-        from demcal.calibrate.pipeline import open_study
+    columns = (TextColumn("{task.description}", markup=False), BarColumn(),
+               MofNCompleteColumn(), TimeElapsedColumn(), TextColumn("left"),
+               TimeRemainingColumn())
+    # started at the first run's progress: an early error prints one line, nothing else
+    progress = Progress(*columns, console=console, transient=False, disable=external)
+    tasks: dict[str, int] = {}
 
+    def on_progress(stage: str, done: int, total: int) -> None:
+        if not tasks:
+            progress.start()
+        if stage not in tasks:
+            tasks[stage] = progress.add_task(stage, total=total)
+        progress.update(tasks[stage], completed=done, total=total)
+
+    from demcal.calibrate.pipeline import open_study
+
+    try:
         ctx = open_study(study, workers=workers, dask=dask, external=external,
-                         progress=on_progress)
+                         progress=on_progress, break_lock=break_lock)
+        ctx.runner.dask_timeout = dask_timeout if dask_timeout is not None else \
+            ctx.study.executor.dask_timeout
         try:
             result = run_stages(ctx)
         except KeyboardInterrupt:
+            progress.stop()
             n = ctx.store.count()
-            console.print(f"[yellow]interrupted:[/yellow] {n} finished runs are stored; run "
-                          f"`demcal calibrate {study}` again to resume")
-            raise typer.Exit(130) from None
+            console.print(styled(("interrupted:", "yellow"), f" {n} finished runs are stored; "
+                                 f"run `demcal calibrate {study}` again to resume"))
+            raise typer.Exit(EXIT_INTERRUPTED) from None
         except ExternalPending as pending:
-            path = write_run_sheet(pending, ctx.runner, Path(study).resolve().parent)
+            progress.stop()
+            path = write_run_sheet(pending, ctx.runner, study_dir)
             console.print(f"{pending.stage}: {len(pending.points)} runs to do externally; run "
                           f"sheet: {path}\nfill aor_deg (or outcome) and run `demcal import "
                           f"{path.name} --study {study}`, then `demcal calibrate` again")
             return
         finally:
             ctx.store.close()
+    finally:
+        progress.stop()
+    if json_out is not None:  # first: the result is kept whatever the printing does
+        json_out.write_text(json.dumps(result, indent=2))
     _print_result(result)
     if json_out is not None:
-        json_out.write_text(json.dumps(result, indent=2))
         console.print(f"result: {json_out}")
     if report:
-        path = _build_report(Path(study).resolve().parent)
+        path = _build_report(study_dir)
         if path is not None:
             console.print(f"report: {path}")
+            check_report_problems(path)
 
 
 @app.command("init")
@@ -151,12 +192,19 @@ def init_cmd(
 def import_cmd(
     results: Annotated[Path, typer.Argument(help="Filled run sheet (CSV).")],
     study: Annotated[Path, typer.Option(help="The study file the sheet belongs to.")],
+    break_lock: Annotated[bool, typer.Option(
+        "--break-lock", help="Take the study's writer lock even if another host holds it "
+        "(only when that process is gone).")] = False,
 ) -> None:
     """Store the responses of an externally run sheet; `demcal calibrate` then goes on."""
     from demcal.calibrate.external import import_results
     from demcal.calibrate.pipeline import open_study
+    from demcal.store import STORE_NAME
 
-    ctx = open_study(study, external=True)
+    if not (study.resolve().parent / STORE_NAME).is_file():  # a sheet comes from a store
+        raise InputError(f"no run store {STORE_NAME} next to {study}: run `demcal calibrate "
+                         f"{study} --external` first, it writes the run sheets")
+    ctx = open_study(study, external=True, break_lock=break_lock)
     try:
         n = import_results(results, ctx.runner)
     finally:

@@ -20,8 +20,9 @@ from rich.table import Table
 
 from demcal import doe
 from demcal.cli import app
-from demcal.cli._common import cli_errors, console, log
+from demcal.cli._common import check_output_file, cli_errors, console, log
 from demcal.errors import InputError
+from demcal.limits import MAX_DESIGN_RUNS, MAX_SEED, check_finite
 
 BOOKKEEPING = ("run", "std", "point_type", "block")
 
@@ -43,6 +44,14 @@ RandOpt = Annotated[
 
 
 # ------------------------------------------------------------------------------------ helpers
+def _bounded(value: float | None, option: str, lo: float, hi: float) -> None:
+    """Refuse (one line) a number outside [lo, hi] or not finite; None passes."""
+    if value is None:
+        return
+    if not (math.isfinite(value) and lo <= value <= hi):
+        raise InputError(f"{option} must be in {lo:.6g}..{hi:.12g}; got {value!r}")
+
+
 def _fmt(v: Any, digits: int = 4) -> str:
     if v is None:
         return ""
@@ -74,11 +83,16 @@ def _parse_assignments(text: str | None, option: str) -> dict[str, float]:
                 f"{option}: expected NAME=VALUE pairs separated by commas; got {item!r}"
             )
         try:
-            out[name.strip()] = float(value)
+            number = float(value)
         except ValueError:
             raise InputError(
                 f"{option}: value of {name.strip()!r} must be a number; got {value!r}"
             ) from None
+        if not math.isfinite(number):
+            raise InputError(
+                f"{option}: value of {name.strip()!r} must be a finite number; got {value!r}"
+            )
+        out[name.strip()] = number
     return out
 
 
@@ -93,7 +107,7 @@ def _parse_ranges(text: str | None, option: str) -> dict[str, tuple[float, float
         try:
             if not sep or not sep2:
                 raise ValueError
-            out[name.strip()] = (float(lo), float(hi))
+            out[name.strip()] = (check_finite(lo, "low"), check_finite(hi, "high"))
         except ValueError:
             raise InputError(
                 f"{option}: expected NAME=LOW:HIGH pairs; got {item.strip()!r}"
@@ -363,6 +377,8 @@ def design_pb(
     randomize: RandOpt = True,
 ) -> None:
     """Plackett-Burman screening design (unused columns are dummies)."""
+    _bounded(seed, "--seed", 0, MAX_SEED)
+    _bounded(runs, "--runs", 1, MAX_DESIGN_RUNS)
     space = doe.load_factors(factors)
     _write_sheet(doe.plackett_burman(space, n_runs=runs, randomize=randomize, seed=seed), out)
 
@@ -380,6 +396,8 @@ def design_bbd(
     randomize: RandOpt = True,
 ) -> None:
     """Box-Behnken design (3-7 varied factors)."""
+    _bounded(seed, "--seed", 0, MAX_SEED)
+    _bounded(center_points, "--center-points", 0, 1000)
     space = doe.load_factors(factors)
     d = doe.box_behnken(space, center_points=center_points, randomize=randomize, seed=seed)
     _write_sheet(d, out)
@@ -406,6 +424,8 @@ def design_ccd(
     randomize: RandOpt = True,
 ) -> None:
     """Central composite design."""
+    _bounded(seed, "--seed", 0, MAX_SEED)
+    _bounded(center_points, "--center-points", 0, 1000)
     space = doe.load_factors(factors)
     a: Any = alpha
     if alpha not in ("rotatable", "orthogonal"):
@@ -441,6 +461,8 @@ def design_factorial(
     randomize: RandOpt = True,
 ) -> None:
     """Two-level full or fractional factorial (resolution and aliases are printed)."""
+    _bounded(seed, "--seed", 0, MAX_SEED)
+    _bounded(center_points, "--center-points", 0, 1000)
     space = doe.load_factors(factors)
     d = doe.factorial(
         space,
@@ -462,6 +484,8 @@ def design_lhs(
     seed: SeedOpt = None,
 ) -> None:
     """Latin hypercube sample of the factor box."""
+    _bounded(seed, "--seed", 0, MAX_SEED)
+    _bounded(runs, "--runs", 1, MAX_DESIGN_RUNS)
     _write_sheet(doe.latin_hypercube(doe.load_factors(factors), runs, seed=seed), out)
 
 
@@ -474,6 +498,8 @@ def design_sobol(
     seed: SeedOpt = None,
 ) -> None:
     """Scrambled Sobol sequence over the factor box."""
+    _bounded(seed, "--seed", 0, MAX_SEED)
+    _bounded(runs, "--runs", 1, MAX_DESIGN_RUNS)
     _write_sheet(doe.sobol(doe.load_factors(factors), runs, seed=seed), out)
 
 
@@ -515,6 +541,8 @@ def design_steepest(
     out: OutOpt = None,
 ) -> None:
     """Path of steepest ascent/descent from a screening fit or given coefficients."""
+    _bounded(points, "--points", 2, 1000)
+    _bounded(step, "--step", -1e6, 1e6)
     space = doe.load_factors(factors)
     if (from_runs is None) == (coef is None):
         raise InputError("give either --from-runs (with --response) or --coef")
@@ -575,6 +603,7 @@ def analyze(
     json_out: JsonOpt = None,
 ) -> None:
     """Fit a model to a run sheet and print Design-Expert's ANOVA and fit statistics."""
+    check_output_file(json_out, "--json", make_parents=True)
     rs = _load_surface(runs, response, model, factors, columns, units)
     if reduce is not None:
         rs = rs.reduce(alpha_out=reduce)
@@ -615,6 +644,11 @@ def optimize_cmd(
     json_out: JsonOpt = None,
 ) -> None:
     """Propose factor settings whose predicted response hits --target (ranked)."""
+    check_output_file(json_out, "--json", make_parents=True)
+    for value, option in ((target, "--target"), (lower, "--lower"), (upper, "--upper")):
+        _bounded(value, option, -1e300, 1e300)
+    _bounded(solutions, "--solutions", 1, 1000)
+    _bounded(seed, "--seed", 0, MAX_SEED)
     rs = _load_surface(runs, response, model, factors, columns, units)
     res = doe.optimize_target(
         rs,

@@ -8,9 +8,10 @@ from typing import Annotated
 
 import typer
 from rich.table import Table
+from rich.text import Text
 
 from demcal.cli import app
-from demcal.cli._common import cli_errors, console, log
+from demcal.cli._common import check_output_dir, check_output_file, cli_errors, console, log
 from demcal.errors import InputError
 from demcal.measure import (
     DEFAULT_FIT_WINDOW,
@@ -19,6 +20,7 @@ from demcal.measure import (
     plot_photo_aor,
     save_table,
 )
+from demcal.safety import photo_too_large
 
 
 def parse_threshold(text: str) -> str | float:
@@ -46,9 +48,10 @@ def aor_table(table: AoRTable) -> Table:
         out.add_column(col, justify="right")
     for i, r in enumerate(table.results, 1):
         out.add_row(str(i), Path(r.source).name, _fmt(r.left_deg), _fmt(r.left_stderr_deg),
-                    _fmt(r.right_deg), _fmt(r.right_stderr_deg), f"[bold]{_fmt(r.mean_deg)}")
+                    _fmt(r.right_deg), _fmt(r.right_stderr_deg),
+                    Text(_fmt(r.mean_deg), style="bold"))
     out.add_section()
-    out.add_row("", "mean", "", "", "", "", f"[bold]{_fmt(table.mean_deg)}")
+    out.add_row("", "mean", "", "", "", "", Text(_fmt(table.mean_deg), style="bold"))
     out.add_row("", "standard deviation", "", "", "", "", _fmt(table.std_deg))
     return out
 
@@ -111,6 +114,13 @@ def measure(
     """Measure the angle of repose of each photo; print each, the mean and the std."""
     if plot is not None and len(photos) != 1:
         raise InputError(f"--plot takes one photo ({len(photos)} given); use --plot-dir")
+    check_output_file(plot, "--plot", make_parents=True)
+    check_output_file(csv, "--csv", make_parents=True)
+    check_output_file(json_out, "--json", make_parents=True)
+    check_output_dir(plot_dir, "--plot-dir")
+    for photo in photos:
+        if why := photo_too_large(photo):
+            raise InputError(f"photo {photo}: {why}")
     log.info("measuring %d photo(s)", len(photos))
     table = photos_aor(photos, threshold=parse_threshold(threshold), fit_window=fit_window,
                        fit=fit, pile=pile, base_line=base_row, roi=roi, roll_deg=roll_deg,

@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from demcal.cli import app
-from demcal.cli._common import cli_errors, console, log
+from demcal.cli._common import check_output_file, cli_errors, console, log, styled
 from demcal.physical import PARAMETERS, PhysicalResult, derive_parameters, load_measurements
 from demcal.physical.stats import RepeatSummary
 
@@ -157,6 +157,7 @@ def physical(
     ] = None,
 ) -> None:
     """Derive fixed parameters, factor ranges and the particle template from measurements."""
+    check_output_file(json_out, "--json", make_parents=True)
     log.info("reading %s", measurements)
     result = derive_parameters(
         load_measurements(measurements), ci_level=ci_level, range_rule=range_rule, range_k=k
@@ -164,10 +165,10 @@ def physical(
     console.print(_parameter_table(result))
     if result.missing:
         console.print(
-            "[yellow]not set yet:[/yellow] " + ", ".join(result.missing), highlight=False
+            styled(("not set yet:", "yellow"), " " + ", ".join(result.missing))
         )
     for note in result.notes:
-        console.print(f"[dim]note: {note}[/dim]", highlight=False)
+        console.print(styled((f"note: {note}", "dim")))
     console.print(_summary_table(result))
     for line in _template_lines(result):
         console.print(line, highlight=False)

@@ -8,7 +8,13 @@ from typing import Annotated
 import typer
 
 from demcal.cli import app
-from demcal.cli._common import cli_errors, console
+from demcal.cli._common import (
+    check_output_dir,
+    check_report_problems,
+    cli_errors,
+    console,
+    styled,
+)
 from demcal.report import build_report, load_report_data
 
 
@@ -21,12 +27,14 @@ def report(
         "--out", "-o", help="Output folder (default STUDY_DIR/report).")] = None,
 ) -> None:
     """Build the calibration report (HTML, JSON, CSV tables, PNG figures) from the store."""
+    check_output_dir(out, "--out")
     path = build_report(study_dir, out)
     data = load_report_data(study_dir)
     for view in data.stages.values():
         colour = {"done": "green", "failed": "red", "running": "yellow"}.get(view.status, "dim")
-        line = f"  {view.title}: [{colour}]{view.status}[/{colour}]"
+        line = styled(f"  {view.title}: ", (str(view.status), colour))
         if view.error:
-            line += f" ({view.error})"
-        console.print(line, highlight=False, soft_wrap=True)
+            line.append(f" ({view.error})")
+        console.print(line, soft_wrap=True)
     console.print(f"report: {path}", highlight=False, soft_wrap=True)
+    check_report_problems(path)

@@ -13,8 +13,18 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from demcal.cli import app
-from demcal.cli._common import EXIT_FAILURE, cli_errors, console
+from demcal.cli._common import (
+    EXIT_FAILURE,
+    check_output_dir,
+    check_output_file,
+    cli_errors,
+    console,
+    styled,
+)
 from demcal.errors import InputError
+from demcal.limits import MAX_REPLICATES, MAX_SEED, check_test_size
+
+PROGRESS_ROWS = 16
 
 simulate_app = typer.Typer(help="Run virtual tests on demcal's DEM engine.",
                            no_args_is_help=True)
@@ -124,22 +134,35 @@ def simulate_aor(
 
     if seeds is None:
         seeds = FIDELITY_REPLICATES.get(fidelity, 1)
-    if seeds < 1:
-        raise InputError(f"--seeds must be >= 1; got {seeds}")
-    if plot is not None and not plot.parent.is_dir():
-        raise InputError(f"--plot: folder {str(plot.parent)!r} does not exist")
+    if not 1 <= seeds <= MAX_REPLICATES:
+        raise InputError(f"--seeds must be in 1..{MAX_REPLICATES}; got {seeds}")
+    if not 0 <= seed0 <= MAX_SEED - seeds + 1:
+        raise InputError(f"--seed must be in 0..{MAX_SEED - seeds + 1}; got {seed0}")
+    check_output_file(plot, "--plot")
+    check_output_file(json_out, "--json")
+    check_output_dir(vtk, "--vtk")
     overrides = parse_assignments(set_ or [])
     params = preset_parameters(preset, overrides)
     config = fidelity_config(fidelity, **parse_test_overrides(test or []))
+    try:
+        check_test_size(config, seeds)  # before the engine allocates anything
+    except ValueError as exc:
+        raise InputError(f"--test: {exc}") from None
     seed_list = [seed0 + k for k in range(seeds)]
+    # one row per run up to PROGRESS_ROWS runs; beyond, one row for the batch (the display
+    # redraws every row at each update: rows x updates grows with the square of the runs)
+    rows = seeds if seeds <= PROGRESS_ROWS else 1
     with Progress(TextColumn("[bold]run {task.fields[run]}"), TextColumn("{task.fields[phase]}"),
                   BarColumn(), TextColumn("t = {task.fields[t]:.3f} s"), TimeElapsedColumn(),
                   console=console, transient=True) as progress:
-        tasks = [progress.add_task("", total=None, run=k, phase="start", t=0.0)
-                 for k in range(seeds)]
+        tasks = [progress.add_task("", total=None, run=k if rows > 1 else f"0-{seeds - 1}",
+                                   phase="start", t=0.0) for k in range(rows)]
 
         def on_progress(run: int, phase: str, t: float, wall: float) -> None:
-            progress.update(tasks[run], phase=phase, t=t)
+            if rows > 1:
+                progress.update(tasks[run], phase=phase, t=t)
+            elif run == 0:
+                progress.update(tasks[0], phase=phase, t=t)
 
         results = run_aor([params] * seeds, config=config, seeds=seed_list, backend=backend,
                           progress=on_progress, vtk_dir=vtk,
@@ -164,11 +187,11 @@ def simulate_aor(
                       f", time step {summary['time_step_s']:.3g} s")
     else:
         reasons = {r.reason for r in results if r.reason}
-        console.print(f"outcome: [bold]{summary['outcome']}[/bold] (no angle). "
-                      + "; ".join(sorted(reasons)))
+        console.print(styled("outcome: ", (str(summary["outcome"]), "bold"),
+                             " (no angle). " + "; ".join(sorted(reasons))))
     if plot is not None and "pile_png" not in results[0].artefacts:
-        console.print(f"[yellow]no pile picture: the first run ended as "
-                      f"{results[0].outcome}[/yellow]")
+        console.print(styled((f"no pile picture: the first run ended as "
+                              f"{results[0].outcome}", "yellow")))
     if json_out is not None:
         json_out.write_text(json.dumps(summary, indent=1, default=float))
     if any(r.outcome == "unstable" for r in results):

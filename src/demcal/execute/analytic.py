@@ -31,9 +31,12 @@ __all__ = ["AnalyticOptions", "analytic_aor", "true_aor"]
 
 
 class AnalyticOptions(BaseModel):
-    """The planted surface (parameter names of demcal.virtual; values SI, angles deg)."""
+    """The planted surface (parameter names of demcal.virtual; values SI, angles deg).
 
-    model_config = ConfigDict(extra="forbid")
+    Every number must be finite (NaN and infinities are refused).
+    """
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     base_deg: float = 35.0
     centre: dict[str, float] = Field(default_factory=dict)

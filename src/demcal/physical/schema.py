@@ -64,6 +64,7 @@ from pydantic import (
 )
 
 from demcal.errors import InputError
+from demcal.limits import MAX_TEMPLATE_SPHERES
 from demcal.physical.conversions import (
     compression_test,
     density_from_overflow,
@@ -263,7 +264,7 @@ class Shape(_Model):
 
     length_mm: Positive = Field(description="Particle length of each repeat, mm.")
     diameter_mm: Positive = Field(description="Particle diameter of each repeat, mm.")
-    n_spheres: Annotated[int, Field(ge=1)] | None = Field(
+    n_spheres: Annotated[int, Field(ge=1, le=MAX_TEMPLATE_SPHERES)] | None = Field(
         None, description="Spheres in the clump template; automatic when omitted."
     )
     max_volume_error: Annotated[float, Field(gt=0, lt=1)] = Field(

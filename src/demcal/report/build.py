@@ -25,6 +25,7 @@ from demcal.report import tables as T
 from demcal.report.data import ReportData, StageView, load_report_data
 from demcal.report.html import badge, banner, figure_html, page, table_html
 from demcal.report.surface import significant_pairs
+from demcal.safety import csv_safe, safe_filename, study_image
 
 __all__ = ["build_report"]
 
@@ -45,7 +46,8 @@ class _Builder:
         (out_dir / "figures").mkdir(parents=True, exist_ok=True)
 
     def table(self, table: T.Table) -> str:
-        table.frame.to_csv(self.out_dir / "tables" / f"{table.key}.csv", index=False)
+        csv_safe(table.frame).to_csv(self.out_dir / "tables" / f"{safe_filename(table.key)}.csv",
+                                     index=False)
         self.tables[table.key] = table.records()
         return table_html(table)
 
@@ -60,6 +62,7 @@ class _Builder:
             self.problems.append(msg)
             return f'<p class="warn">{escape(msg)}</p>'
         png = buf.getvalue()
+        key = safe_filename(key)
         (self.out_dir / "figures" / f"{key}.png").write_bytes(png)
         self.figures.append(f"figures/{key}.png")
         return figure_html(png, caption)
@@ -68,12 +71,12 @@ class _Builder:
         """Embed a PNG stored by the study (a diagnostic figure), copied into figures/."""
         if not path:
             return ""
-        p = Path(path)
-        if not p.is_absolute():
-            p = self.data.study_dir / p
-        if not p.is_file():
-            return f'<p class="warn">{escape(caption)}: image not found ({escape(str(path))})</p>'
-        png = p.read_bytes()
+        p, why = study_image(path, self.data.study_dir)
+        if p is None:
+            if why != "image not found":
+                self.problems.append(f"{caption}: {why}: {path}")
+            return f'<p class="warn">{escape(caption)}: {why} ({escape(str(path))})</p>'
+        png, key = p.read_bytes(), safe_filename(key)
         (self.out_dir / "figures" / f"{key}.png").write_bytes(png)
         self.figures.append(f"figures/{key}.png")
         return figure_html(png, caption)
@@ -342,8 +345,7 @@ def _verification(b: _Builder) -> str:
         def resolve(p: str | None) -> Path | None:
             if not p:
                 return None
-            q = Path(p)
-            return q if q.is_absolute() else d.study_dir / q
+            return study_image(p, d.study_dir)[0]
 
         if photo_fig or pile:
             parts.append(b.figure("comparison", "Physical pile (photo with its fitted flanks) "

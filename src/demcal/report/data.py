@@ -147,7 +147,7 @@ def load_report_data(study_dir: str | Path) -> ReportData:
     if not store_path.is_file():
         raise InputError(f"study_dir: no run store {STORE_NAME} in {path} "
                          "(run `demcal calibrate` first)")
-    with RunStore(store_path) as store:
+    with RunStore(store_path, readonly=True) as store:
         meta = {k: v for k in META_KEYS if (v := store.meta(k)) is not None}
         runs = store.runs()
         stored = {s.name: s for s in store.stages()}

@@ -1,0 +1,166 @@
+"""Safe handling of files named by user data: images, file names, CSV cells.
+
+A study's store is data: a path it names, a symbol used in a file name, or a text that ends
+up in a CSV cell must not make demcal read a file outside the study, write outside the
+output folder, or hand a spreadsheet a formula. This module imports nothing of demcal but
+:mod:`demcal.errors`, so every layer may use it.
+
+Bounds
+------
+:data:`MAX_IMAGE_BYTES`
+    Largest image file read (50 MB).
+:data:`MAX_IMAGE_PIXELS`
+    Largest image decoded (100 megapixels; a decompression bomb is refused before decoding).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+__all__ = ["MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "csv_cell", "csv_safe", "image_problem",
+           "photo_too_large", "safe_filename", "study_image"]
+
+MAX_IMAGE_BYTES = 50 * 1024 * 1024
+MAX_IMAGE_PIXELS = 100_000_000
+_MAGIC = {b"\x89PNG\r\n\x1a\n": "PNG", b"\xff\xd8\xff": "JPEG"}
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r", "|", "%")
+_UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def safe_filename(text: str, max_len: int = 100) -> str:
+    """``text`` as one safe file-name part: only letters, digits, ``.``, ``_`` and ``-``.
+
+    Parameters
+    ----------
+    text : str
+        Any text (a factor symbol, a table key).
+    max_len : int
+        Longest result.
+
+    Returns
+    -------
+    str
+        Never empty, never ``.``/``..``, no path separator.
+    """
+    name = _UNSAFE.sub("_", str(text)).strip("._") or "_"
+    return name[:max_len]
+
+
+def csv_cell(value: Any) -> Any:
+    """A CSV cell that a spreadsheet will not run: text starting with ``=+-@`` etc. is quoted.
+
+    Numbers, and text that reads as a number (``-1.5``), are kept as they are.
+    """
+    if not isinstance(value, str) or not value.startswith(_FORMULA_START):
+        return value
+    try:
+        float(value)
+        return value
+    except ValueError:
+        return "'" + value
+
+
+def csv_safe(frame: pd.DataFrame) -> pd.DataFrame:
+    """A copy of ``frame`` whose text cells and column names pass :func:`csv_cell`."""
+    out = frame.copy()
+    out.columns = [csv_cell(c) for c in out.columns]
+    for i in range(out.shape[1]):
+        if not pd.api.types.is_numeric_dtype(out.iloc[:, i]):
+            out.iloc[:, i] = out.iloc[:, i].map(csv_cell)
+    return out
+
+
+def image_problem(path: Path) -> str | None:
+    """Why ``path`` is not an image demcal will read (None: a PNG or JPEG within bounds)."""
+    try:
+        size = path.stat().st_size
+        with path.open("rb") as fh:
+            head = fh.read(8)
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror or exc})"
+    if size > MAX_IMAGE_BYTES:
+        return f"larger than {MAX_IMAGE_BYTES // (1024 * 1024)} MB"
+    if not any(head.startswith(m) for m in _MAGIC):
+        return "not a PNG or JPEG image"
+    try:
+        import warnings
+
+        from PIL import Image
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a bomb warning: refused below by pixel count
+            with Image.open(path) as im:
+                w, h = im.size
+    except Exception as exc:  # any decoder complaint: not an image we read
+        return f"not a readable image ({type(exc).__name__})"
+    if w * h > MAX_IMAGE_PIXELS or not math.isfinite(w * h):
+        return f"{w} x {h} pixels, more than {MAX_IMAGE_PIXELS:,} (a decompression bomb?)"
+    return None
+
+
+def photo_too_large(path: str | Path) -> str | None:
+    """Why a photo must not be decoded (too many pixels or bytes), else None.
+
+    Only the header is read, so a decompression bomb is refused before it takes memory. A
+    file that is not an image passes: its reader says so.
+    """
+    p = Path(path)
+    try:
+        if p.stat().st_size > MAX_IMAGE_BYTES:
+            return f"larger than {MAX_IMAGE_BYTES // (1024 * 1024)} MB"
+    except OSError:
+        return None
+    try:
+        import warnings
+
+        from PIL import Image
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with Image.open(p) as im:
+                w, h = im.size
+    except Exception as exc:
+        if type(exc).__name__ == "DecompressionBombError":
+            return f"more than {MAX_IMAGE_PIXELS:,} pixels (a decompression bomb?)"
+        return None
+    if w * h > MAX_IMAGE_PIXELS:
+        return f"{w} x {h} pixels, more than {MAX_IMAGE_PIXELS:,} (a decompression bomb?)"
+    return None
+
+
+def study_image(path: str | Path | None, study_dir: str | Path) -> tuple[Path | None, str]:
+    """Resolve an image path stored by a study; only images inside the study folder pass.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        As stored (absolute, or relative to the study folder).
+    study_dir : str or Path
+        The study folder.
+
+    Returns
+    -------
+    (Path or None, str)
+        The resolved file and "" when it may be read; else None and why not.
+    """
+    if not path:
+        return None, "no image"
+    root = Path(study_dir).resolve()
+    p = Path(path)
+    if not p.is_absolute():
+        p = root / p
+    try:
+        p = p.resolve()
+    except (OSError, RuntimeError):
+        return None, "cannot be resolved"
+    if not p.is_relative_to(root):
+        return None, "outside the study folder, not read"
+    if not p.is_file():
+        return None, "image not found"
+    why = image_problem(p)
+    return (None, why) if why else (p, "")
