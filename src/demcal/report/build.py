@@ -460,7 +460,31 @@ def _verification(b: _Builder) -> str:
             q = Path(p)
             return q if q.is_absolute() else d.study_dir / q
 
-        if photo_fig or pile:
+        # every verification replicate's pile beside a measured photo (cycled): both are the
+        # diagnostic figure of demcal.measure's boundary and flank-line fit
+        runs = sorted((r for r in view.runs if (r.artefacts or {}).get("pile_png")),
+                      key=lambda r: (r.point, r.replicate))
+        shown = [p for p in photos if p.get("figure")]
+        if runs:
+            parts.append("<h3>Each verification pile beside a measured photo</h3>")
+            for k, r in enumerate(runs):
+                ph = shown[k % len(shown)] if shown else {}
+                n_ph = photos.index(ph) + 1 if ph else None
+                cap = (f"Replicate {r.replicate + 1}: simulated pile, AoR "
+                       f"{_fmt(r.aor_deg, '.2f', '°')} (side view with fitted flank lines)"
+                       + (f", beside photo {n_ph} ({_fmt(ph.get('mean_deg'), '.2f', '°')}, "
+                          "boundary and fitted flank lines: the same method)" if ph else
+                          "; no photo is stored")
+                       + ".")
+                parts.append(b.figure(
+                    f"comparison_{k + 1}", cap,
+                    lambda ph=ph, r=r, n_ph=n_ph: F.comparison_figure(
+                        resolve(ph.get("figure") if ph else None),
+                        resolve(r.artefacts.get("pile_png")),
+                        (f"photo {n_ph}: {_fmt(ph.get('mean_deg'), '.2f', '°')}" if ph
+                         else "physical pile (photo)",
+                         f"replicate {r.replicate + 1}: {_fmt(r.aor_deg, '.2f', '°')}"))))
+        elif photo_fig or pile:
             parts.append(b.figure("comparison", "Physical pile (photo with its fitted flanks) "
                                   "next to the simulated pile (side view with fitted lines), "
                                   "cf. Fig. 9.",

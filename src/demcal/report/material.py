@@ -170,7 +170,7 @@ def parameter_table(data: ReportData, card: MaterialCard | None = None) -> Table
     ranges = (data.meta.get("result") or {}).get("ranges") or {}
     fixed = data.meta.get("fixed_params") or {}
     study = data.meta.get("study") or {}
-    preset = (study.get("material") or {}).get("preset") or "the material preset"
+    preset = (study.get("material") or {}).get("preset")
     overrides = (study.get("material") or {}).get("overrides") or {}
     rows = []
     for name, spec in PARAMETERS.items():
@@ -185,8 +185,8 @@ def parameter_table(data: ReportData, card: MaterialCard | None = None) -> Table
             source = phys.get("source") or "range given in the study"
         elif name in fixed:
             value = format_cell(_num(fixed[name]))
-            source = phys.get("source") or ("study file" if name in overrides
-                                            else f"preset {preset}")
+            source = phys.get("source") or ("study file" if name in overrides or not preset
+                                            else f"material preset {preset}")
         elif phys:
             value = phys.get("display", "")
             source = phys.get("source", "")
