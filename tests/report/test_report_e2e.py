@@ -76,6 +76,15 @@ def test_every_section_table_and_figure_is_there_without_a_note(calibrated):
         assert base64.b64encode(png).decode() in imgs, key
 
 
+def test_the_page_is_self_contained_and_fits_a_phone_and_print(calibrated):
+    html = calibrated["html"]
+    assert "<script" not in html.lower() and not re.search(r"(src|href)=\"(?!data:)", html)
+    assert 'name="viewport" content="width=device-width' in html
+    assert "@media (max-width: 640px)" in html
+    css_print = html[html.index("@media print"):]
+    assert "break-inside: avoid" in css_print and "figure" in css_print
+
+
 def test_the_raw_measurement_dump_is_gone(calibrated):
     html = calibrated["html"]
     meas = section(html, "measurement")

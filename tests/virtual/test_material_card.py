@@ -174,3 +174,22 @@ def test_simulate_refuses_bad_cards(captured, tmp_path, args, field):
     assert res.exit_code == 2, res.output
     assert field in res.output and "Traceback" not in res.output
     assert not captured  # nothing ran
+
+
+@pytest.mark.slow
+def test_simulate_material_on_the_engine_runs_the_card_exactly(tmp_path):
+    """The real engine (tiny fill): the run's parameters are the card's, bit for bit."""
+    card = MaterialCard(parameters={**preset_parameters("corn_stalk"), **AWKWARD,
+                                    "pp.surface_energy": 0.0},
+                        test={"kind": "aor", "fidelity": "quick",
+                              "overrides": {"fill": {"count": 80},
+                                            "phases": {"pile_settle_max_time": 1.0}}})
+    path, _ = card.write(tmp_path)
+    out = tmp_path / "r.json"
+    res = CliRunner().invoke(app, ["simulate", "aor", "--material", str(path), "--json",
+                                   str(out), "--backend", "cpu"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    assert data["n_particles"] == 80
+    assert {k: float(v).hex() for k, v in data["params"].items()} == \
+        {k: v.hex() for k, v in card.parameters.items()}

@@ -181,7 +181,7 @@ def _material(b: _Builder) -> str:
              "<code>demcal simulate aor --material material.toml</code>.</p>")
     return _section("material", "Calibrated material", None,
                     line + b.table(M.card_table(card)) + files
-                    + f"<details><summary>Contact laws of the engine (demcal.dem.contact)"
+                    + f"<details open><summary>Contact laws of the engine (demcal.dem.contact)"
                       f"</summary><ul>{laws}</ul></details>")
 
 
