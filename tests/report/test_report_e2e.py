@@ -49,6 +49,7 @@ def calibrated(tmp_path_factory) -> dict:
     shutil.copy(EXAMPLE, study)
     res = CliRunner().invoke(app, ["calibrate", str(study), "--workers", "1"])
     assert res.exit_code == 0, res.output
+    assert "material card:" in res.output and "material.toml" in res.output
     html_path = root / "report" / "report.html"
     return {"root": root, "html_path": html_path, "html": html_path.read_text("utf-8"),
             "json": json.loads((root / "report" / "report.json").read_text("utf-8"))}
@@ -167,6 +168,7 @@ def test_report_command_writes_the_material_card(calibrated, tmp_path):
     out = tmp_path / "out"
     res = CliRunner().invoke(app, ["report", str(calibrated["root"]), "--out", str(out)])
     assert res.exit_code == 0, res.output
+    assert f"material card: {out / 'material.toml'}" in res.output.replace("\n", "")
     assert (out / "material.toml").read_text() == \
         (calibrated["html_path"].parent / "material.toml").read_text()
 

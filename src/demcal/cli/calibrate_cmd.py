@@ -120,6 +120,8 @@ def calibrate_cmd(
         path = _build_report(Path(study).resolve().parent)
         if path is not None:
             console.print(f"report: {path}")
+            if (path.parent / "material.toml").is_file():
+                console.print(f"material card: {path.parent / 'material.toml'}")
 
 
 @app.command("init")

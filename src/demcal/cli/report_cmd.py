@@ -30,3 +30,7 @@ def report(
             line += f" ({view.error})"
         console.print(line, highlight=False, soft_wrap=True)
     console.print(f"report: {path}", highlight=False, soft_wrap=True)
+    card = path.parent / "material.toml"
+    if card.is_file():
+        console.print(f"material card: {card} (run it: demcal simulate aor --material {card})",
+                      highlight=False, soft_wrap=True)

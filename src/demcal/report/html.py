@@ -72,7 +72,7 @@ p.verdict { background: #f5f7fa; border-left: 4px solid var(--accent); padding: 
   .card .v { font-size: 15px; }
   .row { display: block; }
   table.data { font-size: 11.5px; }
-  table.data td { max-width: 60vw; }
+  table.data td { max-width: 70vw; overflow-wrap: normal; min-width: 3.5em; }
   .gallery { grid-template-columns: repeat(2, minmax(0, 1fr)); }
 }
 @media print {
