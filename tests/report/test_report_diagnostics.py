@@ -112,8 +112,11 @@ def test_figures_draw_and_the_target_contour_is_only_drawn_when_reached():
     diag = model_diagnostics(rs)
     assert len(residual_figure(diag).axes) == 6
     assert len(boxcox_figure(diag).axes) == 1
-    fig = perturbation_figure(s, None, 40.0)
-    assert len(fig.axes[0].get_lines()) >= 4  # three factors + target
+    fig = perturbation_figure(s, {"x1": 0.5, "x2": -0.4}, 40.0)
+    curves = fig.axes[0].get_lines()[:3]  # one per factor, then the reference and target
+    at_ref = [np.interp(0.0, c.get_xdata(), c.get_ydata()) for c in curves]
+    assert max(at_ref) - min(at_ref) < 1e-3  # all through the reference point
+    assert [c.get_xdata()[0] for c in curves] == pytest.approx([-1.5, -0.6, -1.0])
     assert target_reached(s, ("x1", "x2"), None, 40.0)
     assert not target_reached(s, ("x1", "x2"), None, 90.0)
     reached = pair_surface_figure(s, ("x1", "x2"), None, 40.0)

@@ -130,7 +130,7 @@ def residual_figure(diag: Diagnostics, title: str = "") -> Figure:
 
 def boxcox_figure(diag: Diagnostics) -> Figure:
     """Box-Cox plot: ln(SS_E) against lambda, best lambda, 95 % interval, current lambda."""
-    fig = _figure(4.6, 3.4)
+    fig = _figure(4.2, 3.3)
     ax = fig.add_subplot()
     if diag.boxcox_lambda.size == 0:
         ax.text(0.5, 0.5, "Box-Cox not computed\n(response not positive or no residual df)",
@@ -160,17 +160,20 @@ def _reference(surf: StoredSurface, hold: Mapping[str, float] | None) -> np.ndar
 
 def perturbation_figure(summary: Mapping[str, Any], hold: Mapping[str, float] | None = None,
                         target_aor_deg: float | None = None) -> Figure:
-    """Perturbation plot: AoR (deg) as each factor moves over its coded range through the
-    reference point (``hold``, actual units; default the centre), the others held there."""
+    """Perturbation plot: AoR (deg) as each factor moves over its coded range (-1 to +1)
+    through the reference point (``hold``, actual units; default the centre), the others held
+    there; x is the deviation from the reference in coded units (Design-Expert's plot), so
+    every curve passes through the reference's prediction at 0."""
     surf = StoredSurface.from_summary(summary)
     base = surf.to_coded(_reference(surf, hold))
     dev = np.linspace(-1.0, 1.0, 41)
-    fig = _figure(4.8, 3.6)
+    fig = _figure(4.4, 3.3)
     ax = fig.add_subplot()
-    for i, sym in enumerate(surf.symbols):
+    for i, sym in enumerate(surf.symbols):  # factor i over its range, through the reference
         pts = np.tile(base, (dev.size, 1))
         pts[:, i] = dev
-        ax.plot(dev, surf.predict_coded(pts), label=sym)
+        ax.plot(dev - base[i], surf.predict_coded(pts), label=sym)
+    ax.plot([0.0], surf.predict_coded(base[None, :]), "k.", ms=8)
     if target_aor_deg is not None:
         ax.axhline(target_aor_deg, color=_TARGET, ls="--", lw=1, label="target")
     ax.axvline(0, color="0.6", lw=0.6)
