@@ -92,3 +92,18 @@ def test_no_card_before_an_optimum(tmp_path):
     assert doc["problems"] == [] and doc["material"] is None
     assert not (path.parent / "material.toml").exists()
     assert "No calibrated parameter set" in section(path.read_text("utf-8"), "material")
+
+
+def test_a_malformed_parameter_set_is_a_note_and_removes_a_stale_card(tmp_path):
+    study = build_paper_store(tmp_path / "study")
+    out = build_report(study).parent
+    assert (out / "material.toml").is_file()
+    with RunStore(study) as store:
+        rec = store.stage("verification")
+        bad = {**rec.summary, "params": {**rec.summary["params"], "pp.restitution": "high"}}
+        store.set_stage("verification", "done", bad, inputs_hash=rec.inputs_hash)
+    path = build_report(study)
+    doc = json.loads((path.parent / "report.json").read_text())
+    assert len(doc["problems"]) == 1 and "material card not built" in doc["problems"][0]
+    assert not (out / "material.toml").exists() and not (out / "material.json").exists()
+    assert "material card not built" in path.read_text("utf-8")

@@ -152,8 +152,11 @@ def _overview(b: _Builder) -> str:
                if d.meta.get("study_file") else "")
             + f" · report built {when} from the run store alone.</p>")
     return (f"<header><h1>Calibration report: {escape(str(name))}</h1>{meta}"
-            f'<div class="summary">{grid}</div></header>'
-            + _section("stages", "Stages", None, b.table(T.stages_table(d))))
+            f'<div class="summary">{grid}</div></header>')
+
+
+def _stages(b: _Builder) -> str:
+    return _section("stages", "Stages", None, b.table(T.stages_table(b.data)))
 
 
 def _material(b: _Builder) -> str:
@@ -550,17 +553,22 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
     out = Path(out_dir) if out_dir is not None else data.study_dir / "report"
     out.mkdir(parents=True, exist_ok=True)
     b = _Builder(data, out)
+    card_files: list[str] = []
     try:
         b.card = M.material_card(data)
-    except Exception as exc:
+        if b.card is not None:
+            card_files = [p.name for p in b.card.write(out)]
+    except Exception as exc:  # a malformed store must not stop the report
+        b.card = None
         msg = f"material card not built ({type(exc).__name__}: {exc})"
         log.warning(msg)
         b.problems.append(msg)
-    card_files: list[str] = []
-    if b.card is not None:
-        card_files = [p.name for p in b.card.write(out)]
-    body = "".join([_overview(b), _material(b), _measurement(b), _rangefind(b), _screening(b),
-                    _steepest(b), _rsm(b), _optimize(b), _verification(b), _excluded(b)])
+    if b.card is None:  # no stale card from an earlier build
+        for name in ("material.toml", "material.json"):
+            (out / name).unlink(missing_ok=True)
+    body = "".join([_overview(b), _material(b), _stages(b), _measurement(b), _rangefind(b),
+                    _screening(b), _steepest(b), _rsm(b), _optimize(b), _verification(b),
+                    _excluded(b)])
     body += _footer(b)
     study = data.meta.get("study") or {}
     title = f"demcal calibration report: {study.get('name') or data.study_dir.name}"
