@@ -175,7 +175,8 @@ def test_report_command_writes_the_material_card(calibrated, tmp_path):
 
 @pytest.mark.slow
 def test_report_renders_in_headless_chromium(calibrated, tmp_path):
-    """The page renders (phone width too) and the screenshot is not blank."""
+    """The page renders (phone width too), the screenshot is not blank, and it prints to
+    PDF."""
     exe = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome")
                 if shutil.which(n)), None)
     if exe is None:
@@ -192,3 +193,10 @@ def test_report_renders_in_headless_chromium(calibrated, tmp_path):
         img = imread(shot)
         assert img.shape[1] == width
         assert float(np.std(img[..., :3])) > 0.05, "blank screenshot"
+    pdf = tmp_path / "report.pdf"
+    subprocess.run([exe, "--headless", "--no-sandbox", "--disable-gpu",
+                    "--no-pdf-header-footer", f"--print-to-pdf={pdf}",
+                    calibrated["html_path"].as_uri()], check=True, timeout=120,
+                   capture_output=True)
+    data = pdf.read_bytes()
+    assert data[:4] == b"%PDF" and len(re.findall(rb"/Type\s*/Page[^s]", data)) > 5
