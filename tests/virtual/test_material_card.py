@@ -193,3 +193,19 @@ def test_simulate_material_on_the_engine_runs_the_card_exactly(tmp_path):
     assert data["n_particles"] == 80
     assert {k: float(v).hex() for k, v in data["params"].items()} == \
         {k: v.hex() for k, v in card.parameters.items()}
+
+
+@pytest.mark.parametrize("module", ["demcal.virtual.material_card", "demcal.report.material",
+                                    "demcal.report.diagnostics",
+                                    "demcal.report.model_figures"])
+def test_docstrings(module):
+    import doctest
+    import importlib
+
+    mod = importlib.import_module(module)
+    assert doctest.testmod(mod).failed == 0
+    assert mod.__doc__
+    for name in mod.__all__:
+        obj = getattr(mod, name)
+        if callable(obj):
+            assert obj.__doc__ and len(obj.__doc__) > 30, f"{module}.{name}"
