@@ -33,7 +33,8 @@ def _card(**kw) -> MaterialCard:
                         test={"kind": "aor", "fidelity": "quick",
                               "overrides": {"fill": {"count": 80}, "dt_fraction": 0.15}},
                         verification={"line": "verified AoR 40.00 ± 1.00° (n = 3)",
-                                      "aor_mean_deg": 40.0, "n": 3}, **kw)
+                                      "aor_mean_deg": 40.0, "n": 3},
+                        shape={"template": "stalk", "length_m": 0.01, "n_spheres": 7}, **kw)
 
 
 @pytest.mark.parametrize("fmt", ["toml", "json"])
@@ -50,6 +51,7 @@ def test_card_round_trips_bit_exactly(fmt, tmp_path):
     assert back.test["overrides"] == {"fill": {"count": 80}, "dt_fraction": 0.15}
     assert back.verification["line"].startswith("verified AoR")
     assert back.symbols["pp.static_friction"] == "x3"
+    assert back.shape == {"template": "stalk", "length_m": 0.01, "n_spheres": 7}
 
 
 def test_card_text_names_units_laws_and_engine(tmp_path):

@@ -159,6 +159,30 @@ def _stages(b: _Builder) -> str:
     return _section("stages", "Stages", None, b.table(T.stages_table(b.data)))
 
 
+def _shape_line(shape: dict[str, Any]) -> str:
+    """``Particle: stalk of 7 spheres, 10 x 4 mm, size factor 0.75-1.25.``"""
+    if not shape:
+        return ""
+    mm = 1e3
+    what = str(shape.get("template", ""))
+    if what == "stalk":
+        what += f" of {shape.get('n_spheres')} spheres"
+    size = (f"{_fmt(_num_or_nan(shape.get('length_m')) * mm, '.3g')} x "
+            f"{_fmt(_num_or_nan(shape.get('diameter_m')) * mm, '.3g')} mm (length x diameter)"
+            if what != "sphere" else
+            f"{_fmt(_num_or_nan(shape.get('diameter_m')) * mm, '.3g')} mm diameter")
+    return (f"<p><b>Particle:</b> {escape(what)}, {escape(size)}, size factor "
+            f"{_fmt(shape.get('size_min'), '.3g')}-{_fmt(shape.get('size_max'), '.3g')} "
+            "(uniform).</p>")
+
+
+def _num_or_nan(v: Any) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
+
+
 def _material(b: _Builder) -> str:
     """The calibrated material at the top: the card's table, laws, engine, verification."""
     card = b.card
@@ -176,8 +200,11 @@ def _material(b: _Builder) -> str:
     line = (f"<p><b>Engine:</b> demcal {escape(str(eng.get('version') or ''))} (backend "
             f"{escape(str(eng.get('backend') or 'auto'))}, rolling friction model "
             f"{escape(card.rolling_model)}); virtual test {escape(str(test.get('kind')))}"
-            f" at fidelity {escape(str(test.get('fidelity')))}.</p>"
-            f'<p class="verdict"><b>Verification:</b> '
+            f" at fidelity {escape(str(test.get('fidelity')))}"
+            + (f", time step {_fmt(eng.get('dt_fraction'), '.3g')} of the Rayleigh step"
+               if eng.get("dt_fraction") is not None else "") + ".</p>"
+            + _shape_line(card.shape)
+            + f'<p class="verdict"><b>Verification:</b> '
             f"{escape(str(card.verification.get('line', '')))}.</p>")
     files = ("<p>Material card: <code>material.toml</code> and <code>material.json</code> "
              "next to this report; run it again with "

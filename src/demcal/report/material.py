@@ -54,28 +54,33 @@ def verification_line(ver: Mapping[str, Any], target: Mapping[str, Any] | None) 
     return out
 
 
-def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any]]:
+def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+    """Engine, test and particle shape of the study (from its test settings)."""
     study = data.meta.get("study") or {}
     test = study.get("test") or {}
     versions = data.meta.get("versions") or {}
-    rolling = "A"
-    if isinstance(test.get("overrides"), dict) and test["overrides"].get("rolling_model"):
-        rolling = str(test["overrides"]["rolling_model"])
-    else:
-        try:
-            from demcal.virtual.config import fidelity_config
-
-            rolling = fidelity_config(str(test.get("fidelity") or "quick"),
-                                      **(test.get("overrides") or {})).rolling_model
-        except Exception:
-            rolling = "A"
     engine = {"version": str(versions.get("demcal") or ""),
               "backend": str(versions.get("engine_backend") or study.get("backend") or "auto"),
-              "rolling_model": rolling}
+              "rolling_model": "A"}
+    shape: dict[str, Any] = {}
+    try:
+        from demcal.virtual.config import fidelity_config
+
+        cfg = fidelity_config(str(test.get("fidelity") or "quick"),
+                              **(test.get("overrides") or {}))
+        engine["rolling_model"] = cfg.rolling_model
+        engine["dt_fraction"] = cfg.dt_fraction
+        p = cfg.particle
+        shape = {"template": p.template, "length_m": p.length, "diameter_m": p.diameter,
+                 "n_spheres": p.n_spheres, "size_min": p.size_min, "size_max": p.size_max}
+    except Exception:  # a study of another version: the engine's defaults, no shape
+        overrides = test.get("overrides") or {}
+        if isinstance(overrides, dict) and overrides.get("rolling_model"):
+            engine["rolling_model"] = str(overrides["rolling_model"])
     test_out = {"kind": str(test.get("kind") or "aor"),
                 "fidelity": str(test.get("fidelity") or "quick"),
                 "overrides": dict(test.get("overrides") or {})}
-    return engine, test_out
+    return engine, test_out, shape
 
 
 def material_card(data: ReportData) -> MaterialCard | None:
@@ -104,7 +109,7 @@ def material_card(data: ReportData) -> MaterialCard | None:
         for k in missing:
             params[k] = float(base[k])
     params = {k: params[k] for k in PARAMETERS}  # the canonical order
-    engine, test = _engine(data)
+    engine, test, shape = _engine(data)
     symbols = dict(data.symbols)
     for name, spec in PARAMETERS.items():
         symbols.setdefault(name, spec.paper_symbol)
@@ -120,7 +125,7 @@ def material_card(data: ReportData) -> MaterialCard | None:
     study = data.meta.get("study") or {}
     return MaterialCard(parameters=params, calibrated=tuple(k for k in chosen if k in params),
                         symbols=symbols, study=str(study.get("name") or data.study_dir.name),
-                        engine=engine, test=test, verification=verification)
+                        engine=engine, test=test, verification=verification, shape=shape)
 
 
 def card_table(card: MaterialCard) -> Table:

@@ -105,6 +105,10 @@ class MaterialCard:
     verification : dict
         ``line`` (one sentence) and the numbers behind it (``aor_mean_deg``, ``aor_std_deg``,
         ``n``, ``target_aor_deg``, ``relative_error_percent``, ``p_value``, ``consistent``).
+    shape : dict
+        The particle the parameters were calibrated with (informative: a run takes it from
+        the test settings): ``template``, ``length_m``, ``diameter_m``, ``n_spheres``,
+        ``size_min``, ``size_max``.
     """
 
     parameters: dict[str, float]
@@ -114,6 +118,7 @@ class MaterialCard:
     engine: dict[str, Any] = field(default_factory=dict)
     test: dict[str, Any] = field(default_factory=dict)
     verification: dict[str, Any] = field(default_factory=dict)
+    shape: dict[str, Any] = field(default_factory=dict)
 
     @property
     def rolling_model(self) -> str:
@@ -142,11 +147,14 @@ class MaterialCard:
         for r in self.rows():
             params[r["parameter"]] = {k: r[k] for k in ("value", "unit", "role", "symbol",
                                                           "law", "description")}
-        return {"card": {"format": CARD_FORMAT, "version": CARD_VERSION, "study": self.study},
-                "engine": {"name": "demcal", **self.engine, "rolling_model": self.rolling_model,
-                           "contact_laws": laws},
-                "test": dict(self.test), "verification": dict(self.verification),
-                "parameters": params}
+        out = {"card": {"format": CARD_FORMAT, "version": CARD_VERSION, "study": self.study},
+               "engine": {"name": "demcal", **self.engine, "rolling_model": self.rolling_model,
+                          "contact_laws": laws},
+               "test": dict(self.test), "verification": dict(self.verification)}
+        if self.shape:
+            out["particle_shape"] = dict(self.shape)
+        out["parameters"] = params
+        return out
 
     def to_json(self) -> str:
         """``material.json`` text (floats as ``repr``: they read back bit-exactly)."""
@@ -167,6 +175,8 @@ class MaterialCard:
         lines += _toml_table("test", test)
         lines += _toml_table("test.overrides", _flatten(d["test"].get("overrides") or {}))
         lines += _toml_table("verification", d["verification"])
+        if "particle_shape" in d:
+            lines += _toml_table("particle_shape", d["particle_shape"])
         for name, row in d["parameters"].items():
             lines += _toml_table(f"parameters.{_key(name)}", row)
         return "\n".join(lines)
@@ -334,7 +344,8 @@ def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
         raise InputError(f"{name}: test.fidelity must be a string; got {test['fidelity']!r}")
     return MaterialCard(parameters=params, calibrated=tuple(calibrated), symbols=symbols,
                         study=str(card.get("study") or ""), engine=engine, test=test,
-                        verification=dict(_table(doc, "verification", name, required=False)))
+                        verification=dict(_table(doc, "verification", name, required=False)),
+                        shape=dict(_table(doc, "particle_shape", name, required=False)))
 
 
 def _table(doc: Mapping[str, Any], key: str, name: str, *, required: bool = True) -> dict:
