@@ -107,3 +107,19 @@ def test_a_malformed_parameter_set_is_a_note_and_removes_a_stale_card(tmp_path):
     assert len(doc["problems"]) == 1 and "material card not built" in doc["problems"][0]
     assert not (out / "material.toml").exists() and not (out / "material.json").exists()
     assert "material card not built" in path.read_text("utf-8")
+
+
+def test_before_the_verification_the_card_holds_the_optimum(tmp_path):
+    study = build_paper_store(tmp_path / "study", stages=("rangefind", "screening",
+                                                           "steepest", "rsm", "optimize"))
+    path = build_report(study)
+    doc = json.loads((path.parent / "report.json").read_text())
+    assert doc["problems"] == []
+    card = read_material_card(path.parent / "material.toml")
+    chosen = doc["summaries"]["optimize"]["chosen"]
+    assert all(card.parameters[k] == v for k, v in chosen.items())
+    with RunStore(study) as store:
+        held = store.runs("rsm")[0].params
+    others = {k: v for k, v in held.items() if k not in chosen}
+    assert others and all(card.parameters[k] == v for k, v in others.items())
+    assert card.verification["line"] == "not verified"

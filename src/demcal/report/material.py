@@ -87,8 +87,9 @@ def material_card(data: ReportData) -> MaterialCard | None:
     """The study's material card, or None when no full parameter set is stored.
 
     The parameters are the verification's (exactly the set that was run), else the stored
-    result's ``optimum_full``, else the optimum merged into the fixed values; every parameter
-    the card lacks comes from the study's material preset.
+    result's ``optimum_full``, else the optimum merged into the parameters of the
+    response-surface runs (which hold every other parameter where the optimum has it) and the
+    fixed values; a parameter still missing comes from the study's material preset.
     """
     ver = data.stage("verification").summary
     opt = data.stage("optimize").summary
@@ -98,7 +99,9 @@ def material_card(data: ReportData) -> MaterialCard | None:
     if not params:
         if not chosen:
             return None
-        params = {**(data.meta.get("fixed_params") or {}), **chosen}
+        # the response-surface runs hold every other parameter where the optimum has it
+        held = next((r.params for r in reversed(data.stage("rsm").runs) if r.params), None)
+        params = {**(data.meta.get("fixed_params") or {}), **(held or {}), **chosen}
     params = {k: float(v) for k, v in params.items() if k in PARAMETERS}
     missing = [k for k in PARAMETERS if k not in params]
     if missing:
