@@ -16,6 +16,7 @@ from demcal.report.diagnostics import (
 )
 from demcal.report.model_figures import (
     boxcox_figure,
+    pair_contours_figure,
     pair_surface_figure,
     perturbation_figure,
     residual_figure,
@@ -126,3 +127,5 @@ def test_figures_draw_and_the_target_contour_is_only_drawn_when_reached():
     red = [c for c in reached.axes[1].collections if getattr(c, "get_linewidths", None)
            and max(c.get_linewidths(), default=0) >= 2]
     assert red
+    grid = pair_contours_figure(s, [("x1", "x2"), ("x1", "x3"), ("x2", "x3")], None, 40.0)
+    assert len([a for a in grid.axes if a.get_xlabel()]) == 3

@@ -30,8 +30,8 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "analytic" / "study
 SECTIONS = ("stages", "material", "measurement", "rangefind", "screening", "steepest", "rsm",
             "optimize", "verification", "excluded")
 FIGURES = ("rangefind", "pareto", "screening_residuals", "screening_boxcox",
-           "screening_perturbation", "steepest", "rsm_residuals", "rsm_boxcox",
-           "rsm_perturbation", "surface_x3_x4", "surface_x3_x8", "surface_x4_x8",
+           "screening_perturbation", "screening_contours", "steepest", "rsm_residuals",
+           "rsm_boxcox", "rsm_perturbation", "surface_x3_x4", "surface_x3_x8", "surface_x4_x8",
            "predicted_actual", "verification")
 TABLES = ("stages", "material_card", "parameters", "lab_measurements", "target",
           "screening_design", "screening_anova", "screening_checks", "steepest", "rsm_design",

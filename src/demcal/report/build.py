@@ -358,6 +358,18 @@ def _screening(b: _Builder) -> str:
             parts.append(f"<p>{escape(str(s['message']))}</p>")
         if s.get("runs") and s.get("anova"):
             parts.append(_diagnostics(b, "screening", s, None)[0])
+            sel = [n for n in s.get("selected") or [] if any(
+                f.get("name") == n for f in s.get("factors") or [])]
+            if len(sel) >= 2:
+                goal = d.target_aor_deg
+                parts.append(b.figure(
+                    "screening_contours", "Contours of the screening model (linear) over each "
+                    "pair of the selected factors, the others at their centres"
+                    + ("" if goal is None else f"; red = the target {goal:.2f}° where reached")
+                    + ".",
+                    lambda: MF.pair_contours_figure(
+                        _fitted_summary(s, D.refit(s, "screening")),
+                        list(itertools.combinations(sel, 2)), None, goal)))
         return "".join(parts)
 
     return _section("screening", "Screening", view.status, _guard(b, view, render))

@@ -26,8 +26,8 @@ from matplotlib.figure import Figure
 from demcal.report.diagnostics import Diagnostics
 from demcal.report.surface import StoredSurface
 
-__all__ = ["boxcox_figure", "pair_surface_figure", "perturbation_figure", "residual_figure",
-           "target_reached"]
+__all__ = ["boxcox_figure", "pair_contours_figure", "pair_surface_figure",
+           "perturbation_figure", "residual_figure", "target_reached"]
 
 _PT, _LIM, _FLAG, _TARGET = "#1f77b4", "#c62828", "#d62728", "#d62728"
 
@@ -260,4 +260,42 @@ def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
              "; target reached (red)" if reached else "; target not reached here")
     fig.suptitle(f"AoR over {surf.symbols[i]} and {surf.symbols[j]}"
                  + (f" ({', '.join(others)})" if others else "") + state, fontsize=10)
+    return fig
+
+
+def pair_contours_figure(summary: Mapping[str, Any], pairs: list[tuple[str, str]],
+                         hold: Mapping[str, float] | None = None,
+                         target_aor_deg: float | None = None, n_grid: int = 30) -> Figure:
+    """Contour plots of AoR (deg) over several factor pairs in one figure (small multiples),
+    each with the target contour in red where it is reached; for the screening model.
+
+    Parameters
+    ----------
+    summary : dict
+        A summary with ``factors`` (actual ``low``/``high``) and ``coefficients_coded``.
+    pairs : list of (str, str)
+        Factor pairs (names or symbols), at most 6 are drawn.
+    hold : dict, optional
+        Actual values of the other factors (default their centres).
+    target_aor_deg : float, optional
+        Target AoR, deg.
+    n_grid : int
+        Grid points per axis.
+    """
+    surf = StoredSurface.from_summary(summary)
+    pairs = list(pairs)[:6]
+    cols = min(3, max(1, len(pairs)))
+    rows = math.ceil(len(pairs) / cols) or 1
+    fig = _figure(3.4 * cols, 2.9 * rows)
+    for k, pair in enumerate(pairs):
+        ax = fig.add_subplot(rows, cols, k + 1)
+        xx, yy, zz, (i, j), _ = _grid(surf, pair, hold, n_grid)
+        cs = ax.contourf(xx, yy, zz, levels=10, cmap="viridis")
+        fig.colorbar(cs, ax=ax, label="AoR (°)")
+        if target_aor_deg is not None and np.nanmin(zz) <= target_aor_deg <= np.nanmax(zz):
+            ax.contour(xx, yy, zz, levels=[target_aor_deg], colors=_TARGET, linewidths=2)
+        ax.set_xlabel(surf.symbols[i])
+        ax.set_ylabel(surf.symbols[j])
+    if not pairs:
+        fig.add_subplot().set_axis_off()
     return fig
