@@ -202,3 +202,13 @@ def test_report_renders_in_headless_chromium(calibrated, tmp_path):
                    capture_output=True)
     data = pdf.read_bytes()
     assert data[:4] == b"%PDF" and len(re.findall(rb"/Type\s*/Page[^s]", data)) > 5
+
+
+def test_calibrate_without_the_report_still_writes_the_material_card(calibrated, tmp_path):
+    root = tmp_path / "study"
+    shutil.copytree(calibrated["root"], root, ignore=shutil.ignore_patterns("report"))
+    res = CliRunner().invoke(app, ["calibrate", str(root / "study.toml"), "--no-report"])
+    assert res.exit_code == 0, res.output  # nothing reruns: every run is stored
+    assert (root / "report" / "material.toml").read_text() == \
+        (calibrated["html_path"].parent / "material.toml").read_text()
+    assert not (root / "report" / "report.html").exists()

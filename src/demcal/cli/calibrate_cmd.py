@@ -116,6 +116,12 @@ def calibrate_cmd(
     if json_out is not None:
         json_out.write_text(json.dumps(result, indent=2))
         console.print(f"result: {json_out}")
+    if not report:  # the material card all the same (report/material.toml)
+        from demcal.report.material import write_material_card
+
+        files = write_material_card(Path(study).resolve().parent)
+        if files is not None:
+            console.print(f"material card: {files[0]}")
     if report:
         path = _build_report(Path(study).resolve().parent)
         if path is not None:

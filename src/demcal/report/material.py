@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 from demcal.report.data import ReportData
@@ -23,7 +24,7 @@ from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
 __all__ = ["card_table", "material_card", "measurement_label", "measurements_table",
-           "parameter_table", "verification_line"]
+           "parameter_table", "verification_line", "write_material_card"]
 
 
 def verification_line(ver: Mapping[str, Any], target: Mapping[str, Any] | None) -> str:
@@ -129,6 +130,33 @@ def material_card(data: ReportData) -> MaterialCard | None:
     return MaterialCard(parameters=params, calibrated=tuple(k for k in chosen if k in params),
                         symbols=symbols, study=str(study.get("name") or data.study_dir.name),
                         engine=engine, test=test, verification=verification, shape=shape)
+
+
+def write_material_card(study_dir: str | Path,
+                        out_dir: str | Path | None = None) -> tuple[Path, Path] | None:
+    """Write ``material.toml`` and ``material.json`` of a study without the report.
+
+    Parameters
+    ----------
+    study_dir : str or Path
+        Study folder holding ``demcal.sqlite``.
+    out_dir : str or Path, optional
+        Output folder (default ``<study_dir>/report``, where the report puts them).
+
+    Returns
+    -------
+    (Path, Path) or None
+        The two files, or None when the store has no optimum yet.
+    """
+    from demcal.report.data import load_report_data
+
+    data = load_report_data(study_dir)
+    card = material_card(data)
+    if card is None:
+        return None
+    out = Path(out_dir) if out_dir is not None else data.study_dir / "report"
+    out.mkdir(parents=True, exist_ok=True)
+    return card.write(out)
 
 
 def card_table(card: MaterialCard) -> Table:
