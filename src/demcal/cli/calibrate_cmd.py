@@ -164,10 +164,24 @@ def calibrate_cmd(
     _print_result(result)
     if json_out is not None:
         console.print(f"result: {json_out}")
+    if not report:  # the material card all the same (report/material.toml)
+        from demcal.report.material import write_material_card
+
+        try:
+            files = write_material_card(Path(study).resolve().parent)
+        except OSError as exc:  # the result is stored; the card can be written by `report`
+            console.print(f"note: no material card written ({exc.strerror}: "
+                          f"{exc.filename}); `demcal report` writes it", markup=False,
+                          highlight=False)
+            files = None
+        if files is not None:
+            console.print(f"material card: {files[0]}")
     if report:
         path = _build_report(study_dir)
         if path is not None:
             console.print(f"report: {path}")
+            if (path.parent / "material.toml").is_file():
+                console.print(f"material card: {path.parent / 'material.toml'}")
             check_report_problems(path)
 
 

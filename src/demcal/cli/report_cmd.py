@@ -37,4 +37,8 @@ def report(
             line.append(f" ({view.error})")
         console.print(line, soft_wrap=True)
     console.print(f"report: {path}", highlight=False, soft_wrap=True)
+    card = path.parent / "material.toml"
+    if card.is_file():
+        console.print(f"material card: {card} (run it: demcal simulate aor --material {card})",
+                      highlight=False, soft_wrap=True)
     check_report_problems(path)

@@ -88,6 +88,36 @@ def parse_test_overrides(items: list[str]) -> dict:
     return out
 
 
+def material_inputs(path: Path) -> tuple:
+    """Read a material card: (card, parameters, {"fidelity", "overrides"}) for a test run.
+
+    The card's rolling model becomes the ``rolling_model`` test override; a card made on the
+    analytic stand-in keeps its fidelity (the engine's quick test by default).
+    """
+    from demcal.virtual.config import FIDELITIES
+    from demcal.virtual.material_card import read_material_card
+
+    card = read_material_card(path)
+    overrides = dict(card.test.get("overrides") or {})
+    overrides.setdefault("rolling_model", card.rolling_model)
+    fid = str(card.test.get("fidelity") or "quick")
+    if fid not in FIDELITIES:
+        raise InputError(f"{path.name}: test.fidelity must be one of {', '.join(FIDELITIES)}; "
+                         f"got {fid!r}")
+    return card, dict(card.parameters), {"fidelity": fid, "overrides": overrides}
+
+
+def merge_overrides(base: dict, extra: dict) -> dict:
+    """Nested test overrides: ``extra`` on top of ``base`` (tables merged key by key)."""
+    out = dict(base)
+    for key, value in extra.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = merge_overrides(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
 def _view_angles(result) -> list[float]:
     angles = []
     for v in result.views_deg or []:
@@ -100,12 +130,16 @@ def _view_angles(result) -> list[float]:
 @simulate_app.command("aor")
 @cli_errors
 def simulate_aor(
-    preset: Annotated[str, typer.Option(help="Material preset (corn_stalk, corn_stalk_dry).")]
-    = "corn_stalk",
-    fidelity: Annotated[str, typer.Option(
+    preset: Annotated[str | None, typer.Option(
+        help="Material preset (corn_stalk, corn_stalk_dry; default corn_stalk).")] = None,
+    material: Annotated[Path | None, typer.Option(
+        "--material", help="Material card (material.toml or material.json written by "
+        "`demcal report`): its parameters exactly, its fidelity, test settings and rolling "
+        "model (--set, --test and --fidelity still override).")] = None,
+    fidelity: Annotated[str | None, typer.Option(
         help="Test fidelity: quick (150 stalks, a demonstration), standard (the calibration "
-        "fidelity: seed scatter near the lab's) or paper (the paper's factory fill).")]
-    = "quick",
+        "fidelity: seed scatter near the lab's) or paper (the paper's factory fill); default "
+        "quick, or the material card's.")] = None,
     set_: Annotated[list[str] | None, typer.Option(
         "--set", help="Override a parameter: NAME=VALUE (SI units), repeatable.")] = None,
     test: Annotated[list[str] | None, typer.Option(
@@ -132,18 +166,31 @@ def simulate_aor(
         run_aor,
     )
 
-    if seeds is None:
-        seeds = FIDELITY_REPLICATES.get(fidelity, 1)
-    if not 1 <= seeds <= MAX_REPLICATES:
+    if seeds is not None and not 1 <= seeds <= MAX_REPLICATES:
         raise InputError(f"--seeds must be in 1..{MAX_REPLICATES}; got {seeds}")
-    if not 0 <= seed0 <= MAX_SEED - seeds + 1:
-        raise InputError(f"--seed must be in 0..{MAX_SEED - seeds + 1}; got {seed0}")
     check_output_file(plot, "--plot")
     check_output_file(json_out, "--json")
     check_output_dir(vtk, "--vtk")
     overrides = parse_assignments(set_ or [])
-    params = preset_parameters(preset, overrides)
-    config = fidelity_config(fidelity, **parse_test_overrides(test or []))
+    test_overrides = parse_test_overrides(test or [])
+    if material is not None:
+        if preset is not None:
+            raise InputError("--material and --preset exclude each other (the card gives "
+                             "every parameter)")
+        _card, params, card_test = material_inputs(material)
+        params.update(overrides)
+        test_overrides = merge_overrides(card_test.pop("overrides"), test_overrides)
+        fidelity = fidelity or card_test["fidelity"]
+        preset = f"material card {material.name}"
+    else:
+        preset = preset or "corn_stalk"
+        params = preset_parameters(preset, overrides)
+    fidelity = fidelity or "quick"
+    config = fidelity_config(fidelity, **test_overrides)
+    if seeds is None:
+        seeds = FIDELITY_REPLICATES.get(fidelity, 1)
+    if not 0 <= seed0 <= MAX_SEED - seeds + 1:
+        raise InputError(f"--seed must be in 0..{MAX_SEED - seeds + 1}; got {seed0}")
     try:
         check_test_size(config, seeds)  # before the engine allocates anything
     except ValueError as exc:
@@ -171,6 +218,7 @@ def simulate_aor(
     summary["runs"] = [r.to_dict() for r in results]
     summary["fidelity"] = fidelity
     summary["preset"] = preset
+    summary["material"] = None if material is None else str(material)
     table = Table(title=f"angle of repose ({preset}, {fidelity})")
     for col in ("seed", "outcome", "AoR (deg)", "left", "right", "spread", "particles", "lost",
                 "sim time (s)", "wall (s)"):

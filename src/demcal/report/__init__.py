@@ -7,12 +7,16 @@ Typical use::
     path = report.build_report("studies/corn")          # -> studies/corn/report/report.html
     data = report.load_report_data("studies/corn")      # the same numbers, for a notebook
     fig = report.pareto_figure(data.stage("screening").summary["effects"], data.symbols)
+    card = report.material_card(data)                   # the calibrated material
+    rs = report.diagnostics.refit(data.stage("rsm").summary, "rsm")   # Design-Expert's checks
 
+``build_report`` also writes the material card (``material.toml``, ``material.json``; see
+``demcal.virtual.material_card``) and the model diagnostics (``report.diagnostics``).
 Figures are matplotlib Figures (Agg canvas, no pyplot state); tables are pandas DataFrames
 (``report.tables``), also written as CSV next to the HTML.
 """
 
-from demcal.report import tables
+from demcal.report import diagnostics, tables
 from demcal.report.build import build_report
 from demcal.report.data import STAGES, ReportData, StageView, load_report_data
 from demcal.report.figures import (
@@ -25,6 +29,13 @@ from demcal.report.figures import (
     surface_figure,
     verification_figure,
 )
+from demcal.report.material import material_card, measurements_table, parameter_table
+from demcal.report.model_figures import (
+    boxcox_figure,
+    pair_surface_figure,
+    perturbation_figure,
+    residual_figure,
+)
 from demcal.report.surface import StoredSurface, significant_pairs
 
 __all__ = [
@@ -32,13 +43,21 @@ __all__ = [
     "ReportData",
     "StageView",
     "StoredSurface",
+    "boxcox_figure",
     "build_report",
     "comparison_figure",
+    "diagnostics",
     "load_report_data",
+    "material_card",
     "measurement_figure",
+    "measurements_table",
+    "pair_surface_figure",
+    "parameter_table",
     "pareto_figure",
+    "perturbation_figure",
     "predicted_actual_figure",
     "rangefind_figure",
+    "residual_figure",
     "significant_pairs",
     "steepest_figure",
     "surface_figure",

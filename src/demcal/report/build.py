@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import io
+import itertools
 import json
 import logging
 import math
@@ -20,12 +21,16 @@ from typing import Any
 
 from matplotlib.figure import Figure
 
+from demcal.report import diagnostics as D
 from demcal.report import figures as F
+from demcal.report import material as M
+from demcal.report import model_figures as MF
 from demcal.report import tables as T
 from demcal.report.data import ReportData, StageView, load_report_data
 from demcal.report.html import badge, banner, figure_html, page, table_html
 from demcal.report.surface import significant_pairs
 from demcal.safety import csv_safe, safe_filename, study_image
+from demcal.virtual.material_card import CONTACT_LAWS, ROLLING_LAWS, MaterialCard
 
 __all__ = ["build_report"]
 
@@ -42,6 +47,8 @@ class _Builder:
         self.tables: dict[str, dict[str, Any]] = {}
         self.figures: list[str] = []
         self.problems: list[str] = []
+        self.diagnostics: dict[str, Any] = {}
+        self.card: MaterialCard | None = None
         (out_dir / "tables").mkdir(parents=True, exist_ok=True)
         (out_dir / "figures").mkdir(parents=True, exist_ok=True)
 
@@ -148,17 +155,78 @@ def _overview(b: _Builder) -> str:
                if d.meta.get("study_file") else "")
             + f" · report built {when} from the run store alone.</p>")
     return (f"<header><h1>Calibration report: {escape(str(name))}</h1>{meta}"
-            f'<div class="summary">{grid}</div></header>'
-            + _section("stages", "Stages", None, b.table(T.stages_table(d))))
+            f'<div class="summary">{grid}</div></header>')
+
+
+def _stages(b: _Builder) -> str:
+    return _section("stages", "Stages", None, b.table(T.stages_table(b.data)))
+
+
+def _shape_line(shape: dict[str, Any]) -> str:
+    """``Particle: stalk of 7 spheres, 10 x 4 mm, size factor 0.75-1.25.``"""
+    if not shape:
+        return ""
+    mm = 1e3
+    what = str(shape.get("template", ""))
+    if what == "stalk":
+        what += f" of {shape.get('n_spheres')} spheres"
+    size = (f"{_fmt(_num_or_nan(shape.get('length_m')) * mm, '.3g')} x "
+            f"{_fmt(_num_or_nan(shape.get('diameter_m')) * mm, '.3g')} mm (length x diameter)"
+            if what != "sphere" else
+            f"{_fmt(_num_or_nan(shape.get('diameter_m')) * mm, '.3g')} mm diameter")
+    return (f"<p><b>Particle:</b> {escape(what)}, {escape(size)}, size factor "
+            f"{_fmt(shape.get('size_min'), '.3g')}-{_fmt(shape.get('size_max'), '.3g')} "
+            "(uniform).</p>")
+
+
+def _num_or_nan(v: Any) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _material(b: _Builder) -> str:
+    """The calibrated material at the top: the card's table, laws, engine, verification."""
+    card = b.card
+    if card is None:
+        return _section("material", "Calibrated material", "missing",
+                        '<div class="banner missing"><b>No calibrated parameter set</b> is '
+                        "stored yet (the optimum and verification have not run).</div>")
+    laws = "".join(f"<li><b>{escape(k)}</b>: {escape(v)}</li>" for k, v in (
+        ("elastic", CONTACT_LAWS["elastic"]), ("normal", CONTACT_LAWS["normal"]),
+        ("damping", CONTACT_LAWS["damping"]), ("tangential", CONTACT_LAWS["tangential"]),
+        ("rolling", f"model {card.rolling_model}: "
+                    + ROLLING_LAWS.get(card.rolling_model, card.rolling_model))))
+    eng = card.engine
+    test = card.test
+    line = (f"<p><b>Engine:</b> demcal {escape(str(eng.get('version') or ''))} (backend "
+            f"{escape(str(eng.get('backend') or 'auto'))}, rolling friction model "
+            f"{escape(card.rolling_model)}); virtual test {escape(str(test.get('kind')))}"
+            f" at fidelity {escape(str(test.get('fidelity')))}"
+            + (f", time step {_fmt(eng.get('dt_fraction'), '.3g')} of the Rayleigh step"
+               if eng.get("dt_fraction") is not None else "") + ".</p>"
+            + _shape_line(card.shape)
+            + f'<p class="verdict"><b>Verification:</b> '
+            f"{escape(str(card.verification.get('line', '')))}.</p>")
+    files = ("<p>Material card: <code>material.toml</code> and <code>material.json</code> "
+             "next to this report; run it again with "
+             "<code>demcal simulate aor --material material.toml</code>.</p>")
+    return _section("material", "Calibrated material", None,
+                    line + b.table(M.card_table(card)) + files
+                    + f"<details open><summary>Contact laws of the engine (demcal.dem.contact)"
+                      f"</summary><ul>{laws}</ul></details>")
 
 
 def _measurement(b: _Builder) -> str:
     d = b.data
+    parts = [b.table(M.parameter_table(d, b.card))]
     if not d.target:
-        return _section("measurement", "Physical measurements", "missing",
+        return _section("measurement", "Physical measurements and target", "missing",
                         '<div class="banner missing"><b>No target</b> is stored.</div>'
-                        + (b.table(T.physical_table(d)) if d.meta.get("physical") else ""))
-    parts = [b.table(T.target_table(d))]
+                        + "".join(parts))
+    parts.append(b.table(M.measurements_table(d)))
+    parts.append(b.table(T.target_table(d)))
     photos = d.target.get("photos") or []
     if photos:
         parts.append(b.table(T.measurement_table(d)))
@@ -166,15 +234,16 @@ def _measurement(b: _Builder) -> str:
                               "mean ± 1 std.", lambda: F.measurement_figure(d.target)))
         shots = [b.image(f"photo_{i + 1}", p.get("figure"),
                          f"Photo {i + 1} ({Path(str(p.get('file', ''))).name}): "
-                         "boundary and fitted flank lines") for i, p in enumerate(photos)]
+                         f"{_fmt(p.get('mean_deg'), '.2f', '°')} (left "
+                         f"{_fmt(p.get('left_deg'), '.2f', '°')}, right "
+                         f"{_fmt(p.get('right_deg'), '.2f', '°')}); boundary and fitted "
+                         "flank lines") for i, p in enumerate(photos)]
         if any(shots):
             parts.append('<h3>Diagnostic figure of each photo</h3><div class="gallery">'
                          + "".join(shots) + "</div>")
     if d.meta.get("physical"):
-        parts.append(b.table(T.physical_table(d)))
-    parts.append(b.table(T.factors_table(d)))
-    if d.meta.get("fixed_params"):
-        parts.append(b.table(T.fixed_params_table(d)))
+        parts.append('<p class="note">The raw measurements and everything derived from them '
+                     "are in <code>report.json</code> (<code>meta.physical</code>).</p>")
     return _section("measurement", "Physical measurements and target", None, "".join(parts))
 
 
@@ -199,6 +268,65 @@ def _rangefind(b: _Builder) -> str:
         return "".join(parts)
 
     return _section("rangefind", "Range-finding scan", view.status, _guard(b, view, render))
+
+
+def _fitted_summary(summary: dict[str, Any], rs: Any) -> dict[str, Any]:
+    """The summary with the refitted model's coded coefficients (for screening's plots)."""
+    return {**summary, "coefficients_coded": {str(k): float(v) for k, v in
+                                              rs.coefficients_coded.items()}}
+
+
+def _diagnostics(b: _Builder, stage: str, summary: dict[str, Any],
+                 hold: dict[str, float] | None) -> tuple[str, bool | None]:
+    """Design-Expert's diagnostics of a stage's model: the adequacy checks, the residual
+    plots, Box-Cox and the perturbation plot. Returns the HTML and the verdict (None when
+    the model cannot be refitted)."""
+    d = b.data
+    try:
+        rs = D.refit(summary, stage)
+        diag = D.model_diagnostics(rs)
+    except Exception as exc:
+        msg = f"{stage}: diagnostics not computed ({type(exc).__name__}: {exc})"
+        b.problems.append(msg)
+        return f'<p class="warn">{escape(msg)}</p>', None
+    checks = D.adequacy_checks(summary, rs, diag)
+    ok = D.verdict(checks)
+    b.diagnostics[stage] = {**diag.to_dict(), "checks": [
+        {"check": c.name, "value": c.value, "rule": c.rule, "ok": c.ok, "binding": c.binding}
+        for c in checks], "adequate": ok}
+    rows = [{"check": c.name, "value": c.value, "rule": c.rule, "result": c.result}
+            for c in checks]
+    parts = [f"<h3>Model diagnostics ({rs.n_runs} runs, {rs.n_params} terms)</h3>",
+             b.table(T.Table(f"{stage}_checks", "Adequacy checks (Design-Expert's rules)",
+                             T._frame(rows, ["check", "value", "rule", "result"]),
+                             note="— = cannot be evaluated (does not fail); flag = runs to look "
+                                  "at (does not fail). Outlier limit: Bonferroni t at alpha "
+                                  "0.05; Cook's limit F(0.5; p, n-p).")),
+             b.figure(f"{stage}_residuals", "Normal probability plot of the externally "
+                      "studentized residuals, residuals vs predicted and vs run (dashed: "
+                      "outlier limits), predicted vs actual, Cook's distance and leverage "
+                      "(dashed: limits; flagged runs labelled by design point).",
+                      lambda: MF.residual_figure(diag)),
+             '<div class="row">',
+             b.figure(f"{stage}_boxcox", f"Box-Cox plot for power transforms: recommended "
+                      f"transform {diag.recommended}.", lambda: MF.boxcox_figure(diag)),
+             b.figure(f"{stage}_perturbation", "Perturbation: predicted AoR as each factor "
+                      "moves from -1 to +1 (coded) through "
+                      f"{'the optimum' if hold else 'the centre'}; dashed = target.",
+                      lambda: MF.perturbation_figure(_fitted_summary(summary, rs), hold,
+                                                     d.target_aor_deg)),
+             "</div>",
+             f'<p class="verdict"><b>Diagnostics verdict:</b> '
+             f"{'adequate' if ok else 'not adequate'}"
+             + (f" (fails: {escape(', '.join(c.name for c in checks if c.result == 'FAIL'))})"
+                if not ok else "") + ".</p>"]
+    stored = summary.get("adequate")
+    if stored is not None and bool(stored) != ok:
+        parts.append(f'<p class="warn">The stage stored "adequate = '
+                     f"{'yes' if stored else 'no'}\" but the diagnostics above say "
+                     f"{'adequate' if ok else 'not adequate'}; the diagnostics verdict is the "
+                     "one to trust.</p>")
+    return "".join(parts), ok
 
 
 def _screening(b: _Builder) -> str:
@@ -231,6 +359,20 @@ def _screening(b: _Builder) -> str:
                          f"{escape(', '.join(map(str, s['excluded_points'])))}.</p>")
         if s.get("message"):
             parts.append(f"<p>{escape(str(s['message']))}</p>")
+        if s.get("runs") and s.get("anova"):
+            parts.append(_diagnostics(b, "screening", s, None)[0])
+            sel = [n for n in s.get("selected") or [] if any(
+                f.get("name") == n for f in s.get("factors") or [])]
+            if len(sel) >= 2:
+                goal = d.target_aor_deg
+                parts.append(b.figure(
+                    "screening_contours", "Contours of the screening model (linear) over each "
+                    "pair of the selected factors, the others at their centres"
+                    + ("" if goal is None else f"; red = the target {goal:.2f}° where reached")
+                    + ".",
+                    lambda: MF.pair_contours_figure(
+                        _fitted_summary(s, D.refit(s, "screening")),
+                        list(itertools.combinations(sel, 2)), None, goal)))
         return "".join(parts)
 
     return _section("screening", "Screening", view.status, _guard(b, view, render))
@@ -272,9 +414,6 @@ def _rsm(b: _Builder) -> str:
             row.append(b.table(T.fit_table("rsm_fit", "Fit statistics", s["fit"],
                                            s.get("lack_of_fit_p"))))
         parts.append(f'<div class="row">{"".join(row)}</div>')
-        adequate = s.get("adequate")
-        if adequate is not None:
-            parts.append(f"<p><b>Model adequate:</b> {'yes' if adequate else 'no'}.</p>")
         for w in s.get("warnings") or []:
             parts.append(f'<p class="warn">Warning: {escape(str(w))}</p>')
         if s.get("coefficients_coded"):
@@ -284,19 +423,37 @@ def _rsm(b: _Builder) -> str:
             if s.get(key):
                 parts.append(f'<h3>{label}</h3><div class="eq">'
                              f"{escape(_equation(s[key], d.symbols))}</div>")
+        hold = d.stage("optimize").summary.get("chosen") or None
+        if s.get("runs") and s.get("coefficients_coded"):
+            parts.append(_diagnostics(b, "rsm", s, hold)[0])
+            adequate = s.get("adequate")
+            if adequate is not None:
+                parts.append(f"<p><b>Model adequate (stored by the stage):</b> "
+                             f"{'yes' if adequate else 'no'}.</p>")
         if s.get("coefficients_coded") and len(s.get("factors") or []) >= 2:
-            hold = d.stage("optimize").summary.get("chosen") or None
             p_of = {str(r.get("term")): r.get("p") for r in s.get("anova") or []}
-            for a, c in significant_pairs(s):
+            sig = set(significant_pairs(s))
+            names = [str(f["name"]) for f in s.get("factors") or []]
+            parts.append("<h3>Response surface and contour of each factor pair</h3>")
+            goal = d.target_aor_deg
+            for a, c in itertools.combinations(names, 2):
                 key = f"surface_{d.symbol(a)}_{d.symbol(c)}".replace(".", "_")
                 p = p_of.get(f"{a}*{c}", p_of.get(f"{d.symbol(a)}*{d.symbol(c)}"))
-                why = (f"interaction p = {_fmt(p, '.4f')}" if p is not None and p < 0.05 else
-                       "no significant interaction: the two strongest main effects")
+                why = (f"interaction p = {_fmt(p, '.4f')}" if p is not None else
+                       "interaction not in the model")
+                if (a, c) in sig:
+                    why += ", significant" if p is not None and p < 0.05 else \
+                        ", strongest main effects"
+                reached = MF.target_reached(s, (a, c), hold, goal)
                 parts.append(b.figure(
                     key, f"Response surface and contour of AoR over {d.symbol(a)} and "
                     f"{d.symbol(c)} ({why}; other factors at "
-                    f"{'the optimum' if hold else 'their centres'}; dots = design points).",
-                    lambda a=a, c=c, hold=hold: F.surface_figure(s, (a, c), hold)))
+                    f"{'the optimum (star)' if hold else 'their centres (star)'}; "
+                    + ("no target stored" if goal is None else
+                       f"red = the target {goal:.2f}° contour" if reached else
+                       f"the target {goal:.2f}° is not reached over this pair")
+                    + "; dots = design points).",
+                    lambda a=a, c=c: MF.pair_surface_figure(s, (a, c), hold, goal)))
             parts.append(b.figure("predicted_actual", "Predicted (stored model) vs actual AoR "
                                   "of the design runs.", lambda: F.predicted_actual_figure(s)))
         if s.get("excluded_points"):
@@ -347,7 +504,31 @@ def _verification(b: _Builder) -> str:
                 return None
             return study_image(p, d.study_dir)[0]
 
-        if photo_fig or pile:
+        # every verification replicate's pile beside a measured photo (cycled): both are the
+        # diagnostic figure of demcal.measure's boundary and flank-line fit
+        runs = sorted((r for r in view.runs if (r.artefacts or {}).get("pile_png")),
+                      key=lambda r: (r.point, r.replicate))
+        shown = [p for p in photos if p.get("figure")]
+        if runs:
+            parts.append("<h3>Each verification pile beside a measured photo</h3>")
+            for k, r in enumerate(runs):
+                ph = shown[k % len(shown)] if shown else {}
+                n_ph = photos.index(ph) + 1 if ph else None
+                cap = (f"Replicate {r.replicate + 1}: simulated pile, AoR "
+                       f"{_fmt(r.aor_deg, '.2f', '°')} (side view with fitted flank lines)"
+                       + (f", beside photo {n_ph} ({_fmt(ph.get('mean_deg'), '.2f', '°')}, "
+                          "boundary and fitted flank lines: the same method)" if ph else
+                          "; no photo is stored")
+                       + ".")
+                parts.append(b.figure(
+                    f"comparison_{k + 1}", cap,
+                    lambda ph=ph, r=r, n_ph=n_ph: F.comparison_figure(
+                        resolve(ph.get("figure") if ph else None),
+                        resolve(r.artefacts.get("pile_png")),
+                        (f"photo {n_ph}: {_fmt(ph.get('mean_deg'), '.2f', '°')}" if ph
+                         else "physical pile (photo)",
+                         f"replicate {r.replicate + 1}: {_fmt(r.aor_deg, '.2f', '°')}"))))
+        elif photo_fig or pile:
             parts.append(b.figure("comparison", "Physical pile (photo with its fitted flanks) "
                                   "next to the simulated pile (side view with fitted lines), "
                                   "cf. Fig. 9.",
@@ -400,7 +581,9 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
     -------
     Path
         The written ``report.html``; next to it ``report.json`` (every table's numbers, the
-        stage statuses and summaries), ``tables/*.csv`` and ``figures/*.png``.
+        stage statuses and summaries, the model diagnostics), ``tables/*.csv``,
+        ``figures/*.png`` and, once an optimum is stored, the material card
+        ``material.toml`` and ``material.json`` (see :mod:`demcal.virtual.material_card`).
 
     Raises
     ------
@@ -411,8 +594,22 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
     out = Path(out_dir) if out_dir is not None else data.study_dir / "report"
     out.mkdir(parents=True, exist_ok=True)
     b = _Builder(data, out)
-    body = "".join([_overview(b), _measurement(b), _rangefind(b), _screening(b), _steepest(b),
-                    _rsm(b), _optimize(b), _verification(b), _excluded(b)])
+    card_files: list[str] = []
+    try:
+        b.card = M.material_card(data)
+        if b.card is not None:
+            card_files = [p.name for p in b.card.write(out)]
+    except Exception as exc:  # a malformed store must not stop the report
+        b.card = None
+        msg = f"material card not built ({type(exc).__name__}: {exc})"
+        log.warning(msg)
+        b.problems.append(msg)
+    if b.card is None:  # no stale card from an earlier build
+        for name in ("material.toml", "material.json"):
+            (out / name).unlink(missing_ok=True)
+    body = "".join([_overview(b), _material(b), _stages(b), _measurement(b), _rangefind(b),
+                    _screening(b), _steepest(b), _rsm(b), _optimize(b), _verification(b),
+                    _excluded(b)])
     body += _footer(b)
     study = data.meta.get("study") or {}
     title = f"demcal calibration report: {study.get('name') or data.study_dir.name}"
@@ -428,6 +625,9 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
         "summaries": {n: v.summary for n, v in data.stages.items() if v.summary},
         "tables": b.tables,
         "figures": b.figures,
+        "material": b.card.to_dict() if b.card is not None else None,
+        "material_files": card_files,
+        "diagnostics": b.diagnostics,
         "problems": b.problems,
     }
     (out / "report.json").write_text(json.dumps(doc, indent=1, allow_nan=False),

@@ -63,8 +63,22 @@ code, .eq { font-family: "DejaVu Sans Mono", Consolas, monospace; font-size: 12.
 .banner.missing { border-color: #8a93a0; background: #f4f5f7; }
 .banner.running { border-color: #d4a100; background: #fffaeb; }
 .warn { color: #8a5a00; }
+p.verdict { background: #f5f7fa; border-left: 4px solid var(--accent); padding: 4px 10px; }
+@media (max-width: 640px) {
+  body { padding: 10px 10px; font-size: 13px; }
+  h1 { font-size: 20px; }
+  h2 { font-size: 17px; }
+  .summary { grid-template-columns: repeat(2, minmax(0, 1fr)); gap: 6px; }
+  .card .v { font-size: 15px; }
+  .row { display: block; }
+  table.data { font-size: 11.5px; }
+  table.data td { max-width: 70vw; overflow-wrap: normal; min-width: 3.5em; }
+  .gallery { grid-template-columns: repeat(2, minmax(0, 1fr)); }
+}
 @media print {
   body { max-width: none; padding: 0; font-size: 11px; }
+  figure img { max-height: 24cm; object-fit: contain; }
+  details > *:not(summary) { display: block; }
   h2, h3 { page-break-after: avoid; break-after: avoid-page; }
   figure, .tablewrap, table.data, .card { page-break-inside: avoid; break-inside: avoid; }
   .tablewrap { overflow: visible; }

@@ -1,0 +1,298 @@
+"""The calibrated material and its inputs, as the report shows them.
+
+- :func:`material_card` builds the :class:`~demcal.virtual.material_card.MaterialCard` of a
+  study from its store (the verified parameter set, else the optimum with the fixed values);
+- :func:`card_table` is that card as the report's first table;
+- :func:`parameter_table` is the paper's Table 1: every parameter with its symbol, value or
+  range, unit and source (measured with n and spread, literature, preset or calibrated);
+- :func:`measurements_table` is the compact table of the lab measurements: mean ± std, n,
+  95 % interval, range.
+
+Values in the tables are SI (angles in degrees) except where a column names another unit.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from demcal.report.data import ReportData
+from demcal.report.tables import Table, _frame, _num, format_cell
+from demcal.virtual.material_card import MaterialCard, parameter_law
+from demcal.virtual.parameters import PARAMETERS
+
+__all__ = ["card_table", "material_card", "measurement_label", "measurements_table",
+           "parameter_table", "verification_line", "write_material_card"]
+
+
+def verification_line(ver: Mapping[str, Any], target: Mapping[str, Any] | None) -> str:
+    """One sentence: verified AoR mean ± std (n) against the measurement, error, p, verdict."""
+    mean, std = _num(ver.get("aor_mean_deg")), _num(ver.get("aor_std_deg"))
+    if mean is None:
+        n_piles = ver.get("n_piles")
+        return ("not verified" if not ver else
+                f"verification formed no pile ({n_piles or 0} of {ver.get('n', '?')} runs)")
+    t = target or {}
+    out = f"verified AoR {mean:.2f}"
+    out += f" ± {std:.2f}°" if std is not None else "°"
+    out += f" (n = {ver.get('n')})"
+    goal = _num(t.get("aor_deg"))
+    if goal is not None:
+        tstd = _num(t.get("std_deg"))
+        out += f" vs measured {goal:.2f}" + (f" ± {tstd:.2f}°" if tstd is not None else "°")
+        if t.get("n"):
+            out += f" (n = {t.get('n')})"
+    rel = _num(ver.get("relative_error_percent"))
+    if rel is not None:
+        out += f"; relative error {rel:.2f} %"
+    p = _num(ver.get("p_value"))
+    if p is not None:
+        out += f"; p = {p:.3g}"
+    if ver.get("consistent") is not None:
+        out += ", consistent" if ver.get("consistent") else ", differs"
+    return out
+
+
+def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+    """Engine, test and particle shape of the study (from its test settings)."""
+    study = data.meta.get("study") or {}
+    test = study.get("test") or {}
+    versions = data.meta.get("versions") or {}
+    engine = {"version": str(versions.get("demcal") or ""),
+              "backend": str(versions.get("engine_backend") or study.get("backend") or "auto"),
+              "rolling_model": "A"}
+    shape: dict[str, Any] = {}
+    try:
+        from demcal.virtual.config import fidelity_config
+
+        cfg = fidelity_config(str(test.get("fidelity") or "quick"),
+                              **(test.get("overrides") or {}))
+        engine["rolling_model"] = cfg.rolling_model
+        engine["dt_fraction"] = cfg.dt_fraction
+        p = cfg.particle
+        shape = {"template": p.template, "length_m": p.length, "diameter_m": p.diameter,
+                 "n_spheres": p.n_spheres, "size_min": p.size_min, "size_max": p.size_max}
+    except Exception:  # a study of another version: the engine's defaults, no shape
+        overrides = test.get("overrides") or {}
+        if isinstance(overrides, dict) and overrides.get("rolling_model"):
+            engine["rolling_model"] = str(overrides["rolling_model"])
+    test_out = {"kind": str(test.get("kind") or "aor"),
+                "fidelity": str(test.get("fidelity") or "quick"),
+                "overrides": dict(test.get("overrides") or {})}
+    return engine, test_out, shape
+
+
+def material_card(data: ReportData) -> MaterialCard | None:
+    """The study's material card, or None when no full parameter set is stored.
+
+    The parameters are the verification's (exactly the set that was run), else the stored
+    result's ``optimum_full``, else the optimum merged into the parameters of the
+    response-surface runs (which hold every other parameter where the optimum has it) and the
+    fixed values; a parameter still missing comes from the study's material preset.
+    """
+    ver = data.stage("verification").summary
+    opt = data.stage("optimize").summary
+    result = data.meta.get("result") or {}
+    chosen = opt.get("chosen") or result.get("optimum") or {}
+    params = ver.get("params") or result.get("optimum_full")
+    if not params:
+        if not chosen:
+            return None
+        # the response-surface runs hold every other parameter where the optimum has it
+        held = next((r.params for r in reversed(data.stage("rsm").runs) if r.params), None)
+        params = {**(data.meta.get("fixed_params") or {}), **(held or {}), **chosen}
+    params = {k: float(v) for k, v in params.items() if k in PARAMETERS}
+    missing = [k for k in PARAMETERS if k not in params]
+    if missing:
+        from demcal.virtual.presets import PRESETS
+
+        preset = ((data.meta.get("study") or {}).get("material") or {}).get("preset")
+        base = PRESETS.get(str(preset), PRESETS["corn_stalk"])
+        for k in missing:
+            params[k] = float(base[k])
+    params = {k: params[k] for k in PARAMETERS}  # the canonical order
+    engine, test, shape = _engine(data)
+    symbols = dict(data.symbols)
+    for name, spec in PARAMETERS.items():
+        symbols.setdefault(name, spec.paper_symbol)
+    verification = {"line": verification_line(ver, data.target)}
+    for key in ("aor_mean_deg", "aor_std_deg", "n", "relative_error_percent", "p_value",
+                "consistent", "ci_low_deg", "ci_high_deg"):
+        if ver.get(key) is not None:
+            verification[key] = ver[key]
+    if data.target_aor_deg is not None:
+        verification["target_aor_deg"] = data.target_aor_deg
+    if opt.get("predicted_aor_deg") is not None:
+        verification["predicted_aor_deg"] = opt["predicted_aor_deg"]
+    study = data.meta.get("study") or {}
+    return MaterialCard(parameters=params, calibrated=tuple(k for k in chosen if k in params),
+                        symbols=symbols, study=str(study.get("name") or data.study_dir.name),
+                        engine=engine, test=test, verification=verification, shape=shape)
+
+
+def write_material_card(study_dir: str | Path,
+                        out_dir: str | Path | None = None) -> tuple[Path, Path] | None:
+    """Write ``material.toml`` and ``material.json`` of a study without the report.
+
+    Parameters
+    ----------
+    study_dir : str or Path
+        Study folder holding ``demcal.sqlite``.
+    out_dir : str or Path, optional
+        Output folder (default ``<study_dir>/report``, where the report puts them).
+
+    Returns
+    -------
+    (Path, Path) or None
+        The two files, or None when the store has no optimum yet.
+    """
+    from demcal.report.data import load_report_data
+
+    data = load_report_data(study_dir)
+    card = material_card(data)
+    if card is None:
+        return None
+    out = Path(out_dir) if out_dir is not None else data.study_dir / "report"
+    out.mkdir(parents=True, exist_ok=True)
+    return card.write(out)
+
+
+def card_table(card: MaterialCard) -> Table:
+    """The material card as a table: parameter, symbol, value (full precision), unit, role,
+    contact law."""
+    rows = [{"parameter": r["parameter"], "symbol": r["symbol"], "value": repr(r["value"]),
+             "unit": r["unit"], "role": r["role"], "contact law": r["law"],
+             "meaning": r["description"]} for r in card.rows()]
+    return Table("material_card", "Calibrated material (as typed into the DEM code)",
+                 _frame(rows, ["parameter", "symbol", "value", "unit", "role", "contact law",
+                               "meaning"]),
+                 note="Values in SI units, written exactly as stored (material.toml / "
+                      "material.json hold the same digits).")
+
+
+# ------------------------------------------------------------------------------ Table 1
+def _range_text(lo: Any, hi: Any) -> str:
+    a, b = _num(lo), _num(hi)
+    if a is None or b is None:
+        return ""
+    return f"{format_cell(a)}-{format_cell(b)}"
+
+
+def _spread_text(s: Mapping[str, Any]) -> str:
+    n = s.get("n_repeats")
+    if s.get("range_only"):
+        return f"n = {n}, range {_range_text(s.get('min'), s.get('max'))}"
+    std = _num(s.get("std"))
+    out = f"n = {n}"
+    if std is not None:
+        out += f", std {format_cell(std)}"
+    return out
+
+
+def parameter_table(data: ReportData, card: MaterialCard | None = None) -> Table:
+    """The paper's Table 1: every parameter with symbol, value or range, unit and source.
+
+    ``value or range`` is the fixed value, or the range the calibration searched (the
+    study's, after range finding); ``source`` is measured (with n and spread), literature
+    or the material preset; ``used`` is the value in the material card.
+    """
+    derived = ((data.meta.get("physical") or {}).get("derived") or {})
+    rows_by_name = {str(r.get("name")): r for r in derived.get("table") or []
+                    if isinstance(r, Mapping)}
+    summaries = derived.get("summaries") or {}
+    factors = {str(f.get("name")): f for f in data.meta.get("factors") or []}
+    ranges = (data.meta.get("result") or {}).get("ranges") or {}
+    fixed = data.meta.get("fixed_params") or {}
+    study = data.meta.get("study") or {}
+    preset = (study.get("material") or {}).get("preset")
+    overrides = (study.get("material") or {}).get("overrides") or {}
+    rows = []
+    for name, spec in PARAMETERS.items():
+        phys = rows_by_name.get(name) or {}
+        symbol = (factors.get(name) or {}).get("symbol") or phys.get("symbol") or \
+            spec.paper_symbol
+        if name in factors:
+            lo, hi = factors[name].get("low"), factors[name].get("high")
+            value = _range_text(lo, hi)
+            if name in ranges and list(ranges[name]) != [lo, hi]:
+                value += f" (searched {_range_text(*ranges[name])})"
+            source = phys.get("source") or "range given in the study"
+        elif name in fixed:
+            value = format_cell(_num(fixed[name]))
+            source = phys.get("source") or ("study file" if name in overrides or not preset
+                                            else f"material preset {preset}")
+        elif phys:
+            value = phys.get("display", "")
+            source = phys.get("source", "")
+        else:
+            value, source = "", "not stored"
+        s = summaries.get(name)
+        if isinstance(s, Mapping) and "measured" in str(source) and "n =" not in str(source):
+            source = f"{source}; {_spread_text(s)}"
+        used = card.parameters.get(name) if card is not None else None
+        rows.append({"parameter": spec.description, "symbol": symbol, "value or range": value,
+                     "unit": spec.unit or "-", "source": source,
+                     "role": ("calibrated" if card is not None and name in card.calibrated
+                              else "factor" if name in factors else "fixed"),
+                     "used": used, "law": parameter_law(name)})
+    return Table("parameters", "Model parameters (cf. Table 1)",
+                 _frame(rows, ["parameter", "symbol", "value or range", "unit", "source",
+                               "role", "used", "law"]),
+                 note="'used' is the value in the material card (the verified set); 'factor' "
+                      "rows were varied in screening but fixed afterwards.")
+
+
+def measurements_table(data: ReportData) -> Table:
+    """The lab measurements, compact: quantity, unit, mean ± std, n, 95 % interval, range."""
+    derived = ((data.meta.get("physical") or {}).get("derived") or {})
+    summaries = dict(derived.get("summaries") or {})
+    rows, names = [], set()
+    for key, s in summaries.items():
+        if isinstance(s, Mapping):
+            names.add(str(s.get("name") or key))
+            rows.append(_measurement_row(str(s.get("name") or key), s))
+    t = data.target or {}
+    if t.get("aor_deg") is not None and "aor_deg" not in names:
+        tgt = derived.get("target_aor_deg")
+        if isinstance(tgt, Mapping):
+            rows.append(_measurement_row("aor_deg", tgt))
+        else:
+            rows.append({"quantity": "angle of repose (target)", "unit": "deg",
+                         "mean": _num(t.get("aor_deg")), "std": _num(t.get("std_deg")),
+                         "n": t.get("n"), "95 % interval": "", "range": ""})
+    return Table("lab_measurements", "Measurements (mean ± std, n, 95 % interval)",
+                 _frame(rows, ["quantity", "unit", "mean", "std", "n", "95 % interval",
+                               "range"]))
+
+
+_WHO = {"particle": "particle", "wall": "wall", "pp": "particle-particle",
+        "pw": "particle-wall"}
+_WHAT = {"youngs_modulus": "Young's modulus", "inclination_deg": "sliding angle, inclined plane",
+         "length": "length", "diameter": "diameter", "moisture_percent": "moisture content",
+         "aor_deg": "angle of repose (target)"}
+
+
+def measurement_label(name: str) -> str:
+    """Readable name of a measured quantity (``pp.inclination_deg`` -> ``sliding angle,
+    inclined plane (particle-particle)``)."""
+    spec = PARAMETERS.get(name)
+    if spec is not None:
+        return spec.description
+    who, _, what = name.rpartition(".")
+    text = _WHAT.get(what, what.replace("_", " "))
+    return f"{text} ({_WHO.get(who, who)})" if who else text
+
+
+def _measurement_row(name: str, s: Mapping[str, Any]) -> dict[str, Any]:
+    label = measurement_label(name)
+    level = _num(s.get("ci_level"))
+    lo, hi = _num(s.get("ci_low")), _num(s.get("ci_high"))
+    ci = "" if lo is None or hi is None else _range_text(lo, hi)
+    if ci and level is not None and not math.isclose(level, 0.95):
+        ci += f" ({level * 100:g} %)"
+    return {"quantity": label, "unit": s.get("unit") or "-", "mean": _num(s.get("mean")),
+            "std": _num(s.get("std")), "n": s.get("n_repeats"), "95 % interval": ci,
+            "range": "" if _num(s.get("min")) == _num(s.get("max"))
+            else _range_text(s.get("min"), s.get("max"))}

@@ -1,0 +1,358 @@
+"""The material card: a calibrated material as a DEM user types it in, in TOML and JSON.
+
+A card holds every parameter of the virtual test (:data:`demcal.virtual.PARAMETERS`: fixed and
+calibrated, SI units), which of them were calibrated, the contact laws they belong to in
+demcal's engine (:mod:`demcal.dem.contact`), the engine and test it was calibrated with, and
+the verification in one line. ``demcal report`` (and so ``demcal calibrate``) writes
+``material.toml`` and ``material.json`` next to ``report.html``; ``demcal simulate aor
+--material FILE`` reads either back and runs the material as it is.
+
+Floats are written with ``repr`` (shortest round-tripping decimal), so a value read back is
+bit-for-bit the value written. See ``docs/material_card.md`` for the format.
+
+>>> from demcal.virtual.presets import preset_parameters
+>>> card = MaterialCard(parameters=preset_parameters("corn_stalk"),
+...                     calibrated=("pp.static_friction",))
+>>> parse_material_card(card.to_toml(), "card.toml").parameters == card.parameters
+True
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from demcal.errors import InputError
+from demcal.virtual.parameters import PARAMETERS
+
+__all__ = [
+    "CARD_FORMAT",
+    "CARD_VERSION",
+    "CONTACT_LAWS",
+    "ROLLING_LAWS",
+    "MaterialCard",
+    "parameter_law",
+    "parse_material_card",
+    "read_material_card",
+]
+
+#: Value of ``card.format`` in every card.
+CARD_FORMAT = "demcal-material-card"
+#: Version of the card layout this module writes and reads.
+CARD_VERSION = 1
+
+#: The contact laws of demcal's engine that the parameters enter (see demcal.dem.contact).
+CONTACT_LAWS: dict[str, str] = {
+    "elastic": "Hertz-Mindlin: E* from 1/E* = (1-v1^2)/E1 + (1-v2^2)/E2 with E = 2 G (1 + v); "
+               "G* from 1/G* = (2-v1)/G1 + (2-v2)/G2 (demcal.dem.contact.pair_modulus)",
+    "normal": "Hertz-Mindlin with JKR cohesion, EDEM's version 1 (demcal.dem.contact."
+              "jkr_normal): F = 4 E* a^3 / (3 R*) - 4 sqrt(pi gamma E*) a^1.5, pull-off "
+              "3 pi gamma R*; plain Hertz (4/3 E* sqrt(R*) delta^1.5) when gamma = 0",
+    "damping": "EDEM's Hertz-Mindlin damping: beta = ln e / sqrt(ln^2 e + pi^2), "
+               "F_d = 2 sqrt(5/6) beta sqrt(S m*) v with S_n = 2 E* a, S_t = 8 G* a",
+    "tangential": "Mindlin no-slip spring S_t = 8 G* a with damping and the Coulomb limit "
+                  "mu_s F_rep (F_rep the repulsive part of the normal force) "
+                  "(demcal.dem.contact.tangential_contact)",
+    "mass": "solid density of the clump's spheres and of the walls",
+}
+
+#: The rolling-friction models of the engine (``AoRTestConfig.rolling_model``).
+ROLLING_LAWS: dict[str, str] = {
+    "A": "type A, EDEM's standard constant directional torque: T = -mu_r F_rep d "
+         "omega / |omega| (d the contact arm, omega the sphere's angular velocity)",
+    "C": "type C, elastic-plastic spring (EPSD): k_r = 2.25 S_n mu_r^2 R*^2 with S_n = 2 E* a, "
+         "torque capped at mu_r R* F_rep (history-dependent; demcal.dem.kernels._rolling_c)",
+    "none": "no rolling resistance (rolling friction coefficients unused)",
+}
+
+_LAW_OF = {"poisson": "elastic", "shear_modulus": "elastic", "density": "mass",
+           "restitution": "damping", "static_friction": "tangential",
+           "rolling_friction": "rolling", "surface_energy": "normal"}
+
+
+def parameter_law(name: str) -> str:
+    """The contact law a parameter belongs to: ``elastic``, ``mass``, ``damping``,
+    ``tangential``, ``rolling`` or ``normal`` (JKR cohesion)."""
+    return _LAW_OF.get(name.rpartition(".")[2], "")
+
+
+@dataclass(frozen=True)
+class MaterialCard:
+    """A calibrated material: every parameter with its meaning, the engine and the verification.
+
+    Attributes
+    ----------
+    parameters : dict of str -> float
+        Every parameter of :data:`demcal.virtual.PARAMETERS`, SI units (surface energy J/m^2,
+        density kg/m^3, moduli Pa; coefficients dimensionless).
+    calibrated : tuple of str
+        Names of the parameters found by the calibration (the others were fixed).
+    symbols : dict of str -> str
+        Paper-style symbols of the parameters (``x3``), where known.
+    study : str
+        Name of the study the card comes from.
+    engine : dict
+        ``name``, ``version``, ``backend`` and ``rolling_model`` (``"A"``, ``"C"`` or
+        ``"none"``) of the engine the material was calibrated with.
+    test : dict
+        ``kind`` (``aor`` or ``analytic``), ``fidelity`` and ``overrides`` (dotted keys of
+        :class:`demcal.virtual.AoRTestConfig`) of the virtual test.
+    verification : dict
+        ``line`` (one sentence) and the numbers behind it (``aor_mean_deg``, ``aor_std_deg``,
+        ``n``, ``target_aor_deg``, ``relative_error_percent``, ``p_value``, ``consistent``).
+    shape : dict
+        The particle the parameters were calibrated with (informative: a run takes it from
+        the test settings): ``template``, ``length_m``, ``diameter_m``, ``n_spheres``,
+        ``size_min``, ``size_max``.
+    """
+
+    parameters: dict[str, float]
+    calibrated: tuple[str, ...] = ()
+    symbols: dict[str, str] = field(default_factory=dict)
+    study: str = ""
+    engine: dict[str, Any] = field(default_factory=dict)
+    test: dict[str, Any] = field(default_factory=dict)
+    verification: dict[str, Any] = field(default_factory=dict)
+    shape: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def rolling_model(self) -> str:
+        """The rolling-friction model (``"A"`` unless the card says otherwise)."""
+        return str(self.engine.get("rolling_model") or "A")
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One row per parameter: name, symbol, value, unit, role, law, description."""
+        out = []
+        for name, value in self.parameters.items():
+            spec = PARAMETERS.get(name)
+            law = parameter_law(name)
+            out.append({
+                "parameter": name,
+                "symbol": self.symbols.get(name) or (spec.paper_symbol if spec else ""),
+                "value": value, "unit": (spec.unit if spec else "") or "-",
+                "role": "calibrated" if name in self.calibrated else "fixed",
+                "law": law, "description": spec.description if spec else ""})
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The card as plain JSON-able data (the layout of ``material.json``)."""
+        laws = {k: CONTACT_LAWS[k] for k in ("elastic", "normal", "damping", "tangential")}
+        laws["rolling"] = ROLLING_LAWS.get(self.rolling_model, self.rolling_model)
+        params = {}
+        for r in self.rows():
+            params[r["parameter"]] = {k: r[k] for k in ("value", "unit", "role", "symbol",
+                                                          "law", "description")}
+        out = {"card": {"format": CARD_FORMAT, "version": CARD_VERSION, "study": self.study},
+               "engine": {"name": "demcal", **self.engine, "rolling_model": self.rolling_model,
+                          "contact_laws": laws},
+               "test": dict(self.test), "verification": dict(self.verification)}
+        if self.shape:
+            out["particle_shape"] = dict(self.shape)
+        out["parameters"] = params
+        return out
+
+    def to_json(self) -> str:
+        """``material.json`` text (floats as ``repr``: they read back bit-exactly)."""
+        return json.dumps(self.to_dict(), indent=1, allow_nan=False) + "\n"
+
+    def to_toml(self) -> str:
+        """``material.toml`` text (floats as ``repr``: they read back bit-exactly)."""
+        d = self.to_dict()
+        lines = ["# demcal material card: every parameter of the material in SI units, the",
+                 "# contact laws they belong to and the verification. Run it again with",
+                 "#   demcal simulate aor --material material.toml",
+                 "# See docs/material_card.md.", ""]
+        lines += _toml_table("card", d["card"])
+        engine = {k: v for k, v in d["engine"].items() if k != "contact_laws"}
+        lines += _toml_table("engine", engine)
+        lines += _toml_table("engine.contact_laws", d["engine"]["contact_laws"])
+        test = {k: v for k, v in d["test"].items() if k != "overrides"}
+        lines += _toml_table("test", test)
+        lines += _toml_table("test.overrides", _flatten(d["test"].get("overrides") or {}))
+        lines += _toml_table("verification", d["verification"])
+        if "particle_shape" in d:
+            lines += _toml_table("particle_shape", d["particle_shape"])
+        for name, row in d["parameters"].items():
+            lines += _toml_table(f"parameters.{_key(name)}", row)
+        return "\n".join(lines)
+
+    def write(self, out_dir: str | Path, stem: str = "material") -> tuple[Path, Path]:
+        """Write ``<stem>.toml`` and ``<stem>.json`` into ``out_dir``; return both paths."""
+        out = Path(out_dir)
+        toml_path, json_path = out / f"{stem}.toml", out / f"{stem}.json"
+        toml_path.write_text(self.to_toml(), encoding="utf-8")
+        json_path.write_text(self.to_json(), encoding="utf-8")
+        return toml_path, json_path
+
+
+# ------------------------------------------------------------------------------ TOML writing
+def _key(name: str) -> str:
+    bare = name.replace("_", "").replace("-", "").isalnum() and name.isascii()
+    return name if bare else json.dumps(name)
+
+
+def _value(v: Any, where: str) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise InputError(f"{where}: {v!r} cannot be written to a material card")
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_value(x, where) for x in v) + "]"
+    raise InputError(f"{where}: a {type(v).__name__} cannot be written to a material card")
+
+
+def _toml_table(header: str, values: Mapping[str, Any]) -> list[str]:
+    lines = [f"[{header}]"]
+    for k, v in values.items():
+        if v is None:  # TOML has no null: a missing key reads back as None
+            continue
+        lines.append(f"{_key(str(k))} = {_value(v, f'{header}.{k}')}")
+    return [*lines, ""]
+
+
+def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        key = f"{prefix}.{k}" if prefix else str(k)
+        if isinstance(v, Mapping):
+            out.update(_flatten(v, key))
+        else:
+            out[key] = v
+    return out
+
+
+def _unflatten(d: Mapping[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, v in d.items():
+        node = out
+        parts = str(key).split(".")
+        for p in parts[:-1]:
+            node = node.setdefault(p, {})
+        node[parts[-1]] = v
+    return out
+
+
+# ------------------------------------------------------------------------------------ reading
+def read_material_card(path: str | Path) -> MaterialCard:
+    """Read and validate a material card (``.toml`` or ``.json``).
+
+    Parameters
+    ----------
+    path : str or Path
+        ``material.toml`` or ``material.json`` as written by :meth:`MaterialCard.write`.
+
+    Returns
+    -------
+    MaterialCard
+
+    Raises
+    ------
+    InputError
+        One line naming the file and the bad field: unreadable file, wrong format or version,
+        an unknown or missing parameter, a value that is not a number or out of its range, a
+        unit other than the parameter's SI unit, or an unknown rolling model.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"--material: no file {str(p)!r}")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{p.name}: cannot be read ({exc})") from None
+    return parse_material_card(text, p.name)
+
+
+def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
+    """Parse a card's text (TOML, or JSON when it starts with ``{``); see
+    :func:`read_material_card`. ``name`` prefixes the error messages."""
+    try:
+        if text.lstrip().startswith("{"):
+            doc = json.loads(text)
+        else:
+            doc = tomllib.loads(text)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{name}: not a valid material card ({msg})") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"{name}: not a valid material card (no tables)")
+    card = _table(doc, "card", name)
+    if card.get("format") != CARD_FORMAT:
+        raise InputError(f"{name}: card.format must be {CARD_FORMAT!r}; got "
+                         f"{card.get('format')!r}")
+    if card.get("version") != CARD_VERSION:
+        raise InputError(f"{name}: card.version must be {CARD_VERSION}; got "
+                         f"{card.get('version')!r} (written by another demcal version)")
+    raw = _table(doc, "parameters", name)
+    params: dict[str, float] = {}
+    calibrated, symbols = [], {}
+    for pname, entry in raw.items():
+        spec = PARAMETERS.get(pname)
+        if spec is None:
+            raise InputError(f"{name}: unknown parameter {pname!r}; known: "
+                             f"{', '.join(PARAMETERS)}")
+        if not isinstance(entry, dict):
+            entry = {"value": entry}
+        value = entry.get("value")
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise InputError(f"{name}: parameters.{pname}.value must be a number; got "
+                             f"{value!r}")
+        unit = entry.get("unit")
+        if unit is not None and unit not in (spec.unit, "-" if not spec.unit else spec.unit):
+            raise InputError(f"{name}: parameters.{pname}.unit must be "
+                             f"{spec.unit or '-'!r} (SI); got {unit!r}")
+        try:
+            params[pname] = spec.check(float(value))
+        except InputError as exc:
+            raise InputError(f"{name}: parameters.{exc}") from None
+        role = entry.get("role", "fixed")
+        if role not in ("fixed", "calibrated"):
+            raise InputError(f"{name}: parameters.{pname}.role must be 'fixed' or "
+                             f"'calibrated'; got {role!r}")
+        if role == "calibrated":
+            calibrated.append(pname)
+        if entry.get("symbol"):
+            symbols[pname] = str(entry["symbol"])
+    missing = [n for n in PARAMETERS if n not in params]
+    if missing:
+        raise InputError(f"{name}: parameters missing: {', '.join(missing)} (a card gives "
+                         "every parameter)")
+    engine = {k: v for k, v in _table(doc, "engine", name, required=False).items()
+              if k not in ("name", "contact_laws")}
+    rolling = engine.get("rolling_model", "A")
+    if rolling not in ROLLING_LAWS:
+        raise InputError(f"{name}: engine.rolling_model must be one of "
+                         f"{', '.join(ROLLING_LAWS)}; got {rolling!r}")
+    test = dict(_table(doc, "test", name, required=False))
+    overrides = test.get("overrides") or {}
+    if not isinstance(overrides, dict):
+        raise InputError(f"{name}: test.overrides must be a table")
+    if any(isinstance(v, dict) for v in overrides.values()):
+        overrides = _flatten(overrides)
+    test["overrides"] = _unflatten(overrides)
+    if "fidelity" in test and not isinstance(test["fidelity"], str):
+        raise InputError(f"{name}: test.fidelity must be a string; got {test['fidelity']!r}")
+    return MaterialCard(parameters=params, calibrated=tuple(calibrated), symbols=symbols,
+                        study=str(card.get("study") or ""), engine=engine, test=test,
+                        verification=dict(_table(doc, "verification", name, required=False)),
+                        shape=dict(_table(doc, "particle_shape", name, required=False)))
+
+
+def _table(doc: Mapping[str, Any], key: str, name: str, *, required: bool = True) -> dict:
+    value = doc.get(key)
+    if value is None and not required:
+        return {}
+    if not isinstance(value, dict):
+        raise InputError(f"{name}: the table [{key}] is missing" if value is None else
+                         f"{name}: [{key}] must be a table; got {type(value).__name__}")
+    return value

@@ -1,0 +1,125 @@
+"""The report's material section, Table 1, the measurements and the verification pictures."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import tomllib
+from pathlib import Path
+
+from htmltables import read_tables, section
+from paper_store import DATA, _png, build_paper_store
+
+from demcal.physical.derive import derive_parameters
+from demcal.report import build_report
+from demcal.store import RunStore
+from demcal.virtual import PARAMETERS
+from demcal.virtual.material_card import read_material_card
+
+
+def _with_physical(study: Path) -> None:
+    meas = tomllib.loads((DATA / "measurements.toml").read_text())["measurements"]
+    with RunStore(study) as store:
+        store.set_meta("physical", derive_parameters(meas).to_dict())
+
+
+def test_table_1_and_the_measurements_replace_the_raw_dump(tmp_path):
+    study = build_paper_store(tmp_path / "study")
+    _with_physical(study)
+    path = build_report(study)
+    html, doc = path.read_text("utf-8"), json.loads((path.parent / "report.json").read_text())
+    assert doc["problems"] == []
+    meas = section(html, "measurement")
+    assert "derived." not in html and "raw." not in meas and "t-physical" not in html
+    assert doc["meta"]["physical"]["raw"]["density"]["density_kg_m3"][0] == 116.15  # kept
+    tables = read_tables(html)
+    t1 = {r[0]: r for r in tables["t-parameters"]["rows"]}
+    assert len(t1) == len(PARAMETERS)
+    density = t1["solid density of the particle"]
+    assert density[1] == "rho1" and density[3] == "kg/m^3"
+    assert "measured (overflow method" in density[4] and "n = 5" in density[4]
+    assert "std 8.8792" in density[4]
+    friction = t1["particle-particle static friction coefficient"]
+    assert friction[2] == "0.35-0.7" and friction[5] == "calibrated"
+    assert "range of 10 repeats" in friction[4]
+    lab = {r[0]: r for r in tables["t-lab_measurements"]["rows"]}
+    assert lab["solid density of the particle"][2:] == ["114.36", "8.8792", "5",
+                                                        "103.34-125.38", "101.42-126.14"]
+    assert lab["angle of repose (target)"][4] == "5"
+    assert lab["sliding angle, inclined plane (particle-particle)"][-1] == "20-37"
+    # each photo's angle is in its thumbnail's caption
+    assert "Photo 1 (pile_1.jpg): 44.62°" in meas
+
+
+def test_each_verification_pile_is_shown_beside_a_photo(tmp_path):
+    study = build_paper_store(tmp_path / "study")
+    with RunStore(study) as store:
+        for r in store.runs("verification"):
+            png = _png(study / f"pile_{r.replicate}.png", f"pile {r.replicate}", 40.0)
+            store.record_run(dataclasses.replace(r, artefacts={"pile_png": png}))
+    path = build_report(study)
+    doc = json.loads((path.parent / "report.json").read_text())
+    assert doc["problems"] == []
+    comp = sorted(f for f in doc["figures"] if "comparison" in f)
+    assert comp == [f"figures/comparison_{k}.png" for k in range(1, 6)]
+    ver = section(path.read_text("utf-8"), "verification")
+    assert "Replicate 1: simulated pile, AoR 43.10°" in ver
+    assert "beside photo 5 (42.77°" in ver and "the same method" in ver
+
+
+def test_the_material_card_of_the_paper_store(tmp_path):
+    study = build_paper_store(tmp_path / "study")
+    path = build_report(study)
+    card = read_material_card(path.parent / "material.toml")
+    doc = json.loads((path.parent / "report.json").read_text())
+    params = doc["summaries"]["verification"]["params"]
+    assert {k: v.hex() for k, v in card.parameters.items()} == \
+        {k: float(params[k]).hex() for k in PARAMETERS}
+    assert set(card.calibrated) == set(doc["summaries"]["optimize"]["chosen"])
+    assert doc["material_files"] == ["material.toml", "material.json"]
+    assert card.verification["line"].startswith("verified AoR 43.82 ± ")
+    rows = read_tables(path.read_text("utf-8"))["t-material_card"]["rows"]
+    assert [r[0] for r in rows] == list(PARAMETERS)
+    x3 = next(r for r in rows if r[0] == "pp.static_friction")
+    assert x3[2] == repr(card.parameters["pp.static_friction"])  # every digit shown
+    assert x3[4:6] == ["calibrated", "tangential"]
+
+
+def test_no_card_before_an_optimum(tmp_path):
+    study = build_paper_store(tmp_path / "study", stages=("rangefind", "screening"))
+    path = build_report(study)
+    doc = json.loads((path.parent / "report.json").read_text())
+    assert doc["problems"] == [] and doc["material"] is None
+    assert not (path.parent / "material.toml").exists()
+    assert "No calibrated parameter set" in section(path.read_text("utf-8"), "material")
+
+
+def test_a_malformed_parameter_set_is_a_note_and_removes_a_stale_card(tmp_path):
+    study = build_paper_store(tmp_path / "study")
+    out = build_report(study).parent
+    assert (out / "material.toml").is_file()
+    with RunStore(study) as store:
+        rec = store.stage("verification")
+        bad = {**rec.summary, "params": {**rec.summary["params"], "pp.restitution": "high"}}
+        store.set_stage("verification", "done", bad, inputs_hash=rec.inputs_hash)
+    path = build_report(study)
+    doc = json.loads((path.parent / "report.json").read_text())
+    assert len(doc["problems"]) == 1 and "material card not built" in doc["problems"][0]
+    assert not (out / "material.toml").exists() and not (out / "material.json").exists()
+    assert "material card not built" in path.read_text("utf-8")
+
+
+def test_before_the_verification_the_card_holds_the_optimum(tmp_path):
+    study = build_paper_store(tmp_path / "study", stages=("rangefind", "screening",
+                                                           "steepest", "rsm", "optimize"))
+    path = build_report(study)
+    doc = json.loads((path.parent / "report.json").read_text())
+    assert doc["problems"] == []
+    card = read_material_card(path.parent / "material.toml")
+    chosen = doc["summaries"]["optimize"]["chosen"]
+    assert all(card.parameters[k] == v for k, v in chosen.items())
+    with RunStore(study) as store:
+        held = store.runs("rsm")[0].params
+    others = {k: v for k, v in held.items() if k not in chosen}
+    assert others and all(card.parameters[k] == v for k, v in others.items())
+    assert card.verification["line"] == "not verified"
