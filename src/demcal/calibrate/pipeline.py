@@ -18,7 +18,7 @@ import numpy as np
 
 from demcal.calibrate import stages as st
 from demcal.calibrate.runner import Runner
-from demcal.calibrate.study import Study, load_study
+from demcal.calibrate.study import Study, load_study, study_folder
 from demcal.errors import InputError
 from demcal.execute.local import default_chunk, default_workers
 from demcal.execute.tasks import TestDef
@@ -100,14 +100,15 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     """
     path = Path(study_file).resolve()
     study = load_study(path)
-    target = resolve_target(study, figures=path.parent / "figures")
+    folder = study_folder(path)
+    target = resolve_target(study, figures=folder / "figures")
     fixed, physical = _fixed(study)
-    store = RunStore(path.parent, lock=True, break_lock=break_lock)
+    store = RunStore(folder, lock=True, break_lock=break_lock)
     factors = [{"name": f.name, "symbol": f.symbol, "low": f.low, "high": f.high,
                 "unit": f.unit} for f in study.factors]
     store.set_meta("study", study.model_dump(mode="json"))
     store.set_meta("study_file", str(path))
-    store.set_meta("study_dir", str(path.parent))
+    store.set_meta("study_dir", str(folder))
     store.set_meta("target", target)
     store.set_meta("physical", physical)
     store.set_meta("fixed_params", {k: v for k, v in fixed.items()
@@ -126,7 +127,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
                     workers=workers or ex.workers or default_workers(),
                     dask=dask if dask is not None else ex.dask, chunk=chunk,
                     progress=progress, external=external,
-                    figures_dir=path.parent / "figures" / "runs")
+                    figures_dir=folder / "figures" / "runs")
     return st.Context(study, store, runner, fixed, float(target["aor_deg"]),
                       [dict(f) for f in factors], target_std=target.get("std_deg"),
                       target_n=target.get("n"))

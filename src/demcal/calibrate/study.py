@@ -343,6 +343,17 @@ def parse_study(data: dict[str, Any], *, base: Path | None = None) -> Study:
     return study
 
 
+def study_folder(study_file: str | Path) -> Path:
+    """Where a study's store, figures and report live.
+
+    The study file's own folder for a file named ``study.toml``; for any other name a
+    sub-folder named after the file (``runs/study_standard.toml`` -> ``runs/study_standard/``),
+    so two studies side by side never share a store.
+    """
+    p = Path(study_file).resolve()
+    return p.parent if p.stem == "study" else p.parent / p.stem
+
+
 def load_study(path: str | Path) -> Study:
     """Read and validate a study TOML file (relative paths are taken from its folder)."""
     path = Path(path)

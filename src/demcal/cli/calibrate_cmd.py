@@ -17,6 +17,7 @@ from rich.progress import (
 )
 from rich.table import Table
 
+from demcal.calibrate.study import study_folder
 from demcal.cli import app
 from demcal.cli._common import (
     EXIT_INTERRUPTED,
@@ -107,7 +108,7 @@ def calibrate_cmd(
 
     # every output path is checked before the first run (not after the whole study)
     check_output_file(json_out, "--json")
-    study_dir = Path(study).resolve().parent
+    study_dir = study_folder(study)
     if not Path(study).is_file():
         raise InputError(f"study file not found (or not a file): {study}")
     if report:
@@ -168,7 +169,7 @@ def calibrate_cmd(
         from demcal.report.material import write_material_card
 
         try:
-            files = write_material_card(Path(study).resolve().parent)
+            files = write_material_card(study_dir)
         except OSError as exc:  # the result is stored; the card can be written by `report`
             console.print(f"note: no material card written ({exc.strerror}: "
                           f"{exc.filename}); `demcal report` writes it", markup=False,
@@ -215,7 +216,7 @@ def import_cmd(
     from demcal.calibrate.pipeline import open_study
     from demcal.store import STORE_NAME
 
-    if not (study.resolve().parent / STORE_NAME).is_file():  # a sheet comes from a store
+    if not (study_folder(study) / STORE_NAME).is_file():  # a sheet comes from a store
         raise InputError(f"no run store {STORE_NAME} next to {study}: run `demcal calibrate "
                          f"{study} --external` first, it writes the run sheets")
     ctx = open_study(study, external=True, break_lock=break_lock)
