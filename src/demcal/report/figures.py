@@ -206,43 +206,9 @@ def surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
     n_grid : int
         Grid points per axis.
     """
-    surf = StoredSurface.from_summary(summary)
-    i, j = surf.index(pair[0]), surf.index(pair[1])
-    centre = (surf.low + surf.high) / 2
-    base = centre.copy()
-    for name, value in (hold or {}).items():
-        if name in surf.names or name in surf.symbols:
-            base[surf.index(name)] = float(value)
-    gi = np.linspace(surf.low[i], surf.high[i], n_grid)
-    gj = np.linspace(surf.low[j], surf.high[j], n_grid)
-    xx, yy = np.meshgrid(gi, gj)
-    pts = np.tile(base, (xx.size, 1))
-    pts[:, i], pts[:, j] = xx.ravel(), yy.ravel()
-    zz = surf.predict_coded(surf.to_coded(pts)).reshape(xx.shape)
+    from demcal.report.model_figures import pair_surface_figure
 
-    fig = _figure(9.5, 3.9)
-    ax3 = fig.add_subplot(1, 2, 1, projection="3d")
-    ax3.plot_surface(xx, yy, zz, cmap="viridis", edgecolor="none", alpha=0.9)
-    ax3.set_xlabel(surf.symbols[i])
-    ax3.set_ylabel(surf.symbols[j])
-    ax3.set_zlabel("AoR (°)")
-    ax3.view_init(elev=25, azim=-130)
-    ax3.set_box_aspect(None, zoom=0.82)
-    ax = fig.add_subplot(1, 2, 2)
-    cs = ax.contourf(xx, yy, zz, levels=12, cmap="viridis")
-    lines = ax.contour(xx, yy, zz, levels=cs.levels[::2], colors="k", linewidths=0.5)
-    ax.clabel(lines, fontsize=7, fmt="%.1f")
-    fig.colorbar(cs, ax=ax, label="AoR (°)")
-    runs = summary.get("runs") or []
-    px = [_num((r.get("actual") or {}).get(surf.names[i])) for r in runs]
-    py = [_num((r.get("actual") or {}).get(surf.names[j])) for r in runs]
-    ax.plot(px, py, "o", mfc="white", mec="k", ms=5, label="design points")
-    ax.set_xlabel(f"{surf.symbols[i]} ({surf.names[i]})")
-    ax.set_ylabel(f"{surf.symbols[j]} ({surf.names[j]})")
-    others = [f"{surf.symbols[k]} = {base[k]:.4g}" for k in range(len(base)) if k not in (i, j)]
-    fig.suptitle(f"AoR over {surf.symbols[i]} and {surf.symbols[j]}"
-                 + (f" ({', '.join(others)})" if others else ""), fontsize=10)
-    return fig
+    return pair_surface_figure(summary, pair, hold, None, n_grid)
 
 
 def predicted_actual_figure(summary: Mapping[str, Any]) -> Figure:
