@@ -156,6 +156,7 @@ def test_a_low_predicted_r2_is_not_called_adequate(calibrated, tmp_path):
         rec = store.stage("rsm")
         summary = dict(rec.summary)
         summary["fit"] = {**summary["fit"], "pred_r2": 0.06}
+        summary["adequacy"] = {**summary.get("adequacy", {}), "pred_r2": 0.06}
         summary["adequate"] = True
         store.set_stage("rsm", "done", summary, inputs_hash=rec.inputs_hash)
     path = build_report(root)

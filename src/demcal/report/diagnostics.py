@@ -271,14 +271,18 @@ def adequacy_checks(summary: Mapping[str, Any], rs: ResponseSurface,
                     diag: Diagnostics) -> list[Check]:
     """The rules a reviewer applies to a model, evaluated on the stored fit and the plots.
 
-    The model is adequate when no binding check fails (a check that cannot be evaluated, such
-    as a lack-of-fit test without replicates, does not fail; Cook's distance and leverage only
-    flag runs).
+    The binding rules are the stage's own (:func:`demcal.calibrate.stages.adequacy`,
+    Design-Expert's): model p < 0.05, no significant lack of fit, adjusted R^2 >= 0.7,
+    predicted R^2 not negative and within 0.2 of the adjusted R^2, Adeq Precision >= 4, with
+    the statistics of the design-point means the stage stored (``summary["adequacy"]``), so
+    the report's verdict and the stage's agree. Outliers, influential runs, leverage and a
+    Box-Cox transform are flagged for a look, not binding. A check that cannot be evaluated
+    (e.g. no lack-of-fit test) does not fail.
     """
-    fit = summary.get("fit") or {}
+    fit = {**(summary.get("fit") or {}), **(summary.get("adequacy") or {})}
     pred, adj = fit.get("pred_r2", rs.pred_r2), fit.get("adj_r2", rs.adj_r2)
     adeq = fit.get("adeq_precision", rs.adeq_precision)
-    p_model = rs.f_pvalue
+    p_model = fit.get("p_model", rs.f_pvalue)
     lof = summary.get("lack_of_fit_p")
 
     def finite(v: Any) -> float | None:
@@ -288,21 +292,21 @@ def adequacy_checks(summary: Mapping[str, Any], rs: ResponseSurface,
             return None
         return f if math.isfinite(f) else None
 
-    pr, ar, ap = finite(pred), finite(adj), finite(adeq)
+    pr, ar, ap, pm = finite(pred), finite(adj), finite(adeq), finite(p_model)
     checks = [
-        Check("model significant", f"p = {_fmt(p_model, '.4g')}", "p < 0.05",
-              None if finite(p_model) is None else bool(p_model < 0.05)),
-        Check("predicted R²", _fmt(pr), ">= 0.5",
-              None if pr is None else pr >= 0.5),
-        Check("predicted vs adjusted R²", f"{_fmt(pr)} vs {_fmt(ar)}", "differ by < 0.2",
-              None if pr is None or ar is None else abs(ar - pr) < 0.2),
-        Check("Adeq Precision", _fmt(ap, ".2f"), "> 4", None if ap is None else ap > 4),
+        Check("model significant", f"p = {_fmt(pm, '.4g')}", "p < 0.05",
+              None if pm is None else bool(pm < 0.05)),
+        Check("adjusted R²", _fmt(ar), ">= 0.7", None if ar is None else ar >= 0.7),
+        Check("predicted R²", _fmt(pr), ">= 0 and within 0.2 of the adjusted R²",
+              None if pr is None or ar is None else bool(pr >= 0 and ar - pr <= 0.2)),
+        Check("Adeq Precision", _fmt(ap, ".2f"), ">= 4", None if ap is None else ap >= 4),
         Check("lack of fit", f"p = {_fmt(lof, '.4g')}" if lof is not None else "no test",
               "p >= 0.05", None if finite(lof) is None else bool(lof >= 0.05)),
         Check("outliers (studentized residuals)",
               ", ".join(map(str, diag.outliers)) or "none",
               f"|t| <= {_fmt(diag.outlier_limit, '.2f')}",
-              None if not math.isfinite(diag.outlier_limit) else not diag.outliers),
+              None if not math.isfinite(diag.outlier_limit) else not diag.outliers,
+              binding=False),
         Check("influential runs (Cook's distance)",
               ", ".join(map(str, diag.influential)) or "none",
               f"D <= {_fmt(diag.cooks_limit, '.3f')}",
@@ -314,7 +318,8 @@ def adequacy_checks(summary: Mapping[str, Any], rs: ResponseSurface,
         Check("Box-Cox", f"lambda = {_fmt(diag.boxcox_best, '.2f')} "
               f"({_fmt(diag.boxcox_low, '.2f')} to {_fmt(diag.boxcox_high, '.2f')})",
               "no transform (lambda = 1 in the 95 % interval)",
-              None if diag.recommended == "not computed" else diag.recommended == "none"),
+              None if diag.recommended == "not computed" else diag.recommended == "none",
+              binding=False),
     ]
     return checks
 
