@@ -132,3 +132,16 @@ def test_figures_draw_and_the_target_contour_is_only_drawn_when_reached():
     assert red
     grid = pair_contours_figure(s, [("x1", "x2"), ("x1", "x3"), ("x2", "x3")], None, 40.0)
     assert len([a for a in grid.axes if a.get_xlabel()]) == 3
+
+
+def test_the_rsm_table_shows_each_points_replicates_and_their_spread():
+    from demcal.report.tables import rsm_design_table
+
+    s = {"design": "box_behnken", "factors": [{"name": "a", "symbol": "x1"}],
+         "runs": [{"point": 0, "coded": {"a": -1.0}, "actual": {"a": 0.1}, "aor_deg": 41.0,
+                   "aor_runs_deg": [40.0, 42.0], "aor_std_deg": 1.4142, "outcome": "pile"}]}
+    frame = rsm_design_table(s, {}).frame
+    assert list(frame["replicates (deg)"]) == ["40.00, 42.00"]
+    assert abs(frame["std (deg)"][0] - 1.4142) < 1e-9
+    s["runs"][0].update(aor_runs_deg=[41.0], aor_std_deg=None)
+    assert "std (deg)" not in rsm_design_table(s, {}).frame

@@ -324,10 +324,13 @@ def steepest_levels_table(summary: Mapping[str, Any], symbols: Mapping[str, str]
 
 # ------------------------------------------------------------------------------------------ rsm
 def rsm_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
-    """The response-surface design, coded and actual, with its responses (cf. Table 7)."""
+    """The response-surface design, coded and actual, with its responses (cf. Table 7); with
+    replicates, the AoR is their mean and each replicate and their spread are shown."""
     facs = _factor_symbols(summary, symbols)
+    runs = summary.get("runs") or []
+    replicated = any(len(r.get("aor_runs_deg") or []) > 1 for r in runs)
     rows = []
-    for r in summary.get("runs") or []:
+    for r in runs:
         coded, actual = r.get("coded") or {}, r.get("actual") or {}
         row: dict[str, Any] = {"point": r.get("point")}
         for name, sym in facs:
@@ -335,10 +338,13 @@ def rsm_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> 
         for name, sym in facs:
             row[f"{sym} actual"] = _num(actual.get(name))
         row["AoR (deg)"] = _num(r.get("aor_deg"))
+        if replicated:
+            row["replicates (deg)"] = ", ".join(f"{v:.2f}" for v in r.get("aor_runs_deg") or [])
+            row["std (deg)"] = _num(r.get("aor_std_deg"))
         row["outcome"] = r.get("outcome", "")
         rows.append(row)
     cols = ["point", *(s for _, s in facs), *(f"{s} actual" for _, s in facs), "AoR (deg)",
-            "outcome"]
+            *(["replicates (deg)", "std (deg)"] if replicated else []), "outcome"]
     frame = _frame(rows, cols)
     for _, s in facs:
         frame[s] = [None if v is None else int(v) if float(v).is_integer() else v
