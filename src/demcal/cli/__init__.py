@@ -39,5 +39,26 @@ for _name in COMMAND_MODULES:
 
 
 def main() -> None:
-    """Entry point of the ``demcal`` console script."""
-    app()
+    """Entry point of the ``demcal`` console script.
+
+    A usage error (an unknown option, a value out of its range, a missing argument) is one
+    line on stderr naming the option, and exit code 2, like every other input error.
+    """
+    import sys
+
+    # the click exceptions typer raises (typer may vendor its own click)
+    errors = importlib.import_module(typer.BadParameter.__module__)
+    try:
+        code = app(standalone_mode=False)
+    except errors.NoArgsIsHelpError:  # the help is printed already
+        sys.exit(0)
+    except errors.UsageError as exc:
+        where = f" (see `{exc.ctx.command_path} --help`)" if exc.ctx is not None else ""
+        print(f"error: {exc.format_message()}{where}", file=sys.stderr)
+        sys.exit(2)
+    except errors.ClickException as exc:
+        print(f"error: {exc.format_message()}", file=sys.stderr)
+        sys.exit(exc.exit_code)
+    except typer.Abort:
+        sys.exit(130)
+    sys.exit(code if isinstance(code, int) else 0)
