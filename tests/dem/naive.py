@@ -1,11 +1,11 @@
 """Slow plain-NumPy reference of the engine's contact forces and torques (tests only).
 
-Written from ``shared/design/PHYSICS.md``, not from :mod:`demcal.dem.kernels`: every pair of
+Written from ``docs/physics.md``, not from :mod:`demcal.dem.kernels`: every pair of
 spheres of different active clumps of a world is tested (no neighbour lists), the pair
 properties are derived from the :class:`~demcal.dem.materials.Material` and
 :class:`~demcal.dem.materials.Interaction` objects (not the engine's packed table), the JKR
 contact radius comes from ``scipy.optimize.brentq`` (not Newton) and wall distances from a
-separate closest-point routine. Choices that PHYSICS.md leaves open are made as the engine
+separate closest-point routine. Choices that docs/physics.md leaves open are made as the engine
 documents them:
 
 - contact point: the middle of the overlap, ``x_a + n (r_a - delta/2)``, for spheres and walls;
@@ -42,7 +42,7 @@ class PairProps:
 
 
 def pair_props(mat_a, mat_b, inter) -> PairProps:
-    """E*, G*, beta, mu_s, mu_r, gamma of two Materials and their Interaction (PHYSICS.md)."""
+    """E*, G*, beta, mu_s, mu_r, gamma of two Materials and their Interaction (docs/physics.md)."""
     ea = 2.0 * mat_a.shear_modulus * (1.0 + mat_a.poisson)
     eb = 2.0 * mat_b.shear_modulus * (1.0 + mat_b.poisson)
     estar = 1.0 / ((1.0 - mat_a.poisson**2) / ea + (1.0 - mat_b.poisson**2) / eb)

@@ -1,7 +1,7 @@
 """JKR cohesion (EDEM's version 1): pull-off force, break-off overlap, the gamma -> 0 limit.
 
 The pull-off force tested is ``3 pi gamma R*``: the issue's "3/2 pi gamma R*" is copied from
-EDEM's help page, whose force law (the one in PHYSICS.md, also LAMMPS') has its minimum at
+EDEM's help page, whose force law (the one in docs/physics.md, also LAMMPS') has its minimum at
 ``-3 pi gamma R*`` (3/2 pi w R* with the work of adhesion w = 2 gamma). We test the law.
 """
 

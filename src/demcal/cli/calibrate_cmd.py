@@ -66,17 +66,10 @@ def _print_result(result: dict) -> None:
                              "within the noise"))
 
 
-def _build_report(study_dir: Path) -> Path | None:
-    try:
-        from demcal import report
-    except ImportError:  # pragma: no cover
-        return None
-    build = getattr(report, "build_report", None)
-    if build is None:
-        console.print(styled(("note:", "yellow"), " demcal.report.build_report is not "
-                             "available in this version; no report written"))
-        return None
-    return Path(build(study_dir))
+def _build_report(study_dir: Path) -> Path:
+    from demcal.report import build_report
+
+    return Path(build_report(study_dir))
 
 
 @app.command("calibrate")

@@ -13,7 +13,7 @@ import os
 #: means fewer neighbour rebuilds but more candidate pairs per sphere.
 SKIN_FRACTION: float = 0.25
 
-#: Initial neighbour slots per sphere; grown automatically (x1.5) when a rebuild overflows.
+#: Initial neighbour slots per sphere; grown automatically (x1.25) when a rebuild overflows.
 NEIGHBOR_CAPACITY: int = 32
 
 #: Initial sphere slots per hash-grid bucket; grown automatically when a bucket overflows.

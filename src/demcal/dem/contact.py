@@ -5,7 +5,7 @@ no global state, and is compiled with ``numba.njit``; the CPU kernels call them 
 the CUDA kernels compile the same bodies for the GPU. Plain-Python versions are available as
 ``function.py_func`` for tests.
 
-Conventions (see ``shared/design/PHYSICS.md``):
+Conventions (see ``docs/physics.md``):
 
 - overlap ``delta`` > 0 means the bodies interpenetrate, m;
 - ``v_n`` is the normal component of the velocity of body *b* relative to body *a*, along the
@@ -22,6 +22,8 @@ from __future__ import annotations
 import math
 
 from numba import njit
+
+from demcal.dem._config import JKR_MAX_ITER
 
 __all__ = [
     "DAMPING_FACTOR",
@@ -149,7 +151,7 @@ def jkr_contact_radius(delta: float, eff_radius: float, eff_modulus: float, gamm
     c = math.sqrt(4.0 * math.pi * gamma / eff_modulus)
     dpos = delta if delta > 0.0 else 0.0
     s = (eff_radius * dpos) ** 0.25 + (c * eff_radius) ** (1.0 / 3.0)
-    for _ in range(50):
+    for _ in range(JKR_MAX_ITER):
         s2 = s * s
         f = s2 * s2 / eff_radius - c * s - delta
         fp = 4.0 * s2 * s / eff_radius - c

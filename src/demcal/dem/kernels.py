@@ -662,21 +662,6 @@ def advance_world(w, world_dt, world_active, world_time, world_steps, wall_origi
 
 
 @njit(cache=True)
-def place_spheres(lo, hi, c_pos, c_quat, c_first, c_count, s_offset, s_pos):
-    """Set the world positions of clump ``c``'s spheres from its pose."""
-    for c in range(lo, hi):
-        qw = c_quat[c, 0]
-        qx = c_quat[c, 1]
-        qy = c_quat[c, 2]
-        qz = c_quat[c, 3]
-        for s in range(c_first[c], c_first[c] + c_count[c]):
-            bx, by, bz = quat_rotate(qw, qx, qy, qz, s_offset[s, 0], s_offset[s, 1], s_offset[s, 2])
-            s_pos[s, 0] = c_pos[c, 0] + bx
-            s_pos[s, 1] = c_pos[c, 1] + by
-            s_pos[s, 2] = c_pos[c, 2] + bz
-
-
-@njit(cache=True)
 def cell_coords(w, x, y, z, grid_lo, inv_cell):
     """Integer cell coordinates of a point in world ``w``'s grid (clamped to the key range)."""
     ix = int(math.floor((x - grid_lo[w, 0]) * inv_cell))  # noqa: RUF046 (float on CUDA)

@@ -15,9 +15,6 @@ from demcal.measure.boundary import largest_region
 
 __all__ = ["Binarised", "binarise", "flatten_illumination", "load_gray", "threshold_value"]
 
-#: Image file suffixes read by :func:`load_gray` (any format Pillow/imageio read also works).
-IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp")
-
 
 def load_gray(image_or_path: Any) -> tuple[np.ndarray, str]:
     """Read a photo (path or array) as a float grey image in [0, 1] and a name for it.

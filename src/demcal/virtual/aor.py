@@ -40,8 +40,7 @@ __all__ = ["AoRResult", "run_aor"]
 
 log = logging.getLogger("demcal.virtual")
 
-PLATE = 0
-TUBE = 1
+TUBE = 1  #: index of the cylinder among a world's walls (the plate is 0)
 
 #: progress callback: (run index, phase name, simulated time s, wall time s)
 Progress = Callable[[int, str, float, float], None]

@@ -22,7 +22,7 @@ import numpy as np
 
 from demcal.virtual.config import OutcomeCriteria
 
-__all__ = ["PHYSICAL_OUTCOMES", "Outcome", "classify_after_lift", "classify_settled"]
+__all__ = ["Outcome", "classify_after_lift", "classify_settled"]
 
 
 class Outcome(StrEnum):
@@ -34,11 +34,6 @@ class Outcome(StrEnum):
     SCATTERED = "scattered"
     UNSETTLED = "unsettled"
     UNSTABLE = "unstable"
-
-
-#: outcomes that describe the material's behaviour (not a numerical failure)
-PHYSICAL_OUTCOMES = frozenset({Outcome.PILE, Outcome.COLUMN, Outcome.PLUG, Outcome.SCATTERED,
-                               Outcome.UNSETTLED})
 
 
 def classify_after_lift(positions: np.ndarray, masses: np.ndarray, *, tube_bottom: float,

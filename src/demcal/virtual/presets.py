@@ -3,9 +3,9 @@
 ``corn_stalk`` is the paper's crushed corn stalk with the mid values of its Table 1 (fixed values
 where the table gives one). Note on surface energy: with demcal's JKR law (the documented EDEM
 version-1 force law) this light material forms no pile at the paper's 0.04-0.12 J/m^2 (see
-PHYSICS.md, "Measured"), so the preset's particle-particle surface energy is the mid value of the
-paper's range and a test at it is expected to end as a ``column`` or ``plug``; calibrations of
-this material use lower ranges (see examples/corn_stalk).
+docs/physics.md, "Measured"), so the preset's particle-particle surface energy is the mid
+value of the paper's range and a test at it is expected to end as a ``column`` or ``plug``;
+calibrations of this material use lower ranges (see examples/corn_stalk).
 """
 
 from __future__ import annotations

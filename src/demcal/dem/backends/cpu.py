@@ -11,7 +11,6 @@ from __future__ import annotations
 # workers are still spinning when the next one starts; OMP_WAIT_POLICY=PASSIVE (sleep at once)
 # cost ~50 us per loop to wake them (1k bed, 2 threads: 930-1006 vs 790-820 us per step), and
 # a worker that spins a few ms after a run takes no core from anything else for long.
-import numpy as np
 from numba import njit, prange
 
 from demcal.dem.kernels import (
@@ -22,7 +21,6 @@ from demcal.dem.kernels import (
     cell_key,
     clump_step,
     neighbor_search,
-    place_spheres,
     sphere_forces,
     wall_candidates,
 )
@@ -317,24 +315,6 @@ def clump_pass(
         )
 
 
-@njit(parallel=True, cache=True)
-def place_pass(c_pos, c_quat, c_first, c_count, s_offset, s_pos):
-    """Place every clump's spheres from the clump poses."""
-    n = c_pos.shape[0]
-    n_blocks = (n + BLOCK - 1) // BLOCK
-    for blk in prange(n_blocks):
-        place_spheres(
-            blk * BLOCK,
-            min(blk * BLOCK + BLOCK, n),
-            c_pos,
-            c_quat,
-            c_first,
-            c_count,
-            s_offset,
-            s_pos,
-        )
-
-
 @njit(cache=True)
 def run_chunk(
     n_steps,
@@ -607,12 +587,3 @@ def run_chunk(
             advance_world(w, world_dt, world_active, world_time, world_steps, wall_origin,
                           wall_vel, wall_ref, half_skin, flag_rebuild)
     return n_steps, STATUS_OK, parity
-
-
-def empty_history(n: int, cap: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Neighbour slot arrays for ``n`` spheres with ``cap`` slots: count, index, history."""
-    return (
-        np.zeros(n, dtype=np.int32),
-        np.full((n, cap), -1, dtype=np.int32),
-        np.zeros((n, cap, 3)),
-    )
