@@ -43,3 +43,22 @@ def test_simulate_aor_refuses_bad_input(args, field):
     res = CliRunner().invoke(app, ["simulate", "aor", "--backend", "cpu", *args])
     assert res.exit_code == 2, res.output
     assert field in res.output and "Traceback" not in res.output
+
+
+def test_summary_spread_leaves_out_rejected_flanks():
+    """The printed spread is over the flanks that count (a rejected 95 deg 'flank' of a stalk
+    standing at the edge must not widen it)."""
+    from types import SimpleNamespace
+
+    from demcal.cli.simulate_cmd import summarize_runs
+
+    views = [{"left_deg": 40.0, "right_deg": 42.0, "left_rejected": None,
+              "right_rejected": None},
+             {"left_deg": 41.0, "right_deg": 94.7, "left_rejected": None,
+              "right_rejected": "94.7 deg is steeper than the limit (80 deg) (an overhang)"}]
+    run = SimpleNamespace(outcome="pile", aor_deg=41.0, aor_left_deg=40.5, aor_right_deg=42.0,
+                          aor_profile_deg=None, views_deg=views, n_particles=150,
+                          particles_lost=0, settled=True, time_step_s=1e-6, sim_time_s=1.0,
+                          wall_time_s=1.0, params={})
+    out = summarize_runs([run])
+    assert out["aor_std_deg"] == pytest.approx(1.0)

@@ -119,11 +119,12 @@ def merge_overrides(base: dict, extra: dict) -> dict:
 
 
 def _view_angles(result) -> list[float]:
+    """The flank angles of a run's views that passed the quality gates, deg."""
     angles = []
     for v in result.views_deg or []:
-        for key in ("left_deg", "right_deg"):
-            if v.get(key) is not None:
-                angles.append(float(v[key]))
+        for side in ("left", "right"):
+            if v.get(f"{side}_deg") is not None and v.get(f"{side}_rejected") is None:
+                angles.append(float(v[f"{side}_deg"]))
     return angles
 
 
