@@ -73,8 +73,8 @@ def measure_saved(path: Path, config) -> dict:
     out.update(gated=m["aor_deg"], profile=m.get("aor_profile_deg"),
                spread=m.get("aor_std_deg"), n_flanks=m.get("n_flanks"),
                n_rejected=m.get("n_rejected"))
-    accepted = [a for v in measure.pile_aor_silhouette(
-        centres, radii, n_views=config.measurement.n_views).views for a in v.accepted_angles]
+    accepted = [v[f"{side}_deg"] for v in m["views"] for side in ("left", "right")
+                if v[f"{side}_deg"] is not None and v[f"{side}_rejected"] is None]
     for how in COMBINE_METHODS:
         out[f"gated_{how}"] = combine_angles(accepted, how)
     every = [a for v in sil.views for a in v.angles]

@@ -140,11 +140,10 @@ def _design_points(ctx: Context, design: doe.Design, replicates: Sequence[int]
                    ) -> list[Point]:
     actual = design.actual
     copies = _copies(design)
-    reps = replicates
     pts = []
     for i in range(design.n_runs):
         values = {n: float(actual[i, j]) for j, n in enumerate(design.names)}
-        for r in reps:
+        for r in replicates:
             pts.append(Point(i, r, ctx.full(values), ctx.seed(i, r, copies[i])))
     return pts
 
@@ -645,7 +644,7 @@ def compare_to_target(values: np.ndarray, target: float, target_std: float | Non
     if values.size < 2:
         return out
     mean, sd, n = float(values.mean()), float(values.std(ddof=1)), int(values.size)
-    half = float(stats.t.ppf(1 - alpha / 2, n - 1)) * sd / math.sqrt(n)
+    half = _half_width(values, alpha)
     out.update(ci_low_deg=mean - half, ci_high_deg=mean + half)
     if sd == 0.0 and not target_std:
         return out

@@ -278,9 +278,8 @@ def _gate(view: ViewAoR, gates: FlankGates | None) -> ViewAoR:
 
 def _summarise(method: str, views: list[ViewAoR], base_diameters: list[float],
                window: tuple[float, float], p: float, plate_z: float,
-               axis: tuple[float, float] | None = None, *,
-               gates: FlankGates | None = DEFAULT_GATES, combine: str = "mean") -> PileAoR:
-    views = [_gate(v, gates) for v in views]
+               axis: tuple[float, float] | None = None, *, combine: str = "mean") -> PileAoR:
+    """The pile's result from its views, each already checked against the gates."""
     fitted = [a for v in views for a in v.angles]
     if not fitted:
         errors = "; ".join(f"view {v.index}: {v.error}" for v in views if v.error)
@@ -394,11 +393,11 @@ def pile_aor_silhouette(centres: np.ndarray, radii: np.ndarray, *, n_views: int 
         except InputError as exc:
             views.append(ViewAoR(k, az, error=str(exc)))
             continue
-        views.append(ViewAoR(k, az, left, right, height))
-        if flank_rejection(left, gates) is None and flank_rejection(right, gates) is None:
+        view = _gate(ViewAoR(k, az, left, right, height), gates)
+        views.append(view)
+        if view.left_rejected is None and view.right_rejected is None:
             diameters.append(right.fit.intercept - left.fit.intercept)
-    return _summarise("silhouette", views, diameters, window, p, pz, gates=gates,
-                      combine=combine)
+    return _summarise("silhouette", views, diameters, window, p, pz, combine=combine)
 
 
 def pile_axis(centres: np.ndarray, radii: np.ndarray, plate_z: float = 0.0) -> np.ndarray:
@@ -489,11 +488,12 @@ def pile_aor_profile(centres: np.ndarray, radii: np.ndarray, *, plate_z: float =
             # Filed as a left flank: the mirrored line x -> -x has the same angle.
             mirrored = replace(flank.fit, slope=-flank.fit.slope, intercept=-flank.fit.intercept)
             left = Flank("left", mirrored, flank.z_lo, flank.z_hi)
-            views.append(ViewAoR(k, az, left=left, pile_height=height))
+            view = _gate(ViewAoR(k, az, left=left, pile_height=height), gates)
         else:
-            views.append(ViewAoR(k, az, right=flank, pile_height=height))
-        if flank_rejection(flank, gates) is None:
+            view = _gate(ViewAoR(k, az, right=flank, pile_height=height), gates)
+        views.append(view)
+        if view.left_rejected is None and view.right_rejected is None:
             radii_at_plate.append(flank.fit.intercept)
     diam = [2.0 * float(np.mean(radii_at_plate))] if radii_at_plate else []
     return _summarise("profile", views, diam, window, p, pz, (float(axis[0]), float(axis[1])),
-                      gates=gates, combine=combine)
+                      combine=combine)
