@@ -24,16 +24,35 @@ from demcal.execute.local import default_chunk, default_workers
 from demcal.execute.tasks import TestDef
 from demcal.store import RunStore
 
-__all__ = ["STAGES", "calibrate", "open_study", "resolve_target", "test_def"]
+__all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def"]
 
 STAGES = ("rangefind", "screening", "steepest", "rsm", "optimize", "verification")
 
 
-def test_def(study: Study) -> TestDef:
-    """The executor's description of the study's virtual test."""
+def test_def(study: Study, folder: Path | None = None) -> TestDef:
+    """The executor's description of the study's virtual test.
+
+    With an external engine (``[engine]``), its runs are kept in ``<folder>/runs/`` (default:
+    ``runs/`` in the current folder).
+    """
     t = study.test
+    engine = study.engine_data()
+    if engine is not None:
+        engine = {**engine, "runs_dir": str(((folder or Path.cwd()) / "runs").resolve()),
+                  "symbols": {f.symbol: f.name for f in study.factors if f.symbol}}
+        return TestDef(kind=engine["kind"], backend=study.backend, engine=engine)
     return TestDef(kind=t.kind, fidelity=t.fidelity, overrides=dict(t.overrides),
                    analytic=dict(t.analytic), backend=study.backend)
+
+
+def engine_meta(study: Study) -> dict[str, Any]:
+    """The store's meta ``"engine"``: which engine produced the study's runs."""
+    engine = study.engine_data()
+    if engine is None:
+        return {"kind": "demcal", "name": "demcal", "backend": study.backend}
+    return {"kind": engine["kind"], "name": f"{engine['kind']}: {' '.join(engine['command'])}",
+            "command": engine["command"], "template": engine["template_path"],
+            "template_sha256": engine["template_sha256"], "result": engine["result"]}
 
 
 def resolve_target(study: Study, figures: Path | None = None) -> dict[str, Any]:
@@ -114,6 +133,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     store.set_meta("fixed_params", {k: v for k, v in fixed.items()
                                     if k not in {f.name for f in study.factors}})
     store.set_meta("factors", factors)
+    store.set_meta("engine", engine_meta(study))
     try:
         dv = version("demcal")
     except PackageNotFoundError:  # pragma: no cover
@@ -121,9 +141,9 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     store.set_meta("versions", {"demcal": dv, "python": platform.python_version(),
                                 "numpy": np.__version__, "engine_backend": study.backend})
     ex = study.executor
-    chunk = ex.chunk or (1 if study.test.kind != "aor" else
+    chunk = ex.chunk or (1 if study.test.kind != "aor" or study.engine is not None else
                          default_chunk(study.backend, study.replicates))
-    runner = Runner(store, test_def(study),
+    runner = Runner(store, test_def(study, folder),
                     workers=workers or ex.workers or default_workers(),
                     dask=dask if dask is not None else ex.dask, chunk=chunk,
                     progress=progress, external=external,

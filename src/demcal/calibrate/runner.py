@@ -5,6 +5,12 @@ the virtual test) and written to the store the moment it ends, so a second call 
 points runs nothing, an interrupted call loses no finished run, and a changed study re-runs
 only the points whose key changed. A run ending ``unstable`` or ``unsettled`` is stored with
 its reason and retried once with half the time-step fraction (``attempts`` = 2).
+
+With an external engine (``[engine]`` of the study), a run the engine did not finish
+(``engine_error``, ``no_result``, ``timeout``: :data:`ENGINE_FAILURES`) is stored as failed
+with its reason and log; once every run of the call has ended, :meth:`Runner.run` raises
+:class:`demcal.errors.StudyError` naming the failures (the stage never fits around them),
+and the next call re-runs exactly those runs.
 """
 
 from __future__ import annotations
@@ -15,11 +21,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from demcal.errors import StudyError
 from demcal.execute.local import run_local
 from demcal.execute.tasks import RunTask, TestDef
+from demcal.execute.template_engine import ENGINE_FAILURES
 from demcal.store import RunRecord, RunStore, params_hash, run_key
 
-__all__ = ["RETRY_DT_SCALE", "RETRY_OUTCOMES", "ExternalPending", "Point", "Runner"]
+__all__ = ["ENGINE_FAILURES", "RETRY_DT_SCALE", "RETRY_OUTCOMES", "ExternalPending", "Point",
+           "Runner"]
 
 RETRY_OUTCOMES = ("unstable", "unsettled")
 RETRY_DT_SCALE = 0.5
@@ -88,11 +97,13 @@ class Runner:
         return run_key(stage, p.params, p.seed, self.test_hash)
 
     def missing(self, stage: str, points: Sequence[Point]) -> list[Point]:
-        """Points with no finished run in the store (done, or failed after its retry)."""
+        """Points with no finished run in the store (done, or failed after its retry); a run
+        the external engine did not finish is missing (it is run again)."""
         out = []
         for p in points:
             r = self.store.get_run(self.key(stage, p))
-            if r is None or (r.status == "failed" and r.attempts < 2):
+            if r is None or (r.status == "failed" and (r.attempts < 2
+                                                       or r.outcome in ENGINE_FAILURES)):
                 out.append(p)
         return out
 
@@ -100,7 +111,7 @@ class Runner:
                started: float) -> RunRecord:
         """Store one run's result (``res`` as from :func:`demcal.execute.tasks.run_chunk`)."""
         outcome = res.get("outcome")
-        failed = outcome in RETRY_OUTCOMES
+        failed = outcome in RETRY_OUTCOMES or outcome in ENGINE_FAILURES
         reason = res.get("reason")
         if failed and reason is None:
             reason = f"outcome {outcome}"
@@ -123,17 +134,23 @@ class Runner:
         self.store.record_run(rec)
         return rec
 
-    @staticmethod
-    def _engine_version() -> str:
+    def _engine_version(self) -> str:
         from importlib.metadata import PackageNotFoundError, version
 
         try:
-            return f"demcal {version('demcal')}"
+            own = f"demcal {version('demcal')}"
         except PackageNotFoundError:  # pragma: no cover
-            return "demcal"
+            own = "demcal"
+        engine = self.test.engine
+        if not engine:
+            return own
+        return (f"{own}; {engine['kind']} {engine['template_sha256'][:12]}: "
+                + " ".join(engine["command"]))
 
     def _plot_path(self, stage: str, key: str) -> str | None:
-        if self.figures_dir is None or self.test.kind != "aor":
+        if self.figures_dir is None or not (
+                self.test.kind == "aor" or (self.test.engine and
+                                            self.test.engine["result"]["kind"] == "positions")):
             return None
         digest = key.partition(":")[2]  # keys are "<stage>:<hash>"
         return str(self.figures_dir / f"{stage}_{digest[:12]}.png")
@@ -179,7 +196,7 @@ class Runner:
         total = len(points)
         if self.progress is not None:
             self.progress(stage, total - len(todo), total)
-        fresh = [p for p in todo if self.store.get_run(self.key(stage, p)) is None]
+        fresh = [p for p in todo if self._fresh(self.store.get_run(self.key(stage, p)))]
         stale = [p for p in todo if p not in fresh]  # failed once, retry pending
         retry = self._execute(stage, fresh, 1.0, 1, total, total - len(todo)) if fresh else []
         retry += stale
@@ -190,5 +207,25 @@ class Runner:
             r = self.store.get_run(self.key(stage, p))
             assert r is not None
             out.append(r)
+        self._check_engine_failures(stage, out)
         return out
+
+    @staticmethod
+    def _fresh(r: RunRecord | None) -> bool:
+        """Run from scratch: never run, or not finished by the external engine."""
+        return r is None or r.outcome in ENGINE_FAILURES
+
+    @staticmethod
+    def _check_engine_failures(stage: str, runs: list[RunRecord]) -> None:
+        """StudyError when runs of the stage were not finished by the external engine."""
+        failed = [r for r in runs if r.outcome in ENGINE_FAILURES]
+        if not failed:
+            return
+        kinds = {k: sum(r.outcome == k for r in failed) for k in ENGINE_FAILURES}
+        counts = ", ".join(f"{n} {k}" for k, n in kinds.items() if n)
+        raise StudyError(
+            f"{stage}: {len(failed)} of {len(runs)} runs failed in the external engine "
+            f"({counts}); first: {failed[0].reason}. The {len(runs) - len(failed)} other runs "
+            "are stored; fix the engine, its template or the time limit and run the study "
+            "again: the failed runs are re-run (all runs, if the template or command changed)")
 

@@ -10,6 +10,8 @@ Sections (every key optional unless said; see :data:`EXAMPLE_STUDY` for a commen
                     demcal.execute.analytic)
     [stages.*]      rangefind, screening, steepest, rsm, optimize, verification options
     [executor]      workers, dask
+    [engine]        an external DEM code (kind "template": template, command, result, ...;
+                    see demcal.execute.engine_spec and docs/external_engines.md)
 
 Units: SI for every parameter, degrees for angles.
 """
@@ -21,9 +23,18 @@ import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from demcal.errors import InputError
+from demcal.execute.engine_spec import EngineSpec
 from demcal.limits import MAX_CHUNK, MAX_INPUT_FILE_BYTES, MAX_STUDY_SEED
 
 __all__ = ["EXAMPLE_STUDY", "FactorSpec", "Study", "load_study", "parse_study"]
@@ -277,15 +288,35 @@ class Study(_M):
     test: TestSpec = TestSpec()
     stages: Stages = Stages()
     executor: Executor = Executor()
+    engine: EngineSpec | None = Field(None, description="an external DEM code runs the "
+                                      "virtual test (default: demcal's engine)")
+    #: the engine with its template read (demcal.execute.engine_spec.load_engine)
+    _engine: dict[str, Any] | None = PrivateAttr(None)
 
     @model_validator(mode="after")
     def _replicates(self) -> Study:
+        if self.engine is not None and self.test.kind != "aor":
+            raise ValueError(f"engine: an external engine runs the test; test.kind must be "
+                             f"'aor' (the default) with it; got {self.test.kind!r}")
         if self.replicates is None:
             from demcal.virtual import FIDELITY_REPLICATES
 
             self.replicates = (FIDELITY_REPLICATES[self.test.fidelity]
-                               if self.test.kind == "aor" else 1)
+                               if self.test.kind == "aor" and self.engine is None else 1)
         return self
+
+    def engine_data(self, base: Path | None = None) -> dict[str, Any] | None:
+        """The external engine with its template read (None: demcal's engine); relative
+        paths from ``base`` (default: where :func:`parse_study` was told, else the cwd)."""
+        if self.engine is None:
+            return None
+        if self._engine is None or base is not None:
+            from demcal.execute.engine_spec import load_engine
+            from demcal.virtual import PARAMETERS
+
+            known = set(PARAMETERS) | {f.symbol for f in self.factors if f.symbol}
+            self._engine = load_engine(self.engine, (base or Path.cwd()).resolve(), known)
+        return self._engine
 
     @model_validator(mode="after")
     def _refs(self) -> Study:
@@ -340,6 +371,7 @@ def parse_study(data: dict[str, Any], *, base: Path | None = None) -> Study:
             for p in study.target.photos:
                 if why := photo_too_large(p):  # type: ignore[arg-type]
                     raise InputError(f"study: target.photos: {p}: {why}")
+        study.engine_data(base)  # the template is read (and checked) now
     return study
 
 

@@ -23,7 +23,9 @@ MEASUREMENT_VERSION = 2
 
 @dataclass(frozen=True)
 class TestDef:
-    """The virtual test: ``kind`` "aor" (engine; fidelity, overrides) or "analytic" (stand-in)."""
+    """The virtual test: ``kind`` "aor" (engine; fidelity, overrides), "analytic" (stand-in)
+    or "template" (an external engine: ``engine`` as from
+    :func:`demcal.execute.engine_spec.load_engine`, plus ``runs_dir`` and ``symbols``)."""
 
     __test__ = False  # not a pytest class
 
@@ -32,11 +34,19 @@ class TestDef:
     overrides: dict[str, Any] = field(default_factory=dict)
     analytic: dict[str, Any] = field(default_factory=dict)
     backend: str = "auto"
+    engine: dict[str, Any] = field(default_factory=dict)
 
     def identity(self) -> dict[str, Any]:
         """What defines the test's results (the backend does not)."""
         if self.kind == "analytic":
             return {"kind": "analytic", "analytic": self.analytic}
+        if self.kind == "template":
+            from demcal.execute.engine_spec import engine_identity
+
+            ident = {"kind": "template", "engine": engine_identity(self.engine)}
+            if self.engine["result"]["kind"] == "positions":
+                ident["measurement"] = MEASUREMENT_VERSION
+            return ident
         return {"kind": "aor", "fidelity": self.fidelity, "overrides": self.overrides,
                 "measurement": MEASUREMENT_VERSION}
 
@@ -113,6 +123,11 @@ def run_chunk(tasks: list[RunTask],
             r = analytic_aor(t.params, t.seed, t.test.analytic, dt_scale=t.dt_scale)
             emit({"key": t.key, "outcome": r["outcome"], "aor_deg": r["aor_deg"],
                   "reason": r["reason"], "wall_time_s": time.perf_counter() - t0, "result": r})
+    elif tasks[0].test.kind == "template":
+        from demcal.execute.template_engine import run_template
+
+        for t in tasks:
+            emit(run_template(t, t.plot_path))
     else:
         _aor_chunk(tasks, emit)
     return out

@@ -1,0 +1,241 @@
+"""The study's ``[engine]`` table: an external DEM code driven through an input template.
+
+A study that names an engine runs every virtual test in that code instead of demcal's own
+engine (see ``docs/external_engines.md``)::
+
+    [engine]
+    kind = "template"                  # the only kind today; others (e.g. "lammps") may follow
+    template = "in.aor.template"       # the input, with {placeholders}; relative to the study
+    input = "in.aor"                   # the filled file's name in the run folder (default:
+                                       # the template's name without a ".template" suffix)
+    command = ["liggghts", "-in", "{input}"]   # or one string, split like a shell (no shell)
+    timeout_s = 3600                   # one run's wall-time limit, s
+    hook = "hook.py:fill"              # optional: a Python function giving more placeholders
+
+    [engine.result]                    # what the engine leaves in its run folder
+    kind = "positions"                 # spheres measured by demcal | "value": an angle
+    file = "pile.csv"
+    format = "csv"                     # csv | table | lammps_dump (positions)
+    columns = { x = "x", y = "y", z = "z", radius = "radius" }
+    length_scale = 1.0                 # file lengths x this = metres
+    plate_z = 0.0                      # the plate's height in the file, m (after scaling)
+
+Every value is validated here (pydantic), so a bad table is one line naming the field and
+its allowed values before any run starts. Paths are resolved and the template is read by
+:func:`load_engine` (the run store's identity of a run holds the template's SHA-256).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shlex
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from demcal.errors import InputError
+from demcal.limits import MAX_INPUT_FILE_BYTES
+
+__all__ = ["ENGINE_KINDS", "EngineSpec", "PositionsResult", "TemplateEngine", "ValueResult",
+           "engine_identity", "load_engine"]
+
+#: engine kinds a study may name (``[engine] kind``)
+ENGINE_KINDS = ("template",)
+#: longest wall time of one engine run, s (30 days)
+MAX_TIMEOUT_S = 30 * 86400.0
+
+
+class _M(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class Measurement(_M):
+    """How demcal measures the spheres (as :class:`demcal.virtual.config.MeasurementOptions`)."""
+
+    n_views: int = Field(8, ge=1, le=360, description="silhouette views around the axis")
+    method: Literal["silhouette", "profile"] = "silhouette"
+    fit_window: tuple[float, float] | None = Field(
+        None, description="flank fit window, fractions of the pile height")
+
+
+class PositionsResult(_M):
+    """Sphere centres and radii written by the engine; demcal measures the pile's angle.
+
+    ``format``: ``csv`` (comma-separated with a header row; ``columns`` name the header's
+    columns), ``table`` (whitespace-separated numbers, ``#`` comments, ``skip_rows`` header
+    lines; ``columns`` are 0-based indices) or ``lammps_dump`` (a LAMMPS/LIGGGHTS text dump:
+    the last snapshot's ``ITEM: ATOMS`` section; ``columns`` name its fields).
+    """
+
+    kind: Literal["positions"] = "positions"
+    file: str = Field(min_length=1)
+    format: Literal["csv", "table", "lammps_dump"] = "csv"
+    columns: dict[Literal["x", "y", "z", "radius"], str | int] = Field(default_factory=dict)
+    radius: float | None = Field(None, gt=0, le=10, description="one radius for every sphere "
+                                 "when the file has no radius column, m")
+    skip_rows: int = Field(0, ge=0, le=10_000, description="header lines of a table")
+    length_scale: float = Field(1.0, gt=0, le=1e6, description="file length x this = m")
+    plate_z: float = Field(0.0, ge=-1e3, le=1e3, description="plate height in the file's "
+                           "frame, m (after length_scale)")
+    measurement: Measurement = Measurement()
+
+    @model_validator(mode="after")
+    def _columns(self) -> PositionsResult:
+        named = self.format != "table"
+        default: dict[str, str | int] = ({"x": "x", "y": "y", "z": "z", "radius": "radius"}
+                                         if named else {"x": 0, "y": 1, "z": 2, "radius": 3})
+        if self.format == "lammps_dump" and "radius" not in self.columns and \
+                self.radius is None:
+            default["radius"] = "radius"
+        cols = {**default, **self.columns}
+        if self.radius is not None and "radius" not in self.columns:
+            cols.pop("radius")
+        for k, v in cols.items():
+            if named and not isinstance(v, str):
+                raise ValueError(f"columns.{k}: a {self.format} file's columns are named by "
+                                 f"header; got {v!r}")
+            if not named and (not isinstance(v, int) or isinstance(v, bool) or v < 0):
+                raise ValueError(f"columns.{k}: a table's columns are 0-based indices; "
+                                 f"got {v!r}")
+        self.columns = cols  # type: ignore[assignment]
+        return self
+
+
+class ValueResult(_M):
+    """An angle the engine measured itself: a number, or JSON with ``key`` (deg).
+
+    The JSON object may instead give ``outcome`` (``column``, ``plug``, ``scattered``,
+    ``unsettled``, ``unstable``) and ``reason`` for a run that formed no pile.
+    """
+
+    kind: Literal["value"] = "value"
+    file: str = Field(min_length=1)
+    key: str = Field("aor_deg", min_length=1, description="the angle's key in a JSON file")
+
+
+class TemplateEngine(_M):
+    """``[engine] kind = "template"``: fill an input template, run a command, read a result."""
+
+    kind: Literal["template"] = "template"
+    template: str = Field(min_length=1, description="input template, relative to the study")
+    input: str | None = Field(None, description="filled input's file name in the run folder")
+    command: list[str] | str
+    timeout_s: float = Field(3600.0, gt=0, le=MAX_TIMEOUT_S)
+    hook: str | None = Field(None, description="'file.py:function' or 'module:function'")
+    result: PositionsResult | ValueResult = Field(discriminator="kind")
+
+    @field_validator("command")
+    @classmethod
+    def _command(cls, v: list[str] | str) -> list[str]:
+        if isinstance(v, str):
+            try:
+                v = shlex.split(v)
+            except ValueError as exc:
+                raise ValueError(f"cannot split the command string: {exc}") from None
+        if not v or not v[0].strip():
+            raise ValueError("give the program to run, e.g. [\"liggghts\", \"-in\", "
+                             "\"{input}\"]")
+        return list(v)
+
+    @field_validator("input")
+    @classmethod
+    def _input(cls, v: str | None) -> str | None:
+        if v is not None and (not v or Path(v).name != v or v in (".", "..")):
+            raise ValueError(f"a plain file name (no folder); got {v!r}")
+        return v
+
+    @field_validator("hook")
+    @classmethod
+    def _hook(cls, v: str | None) -> str | None:
+        if v is not None:
+            where, colon, func = v.rpartition(":")
+            if not colon or not where or not func.isidentifier():
+                raise ValueError(f"'file.py:function' or 'module:function'; got {v!r}")
+        return v
+
+
+#: the engine kinds, one model each (a union once a second kind exists)
+EngineSpec = TemplateEngine
+
+
+def _read_text(path: Path, what: str) -> str:
+    if not path.is_file():
+        raise InputError(f"study: engine.{what}: file not found (or not a file): {path}")
+    if path.stat().st_size > MAX_INPUT_FILE_BYTES:
+        raise InputError(f"study: engine.{what}: {path} is larger than "
+                         f"{MAX_INPUT_FILE_BYTES // 2**20} MB")
+    try:
+        return path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"study: engine.{what}: {path} is not a text (UTF-8) file") from None
+
+
+def load_engine(spec: EngineSpec, base: Path, known: set[str]) -> dict[str, Any]:
+    """Resolve the engine's paths, read its template and check its placeholders.
+
+    Parameters
+    ----------
+    spec : TemplateEngine
+        The validated ``[engine]`` table (paths as written).
+    base : Path
+        The study file's folder (relative paths are taken from it).
+    known : set of str
+        Placeholder names the runs will give (parameters, symbols and the built-ins); with a
+        hook any other name is allowed here (the hook may give it) and checked per run.
+
+    Returns
+    -------
+    dict
+        The plain-data engine of :class:`demcal.execute.tasks.TestDef` (picklable):
+        ``kind``, ``template_path``, ``template_text``, ``template_sha256``, ``input``,
+        ``command``, ``timeout_s``, ``hook`` (resolved), ``hook_sha256`` and ``result``.
+
+    Raises
+    ------
+    InputError
+        A file is missing or unreadable, or the template names an unknown placeholder.
+    """
+    from demcal.execute.template_fill import BUILTINS, placeholders
+
+    template = (base / spec.template).resolve()
+    text = _read_text(template, "template")
+    hook, hook_sha = spec.hook, None
+    if hook is not None:
+        where, _, func = hook.rpartition(":")
+        if where.endswith(".py") or "/" in where or "\\" in where:
+            path = (base / where).resolve()
+            hook_sha = hashlib.sha256(_read_text(path, "hook").encode()).hexdigest()
+            hook = f"{path}:{func}"
+    names = placeholders(text) | {n for a in spec.command for n in placeholders(a)}
+    unknown = sorted(names - known - set(BUILTINS))
+    if unknown and hook is None:
+        raise InputError(f"study: engine.template: unknown placeholder(s) "
+                         f"{', '.join('{' + n + '}' for n in unknown)} in {template.name} or "
+                         "the command; known: the parameter names, factor symbols and "
+                         + ", ".join("{" + b + "}" for b in BUILTINS)
+                         + " (write {{name}} for a literal {name})")
+    name = spec.input or (template.name.removesuffix(".template") or template.name)
+    return {"kind": spec.kind, "template_path": str(template), "template_text": text,
+            "template_sha256": hashlib.sha256(text.encode()).hexdigest(), "input": name,
+            "command": list(spec.command), "timeout_s": float(spec.timeout_s), "hook": hook,
+            "hook_sha256": hook_sha, "result": spec.result.model_dump(mode="json")}
+
+
+def engine_identity(engine: dict[str, Any]) -> dict[str, Any]:
+    """What defines an engine run's result: the template's content, the input's name, the
+    command, the hook and the result reader (not the timeout, not where runs are kept)."""
+    return {"kind": engine["kind"], "template_sha256": engine["template_sha256"],
+            "input": engine["input"], "command": list(engine["command"]),
+            "hook": _hook_identity(engine), "result": engine["result"]}
+
+
+def _hook_identity(engine: dict[str, Any]) -> str | None:
+    """A file hook by its content's SHA-256 and function (the study may move), a module's
+    hook by its name."""
+    hook = engine.get("hook")
+    if hook is None:
+        return None
+    if engine.get("hook_sha256"):
+        return f"sha256:{engine['hook_sha256']}:{hook.rpartition(':')[2]}"
+    return str(hook)

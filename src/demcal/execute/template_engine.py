@@ -1,0 +1,249 @@
+"""One run of an external DEM code: fill its input template, run its command, read its result.
+
+:func:`run_template` does a whole run inside whichever worker executes it (this process, a
+local pool worker or a Dask worker), so a task is plain data
+(:class:`demcal.execute.tasks.RunTask` with the engine in its ``TestDef``):
+
+1. the run's own folder ``<runs_dir>/<stage>_<hash>/`` is emptied (a re-run replaces it);
+2. the template is filled (:mod:`demcal.execute.template_fill`; a hook may add placeholders)
+   and written there as the input file;
+3. the command runs in that folder, in its own process group, with stdin closed and its
+   stdout and stderr both kept in ``engine.log``; past ``timeout_s`` the whole group is
+   killed (SIGTERM, then SIGKILL after :data:`KILL_GRACE_S`);
+4. the result is read (:mod:`demcal.execute.engine_results`): spheres are measured by
+   demcal (:func:`demcal.virtual.pile.measure_pile`, with the flank quality gates) into
+   ``pile`` or ``scattered``; a value is the engine's own angle or outcome.
+
+A run that fails in the engine ends with one of the typed outcomes :data:`ENGINE_FAILURES`
+and a reason naming the log: ``engine_error`` (the command could not start, or its exit code
+was not 0), ``no_result`` (its result file is missing or unreadable), ``timeout``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import importlib
+import importlib.util
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from demcal.errors import InputError
+from demcal.execute.engine_results import ResultUnreadable, read_positions, read_value
+from demcal.execute.template_fill import fill
+
+__all__ = ["ENGINE_FAILURES", "KILL_GRACE_S", "LOG_NAME", "run_dir_name", "run_template"]
+
+#: typed outcomes of a run the external engine did not finish
+ENGINE_FAILURES = ("engine_error", "no_result", "timeout")
+#: seconds between SIGTERM and SIGKILL of a timed-out engine's process group
+KILL_GRACE_S = 5.0
+#: the engine's stdout and stderr, in its run folder
+LOG_NAME = "engine.log"
+#: lines of the log's end quoted in a failure's reason
+TAIL_LINES = 3
+
+
+def run_dir_name(key: str) -> str:
+    """The run folder's name for a store key ``"<stage>:<hash>"``: ``<stage>_<hash>``."""
+    stage, _, digest = key.partition(":")
+    if not digest:
+        digest = hashlib.sha256(key.encode()).hexdigest()[:16]
+    return f"{stage}_{digest}"
+
+
+def _load_hook(ref: str) -> Callable[..., Any]:
+    where, _, func = ref.rpartition(":")
+    try:
+        if where.endswith(".py"):
+            name = "demcal_engine_hook_" + hashlib.sha256(where.encode()).hexdigest()[:12]
+            spec = importlib.util.spec_from_file_location(name, where)
+            if spec is None or spec.loader is None:
+                raise ImportError(f"cannot load {where}")
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+        else:
+            module = importlib.import_module(where)
+    except (ImportError, OSError, SyntaxError) as exc:
+        raise InputError(f"engine.hook: cannot import {where}: {exc}") from None
+    hook = getattr(module, func, None)
+    if not callable(hook):
+        raise InputError(f"engine.hook: {where} has no function {func!r}")
+    return hook
+
+
+def _values(task: Any, engine: dict[str, Any], run_dir: Path) -> dict[str, object]:
+    values: dict[str, object] = dict(task.params)
+    for sym, name in (engine.get("symbols") or {}).items():
+        values[sym] = task.params[name]
+    values.update(seed=int(task.seed), run_dir=str(run_dir), run_key=task.key,
+                  input=engine["input"], dt_scale=float(task.dt_scale),
+                  template_dir=str(Path(engine["template_path"]).parent),
+                  python=sys.executable)
+    if engine.get("hook"):
+        extra = _load_hook(engine["hook"])(params=dict(task.params), seed=int(task.seed),
+                                           run_dir=run_dir)
+        if extra is not None:
+            if not isinstance(extra, dict):
+                raise InputError(f"engine.hook: must return a dict of placeholders or None; "
+                                 f"got {type(extra).__name__}")
+            values.update({str(k): v for k, v in extra.items()})
+    return values
+
+
+def _tail(log: Path) -> str:
+    try:
+        lines = [ln.strip() for ln in log.read_text(errors="replace").splitlines()
+                 if ln.strip()]
+    except OSError:
+        return ""
+    tail = " | ".join(lines[-TAIL_LINES:])
+    return tail[-300:]
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    """SIGTERM the engine's process group, SIGKILL it after KILL_GRACE_S."""
+    killpg = getattr(os, "killpg", None)
+    try:
+        if killpg is not None:
+            killpg(proc.pid, signal.SIGTERM)
+        else:  # pragma: no cover - not POSIX
+            proc.terminate()
+        proc.wait(timeout=KILL_GRACE_S)
+    except subprocess.TimeoutExpired:
+        pass
+    except ProcessLookupError:
+        return
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        if killpg is not None:
+            killpg(proc.pid, signal.SIGKILL)  # also children the engine started
+        else:  # pragma: no cover
+            proc.kill()
+    proc.wait()
+
+
+def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[str | None, str]:
+    """Run the command; return (failure outcome or None, what happened)."""
+    with open(log, "wb") as out:
+        try:
+            proc = subprocess.Popen(cmd, cwd=run_dir, stdin=subprocess.DEVNULL, stdout=out,
+                                    stderr=subprocess.STDOUT, start_new_session=True)
+        except FileNotFoundError:
+            return "engine_error", f"command not found: {cmd[0]!r} (is it on PATH?)"
+        except PermissionError:
+            return "engine_error", f"command not executable: {cmd[0]!r}"
+        except OSError as exc:
+            return "engine_error", f"cannot start {cmd[0]!r}: {exc.strerror}"
+        try:
+            code = proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            _kill_group(proc)
+            return "timeout", f"no end within {timeout:g} s; the engine was killed"
+        except BaseException:  # Ctrl-C or a cancelled task: take the engine down with us
+            _kill_group(proc)
+            raise
+    if code != 0:
+        return "engine_error", f"exit code {code}"
+    return None, "exit code 0"
+
+
+def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
+    """Run one task on the external engine; return the executor's result dict.
+
+    Parameters
+    ----------
+    task : RunTask
+        The run (its ``test.engine`` holds the engine, ``runs_dir`` among it).
+    plot_path : str, optional
+        Where to save a side view of a measured pile (PNG).
+
+    Returns
+    -------
+    dict
+        ``{"key", "outcome", "aor_deg", "reason", "wall_time_s", "result"}``; ``result``
+        holds ``engine`` (command, exit status, run folder, log), the measurement and
+        ``artefacts`` (``run_dir``, ``engine_log``, ``pile_png``).
+
+    Raises
+    ------
+    InputError
+        The template names a placeholder no value is given for, or the hook fails to load:
+        a mistake of the study, not of one run.
+    """
+    engine = task.test.engine
+    t0 = time.perf_counter()
+    run_dir = Path(engine["runs_dir"]) / run_dir_name(task.key)
+    if run_dir.exists():
+        shutil.rmtree(run_dir)
+    run_dir.mkdir(parents=True)
+    log = run_dir / LOG_NAME
+    values = _values(task, engine, run_dir)
+    (run_dir / engine["input"]).write_text(fill(engine["template_text"], values,
+                                                f"engine.template {engine['input']}"))
+    cmd = [fill(a, values, "engine.command") for a in engine["command"]]
+    failure, what = _execute(cmd, run_dir, log, float(engine["timeout_s"]))
+    info: dict[str, Any] = {"command": cmd, "status": what, "run_dir": str(run_dir),
+                            "log": str(log), "engine_wall_time_s": time.perf_counter() - t0}
+    artefacts = {"run_dir": str(run_dir), "engine_log": str(log)}
+    result: dict[str, Any] = {"engine": info, "artefacts": artefacts, "seed": int(task.seed),
+                              "params": dict(task.params)}
+    out = {"key": task.key, "outcome": failure, "aor_deg": None, "reason": None,
+           "result": result}
+    spec = engine["result"]
+    if failure is None:
+        try:
+            if spec["kind"] == "positions":
+                failure_or_pile = _measure(run_dir, spec, plot_path)
+            else:
+                failure_or_pile = read_value(run_dir, spec)
+        except ResultUnreadable as exc:
+            failure, what = "no_result", str(exc)
+        else:
+            measured = failure_or_pile.pop("measured", None)
+            if measured is not None:
+                result["measured"] = measured
+                if measured.get("figure"):
+                    artefacts["pile_png"] = measured["figure"]
+            if failure_or_pile.get("engine_values"):
+                result["engine_values"] = failure_or_pile["engine_values"]
+            out.update(outcome=failure_or_pile["outcome"], aor_deg=failure_or_pile["aor_deg"],
+                       reason=failure_or_pile["reason"])
+    if failure is not None:
+        tail = _tail(log)
+        out.update(outcome=failure, reason=f"{what} (log: {log}"
+                   + (f"; it ends: {tail}" if tail else "") + ")")
+    for k in ("aor_deg", "aor_left_deg", "aor_right_deg", "aor_std_deg", "pile_height_m",
+              "base_diameter_m"):
+        if k in (result.get("measured") or {}):
+            result[k] = result["measured"][k]
+    result.update(outcome=out["outcome"], aor_deg=out["aor_deg"], reason=out["reason"])
+    out["wall_time_s"] = time.perf_counter() - t0
+    return out
+
+
+def _measure(run_dir: Path, spec: dict[str, Any], plot_path: str | None) -> dict[str, Any]:
+    """Measure the spheres the engine wrote: ``pile`` with its angle, or ``scattered``."""
+    from demcal.virtual.config import MeasurementOptions
+    from demcal.virtual.pile import measure_pile
+
+    centres, radii = read_positions(run_dir, spec)
+    options = MeasurementOptions(**spec.get("measurement") or {})
+    figure = None
+    if plot_path is not None:
+        with contextlib.suppress(OSError):  # a picture must not cost the measurement
+            Path(plot_path).parent.mkdir(parents=True, exist_ok=True)
+            figure = plot_path
+    measured = measure_pile(centres, radii, options, figure=figure)
+    measured["n_spheres"] = len(radii)
+    if measured.get("error") or measured.get("aor_deg") is None:
+        why = measured.get("error") or "no flank passed the quality gates"
+        return {"outcome": "scattered", "aor_deg": None, "reason": why, "measured": measured}
+    return {"outcome": "pile", "aor_deg": measured["aor_deg"], "reason": None,
+            "measured": measured}
