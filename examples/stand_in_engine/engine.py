@@ -17,12 +17,14 @@ muw = pw.static_friction:
 Input keys besides the parameters: ``seed``, ``output`` (the CSV file), ``noise_deg``,
 ``sleep_s`` (wall time of a "run"), ``base_radius`` and ``sphere_radius`` (m), and ``mode``:
 ``ok``; ``crash`` (exit code 3); ``silent`` (exit 0, no output); ``hang`` (sleep forever);
-``garbage`` (an unreadable CSV). Only the standard library is used.
+``garbage`` (an unreadable CSV). ``fail_flag`` (a path): crash while that file exists;
+``hang_if`` (``VALUE > LIMIT``): hang when it holds. Only the standard library is used.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import random
 import sys
 import time
@@ -80,6 +82,13 @@ def main(argv: list[str]) -> int:
     mode = cfg.get("mode", "ok")
     print(f"stand-in engine: input {argv[1]}, mode {mode}, seed {cfg.get('seed')}")
     time.sleep(float(cfg.get("sleep_s", "0")))
+    flag = cfg.get("fail_flag")
+    if flag and os.path.exists(flag):
+        mode = "crash"
+    if cfg.get("hang_if"):
+        value, _, limit = cfg["hang_if"].partition(">")
+        if float(value) > float(limit):
+            mode = "hang"
     if mode == "crash":
         print("ERROR: the stand-in engine crashed on purpose", file=sys.stderr)
         return 3

@@ -209,6 +209,18 @@ def _material(b: _Builder) -> str:
             + _shape_line(card.shape)
             + f'<p class="verdict"><b>Verification:</b> '
             f"{escape(str(card.verification.get('line', '')))}.</p>")
+    if not card.is_demcal:  # an external engine: its laws, not demcal's
+        line = (f"<p><b>Engine:</b> {escape(str(eng.get('name')))}: "
+                f"<code>{escape(str(eng.get('command') or ''))}</code> (input template "
+                f"<code>{escape(str(eng.get('template') or ''))}</code>, SHA-256 "
+                f"{escape(str(eng.get('template_sha256') or '')[:12])}). The parameters are "
+                "that engine's: they mean its contact laws, not demcal's.</p>"
+                f'<p class="verdict"><b>Verification:</b> '
+                f"{escape(str(card.verification.get('line', '')))}.</p>")
+        return _section("material", "Calibrated material", None,
+                        line + b.table(M.card_table(card))
+                        + "<p>Material card: <code>material.toml</code> and "
+                          "<code>material.json</code> next to this report.</p>")
     files = ("<p>Material card: <code>material.toml</code> and <code>material.json</code> "
              "next to this report; run it again with "
              "<code>demcal simulate aor --material material.toml</code>.</p>")

@@ -30,7 +30,7 @@ STAGES: dict[str, str] = {
 
 #: The meta keys of the store contract that the report reads.
 META_KEYS = ("study", "study_file", "study_dir", "target", "physical", "fixed_params",
-             "factors", "versions", "result")
+             "factors", "versions", "engine", "result")
 
 
 @dataclass(frozen=True)

@@ -60,6 +60,13 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
     study = data.meta.get("study") or {}
     test = study.get("test") or {}
     versions = data.meta.get("versions") or {}
+    external = data.meta.get("engine") or {}
+    if external.get("kind") not in (None, "demcal"):  # an external DEM code made the runs
+        engine = {"name": str(external["kind"]), "version": str(versions.get("demcal") or ""),
+                  "command": " ".join(external.get("command") or []),
+                  "template": str(external.get("template") or ""),
+                  "template_sha256": str(external.get("template_sha256") or "")}
+        return engine, {"kind": str(external["kind"])}, {}
     engine = {"version": str(versions.get("demcal") or ""),
               "backend": str(versions.get("engine_backend") or study.get("backend") or "auto"),
               "rolling_model": "A"}

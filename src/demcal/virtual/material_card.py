@@ -98,7 +98,8 @@ class MaterialCard:
         Name of the study the card comes from.
     engine : dict
         ``name``, ``version``, ``backend`` and ``rolling_model`` (``"A"``, ``"C"`` or
-        ``"none"``) of the engine the material was calibrated with.
+        ``"none"``) of the engine the material was calibrated with; for an external engine
+        (``name`` ``"template"``) its ``command``, ``template`` and ``template_sha256``.
     test : dict
         ``kind`` (``aor`` or ``analytic``), ``fidelity`` and ``overrides`` (dotted keys of
         :class:`demcal.virtual.AoRTestConfig`) of the virtual test.
@@ -125,6 +126,11 @@ class MaterialCard:
         """The rolling-friction model (``"A"`` unless the card says otherwise)."""
         return str(self.engine.get("rolling_model") or "A")
 
+    @property
+    def is_demcal(self) -> bool:
+        """Calibrated with demcal's own engine (else an external one, ``engine.name``)."""
+        return str(self.engine.get("name") or "demcal") == "demcal"
+
     def rows(self) -> list[dict[str, Any]]:
         """One row per parameter: name, symbol, value, unit, role, law, description."""
         out = []
@@ -147,9 +153,11 @@ class MaterialCard:
         for r in self.rows():
             params[r["parameter"]] = {k: r[k] for k in ("value", "unit", "role", "symbol",
                                                           "law", "description")}
+        engine = {"name": "demcal", **self.engine}
+        if self.is_demcal:  # an external engine's parameters mean that engine's laws
+            engine.update(rolling_model=self.rolling_model, contact_laws=laws)
         out = {"card": {"format": CARD_FORMAT, "version": CARD_VERSION, "study": self.study},
-               "engine": {"name": "demcal", **self.engine, "rolling_model": self.rolling_model,
-                          "contact_laws": laws},
+               "engine": engine,
                "test": dict(self.test), "verification": dict(self.verification)}
         if self.shape:
             out["particle_shape"] = dict(self.shape)
@@ -170,7 +178,8 @@ class MaterialCard:
         lines += _toml_table("card", d["card"])
         engine = {k: v for k, v in d["engine"].items() if k != "contact_laws"}
         lines += _toml_table("engine", engine)
-        lines += _toml_table("engine.contact_laws", d["engine"]["contact_laws"])
+        if "contact_laws" in d["engine"]:
+            lines += _toml_table("engine.contact_laws", d["engine"]["contact_laws"])
         test = {k: v for k, v in d["test"].items() if k != "overrides"}
         lines += _toml_table("test", test)
         lines += _toml_table("test.overrides", _flatten(d["test"].get("overrides") or {}))
@@ -328,7 +337,7 @@ def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
         raise InputError(f"{name}: parameters missing: {', '.join(missing)} (a card gives "
                          "every parameter)")
     engine = {k: v for k, v in _table(doc, "engine", name, required=False).items()
-              if k not in ("name", "contact_laws")}
+              if k != "contact_laws" and (k != "name" or v != "demcal")}
     rolling = engine.get("rolling_model", "A")
     if rolling not in ROLLING_LAWS:
         raise InputError(f"{name}: engine.rolling_model must be one of "
