@@ -186,3 +186,15 @@ def test_cli_bad_engine_exits_2_with_one_line(tmp_path):
     assert out.exit_code == 2
     assert "engine.result: Input tag 'pixels'" in out.output
     assert "Traceback" not in out.output
+
+
+def test_cli_engine_failure_exits_3_with_one_line(study_dir):
+    from typer.testing import CliRunner
+
+    from demcal.cli import app
+
+    _set(study_dir / "input.txt.template", "mode = ok", "mode = crash")
+    out = CliRunner().invoke(app, ["calibrate", str(study_dir / "study.toml"), "--no-report"])
+    assert out.exit_code == 3, out.output
+    assert "failed: screening: 8 of 8 runs failed in the external engine" in out.output
+    assert "Traceback" not in out.output

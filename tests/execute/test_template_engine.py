@@ -210,3 +210,31 @@ def test_a_hook_adds_placeholders(tmp_path):
     assert (run_dir / "t.in").read_text() == "seed 10015\n"
     assert (run_dir / "extra.txt").is_file() and "seed 10015" in (run_dir / LOG_NAME).read_text()
     assert res["outcome"] == "no_result"  # it wrote no aor.txt
+
+
+def test_a_terminated_worker_takes_its_engine_down(tmp_path):
+    """SIGTERM to the worker (a pool's terminate on Ctrl-C) kills the engine's process group
+    rather than leaving it running as an orphan."""
+    import pickle
+    import signal
+    import subprocess
+    import sys
+
+    test = _engine(tmp_path, timeout_s=60.0)
+    engine = {**test.engine, "command": ["sh", "-c", "echo $$ > engine.pid; sleep 60"]}
+    task = _task(TestDef(kind="template", engine=engine))
+    (tmp_path / "task.pkl").write_bytes(pickle.dumps(task))
+    code = ("import pickle, sys; from demcal.execute.template_engine import run_template; "
+            "run_template(pickle.load(open(sys.argv[1], 'rb')))")
+    worker = subprocess.Popen([sys.executable, "-c", code, str(tmp_path / "task.pkl")])
+    pid_file = tmp_path / "runs" / run_dir_name(task.key) / "engine.pid"
+    deadline = time.monotonic() + 30
+    while not (pid_file.is_file() and pid_file.read_text().strip()):
+        assert time.monotonic() < deadline and worker.poll() is None
+        time.sleep(0.05)
+    engine_pid = int(pid_file.read_text())
+    worker.send_signal(signal.SIGTERM)
+    assert worker.wait(timeout=20) != 0
+    time.sleep(0.2)
+    with pytest.raises(ProcessLookupError):
+        os.kill(engine_pid, 0)

@@ -486,4 +486,15 @@ max_n = 12                # ... or this many runs
 [executor]
 # workers = 2             # local process pool (default: CPU count)
 # dask = "tcp://scheduler:8786"
+
+# Run the test in another DEM code instead of demcal's engine (docs/external_engines.md):
+# [engine]
+# kind = "template"
+# template = "in.aor.template"          # {pp.static_friction}, {seed}, ... are filled in
+# command = ["liggghts", "-in", "{input}"]
+# timeout_s = 3600
+# [engine.result]
+# kind = "positions"                    # spheres measured by demcal | "value" (an angle)
+# file = "pile.liggghts"
+# format = "lammps_dump"                # csv | table | lammps_dump
 '''

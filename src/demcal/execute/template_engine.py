@@ -30,8 +30,9 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -129,6 +130,24 @@ def _kill_group(proc: subprocess.Popen) -> None:
     proc.wait()
 
 
+@contextlib.contextmanager
+def _sigterm_raises() -> Iterator[None]:
+    """SIGTERM raises SystemExit while the engine runs (in a main thread), so a terminated
+    worker (a local pool's Ctrl-C) kills the engine's process group instead of orphaning it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum: int, frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    old = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
 def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[str | None, str]:
     """Run the command; return (failure outcome or None, what happened)."""
     with open(log, "wb") as out:
@@ -142,11 +161,12 @@ def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[
         except OSError as exc:
             return "engine_error", f"cannot start {cmd[0]!r}: {exc.strerror}"
         try:
-            code = proc.wait(timeout=timeout)
+            with _sigterm_raises():
+                code = proc.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
             _kill_group(proc)
             return "timeout", f"no end within {timeout:g} s; the engine was killed"
-        except BaseException:  # Ctrl-C or a cancelled task: take the engine down with us
+        except BaseException:  # Ctrl-C, a terminated pool worker: take the engine down too
             _kill_group(proc)
             raise
     if code != 0:
