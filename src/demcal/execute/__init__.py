@@ -6,6 +6,10 @@
   (``NUMBA_NUM_THREADS=1`` per worker);
 - :func:`~demcal.execute.dask_exec.run_dask`: a Dask cluster (``distributed.Client``);
 - :mod:`demcal.execute.analytic`: the analytic stand-in virtual test (a test double).
+- :mod:`demcal.execute.template_engine`: a run of an external DEM code through an input
+  template (:mod:`~demcal.execute.engine_spec`: the study's ``[engine]`` table;
+  :mod:`~demcal.execute.template_fill`: placeholders; :mod:`~demcal.execute.engine_results`:
+  result readers).
 """
 
 from demcal.execute.local import default_workers, run_local
