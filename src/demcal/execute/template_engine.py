@@ -150,7 +150,7 @@ def _sigterm_raises() -> Iterator[None]:
 
 def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[str | None, str]:
     """Run the command; return (failure outcome or None, what happened)."""
-    with open(log, "wb") as out:
+    with open(log, "wb") as out, _sigterm_raises():
         try:
             proc = subprocess.Popen(cmd, cwd=run_dir, stdin=subprocess.DEVNULL, stdout=out,
                                     stderr=subprocess.STDOUT, start_new_session=True)
@@ -161,8 +161,7 @@ def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[
         except OSError as exc:
             return "engine_error", f"cannot start {cmd[0]!r}: {exc.strerror}"
         try:
-            with _sigterm_raises():
-                code = proc.wait(timeout=timeout)
+            code = proc.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
             _kill_group(proc)
             return "timeout", f"no end within {timeout:g} s; the engine was killed"
