@@ -106,7 +106,7 @@ def test_engine_failures_stop_the_stage_and_are_rerun_on_resume(study_dir):
 
 def test_a_timed_out_run_is_stored_and_the_others_kept(study_dir):
     study = study_dir / "study.toml"
-    _set(study, "timeout_s = 60", "timeout_s = 1")
+    _set(study, "timeout_s = 60", "timeout_s = 2")  # a normal run takes ~0.1 s
     _set(study_dir / "input.txt.template", "mode = ok",
          "mode = ok\nhang_if = {pp.static_friction} > 0.85")
     with pytest.raises(StudyError, match=r"screening: 4 of 8 runs failed .*\(4 timeout\)"):
