@@ -175,6 +175,11 @@ class MaterialCard:
                  "# contact laws they belong to and the verification. Run it again with",
                  "#   demcal simulate aor --material material.toml",
                  "# See docs/material_card.md.", ""]
+        if not self.is_demcal:
+            lines[:4] = ["# demcal material card: every parameter of the material in SI units and",
+                         "# the verification, calibrated in the EXTERNAL engine of [engine]: the",
+                         "# values mean that engine's contact laws, not demcal's. See",
+                         "# docs/external_engines.md."]
         lines += _toml_table("card", d["card"])
         engine = {k: v for k, v in d["engine"].items() if k != "contact_laws"}
         lines += _toml_table("engine", engine)
