@@ -32,8 +32,10 @@ STAGES = ("rangefind", "screening", "steepest", "rsm", "optimize", "verification
 def test_def(study: Study) -> TestDef:
     """The executor's description of the study's virtual test."""
     t = study.test
+    ex = study.executor
     return TestDef(kind=t.kind, fidelity=t.fidelity, overrides=dict(t.overrides),
-                   analytic=dict(t.analytic), backend=study.backend)
+                   analytic=dict(t.analytic), backend=study.backend, engine=ex.engine,
+                   lammps=ex.lammps.model_dump(mode="json") if ex.engine == "lammps" else {})
 
 
 def resolve_target(study: Study, figures: Path | None = None) -> dict[str, Any]:
@@ -100,6 +102,10 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     """
     path = Path(study_file).resolve()
     study = load_study(path)
+    if study.executor.engine == "lammps" and study.test.kind == "aor" and not external:
+        from demcal.virtual.lammps_run import lammps_command
+
+        lammps_command(study.executor.lammps)  # LammpsMissing (exit 2) before any work
     folder = study_folder(path)
     target = resolve_target(study, figures=folder / "figures")
     fixed, physical = _fixed(study)
@@ -119,7 +125,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     except PackageNotFoundError:  # pragma: no cover
         dv = "unknown"
     store.set_meta("versions", {"demcal": dv, "python": platform.python_version(),
-                                "numpy": np.__version__, "engine_backend": study.backend})
+                                "numpy": np.__version__, "engine_backend": study.backend,
+                                "engine": study.executor.engine})
     ex = study.executor
     chunk = ex.chunk or (1 if study.test.kind != "aor" else
                          default_chunk(study.backend, study.replicates))

@@ -32,12 +32,17 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 __all__ = [
+    "LAWS_VERSION",
     "ContactLaw",
     "contact_laws",
     "equivalent_moduli",
     "model_string",
     "typical_contact",
 ]
+
+#: Version of this mapping: part of a LAMMPS run's identity in a study's store (a changed
+#: mapping gives other results, so its runs are not mixed with older ones).
+LAWS_VERSION = 1
 
 #: 2 sqrt(5/6), EDEM's damping prefactor
 _DF = 2.0 * math.sqrt(5.0 / 6.0)

@@ -28,12 +28,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
 from demcal.errors import InputError
 from demcal.virtual.aor import AoRResult
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.lammps_aor import FINAL, INPUT, LIFTED, LammpsCase, write_case
+from demcal.virtual.lammps_options import LammpsOptions
 from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled
 from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
@@ -50,24 +50,6 @@ _EVENT = re.compile(r"^DEMCAL (\w+) (.*)$", re.MULTILINE)
 
 class LammpsMissing(InputError):
     """LAMMPS (``lmp``) or ``mpirun`` is not installed."""
-
-
-class LammpsOptions(BaseModel):
-    """How LAMMPS is started (none of these change a run's result)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    np: int = Field(1, ge=1, le=100_000, description="MPI ranks per run (mpirun -np)")
-    launcher: str | None = Field(
-        None, description="command prefix that starts the ranks, replacing 'mpirun -np N', "
-        "e.g. 'mpirun -np 64 -f hosts' or 'srun -n 64'; the lmp command follows it")
-    hostfile: str | None = Field(None, description="MPI hostfile (mpirun -f FILE): ranks on "
-                                 "several machines; LAMMPS and the run folder must be there")
-    lmp: str | None = Field(None, description="the LAMMPS executable (default: lmp next to "
-                            "this Python, else on the PATH)")
-    timeout_s: float = Field(7 * 86400.0, gt=0, description="wall-time limit of one run, s")
-    work_dir: str | None = Field(None, description="keep each run's LAMMPS files in "
-                                 "WORK_DIR/seed<k>-<n> (default: a temporary folder, removed)")
 
 
 def _find(name: str) -> str | None:
@@ -267,7 +249,8 @@ def run_aor_lammps(parameter_sets: Sequence[Mapping[str, float]], *, config: AoR
         if progress is not None:
             progress(i, "lammps", 0.0, 0.0)
         if options.work_dir is not None:
-            folder = Path(options.work_dir) / f"seed{seed}-{i}"
+            Path(options.work_dir).mkdir(parents=True, exist_ok=True)
+            folder = Path(tempfile.mkdtemp(prefix=f"seed{seed}-", dir=options.work_dir))
             res = _run_one(params, config, int(seed), options, folder, plot)
         else:
             with tempfile.TemporaryDirectory(prefix="demcal-lammps-") as tmp:

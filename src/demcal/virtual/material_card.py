@@ -70,6 +70,24 @@ ROLLING_LAWS: dict[str, str] = {
     "none": "no rolling resistance (rolling friction coefficients unused)",
 }
 
+#: The laws of the LAMMPS engine (``[executor] engine = "lammps"``) that the parameters enter:
+#: LAMMPS' pair granular with demcal's parameters mapped as in demcal.virtual.lammps_laws.
+LAMMPS_CONTACT_LAWS: dict[str, str] = {
+    "elastic": "LAMMPS hertz/material with (E, nu) chosen so that LAMMPS' E* and G* are "
+               "demcal's (1/E* = (1-v1^2)/E1 + (1-v2^2)/E2, 1/G* = (2-v1)/G1 + (2-v2)/G2)",
+    "normal": "LAMMPS jkr when gamma > 0 (the hysteretic JKR, EDEM's version 2: no force on "
+              "approach, pull-off 3/2 pi w R*), else Hertz",
+    "damping": "LAMMPS damping coeff_restitution (= EDEM's 2 sqrt(5/6) beta sqrt(S_n m*)), "
+               "tangential x_gamma_t = sqrt(4 G*/E*); with jkr: damping viscoelastic matched "
+               "at a typical contact",
+    "tangential": "LAMMPS tangential mindlin (k_t = 8 G* a), Coulomb limit mu_s |F_n| "
+                  "(with jkr: mu_s |F_ne + 2 F_pulloff|)",
+    "rolling": "LAMMPS rolling sds: torque capped at mu_r R* |F_n| (demcal's model C lever "
+               "arm), spring k_roll = 4.5 E* a mu_r^2 at a typical contact, no damping",
+    "mass": "clump mass and inertia tensor of demcal's union-of-spheres template (fix "
+            "rigid/small infile)",
+}
+
 _LAW_OF = {"poisson": "elastic", "shear_modulus": "elastic", "density": "mass",
            "restitution": "damping", "static_friction": "tangential",
            "rolling_friction": "rolling", "surface_energy": "normal"}
@@ -121,6 +139,11 @@ class MaterialCard:
     shape: dict[str, Any] = field(default_factory=dict)
 
     @property
+    def engine_name(self) -> str:
+        """The engine the parameters are for: ``"demcal"`` or ``"lammps"``."""
+        return str(self.engine.get("name") or "demcal")
+
+    @property
     def rolling_model(self) -> str:
         """The rolling-friction model (``"A"`` unless the card says otherwise)."""
         return str(self.engine.get("rolling_model") or "A")
@@ -141,8 +164,12 @@ class MaterialCard:
 
     def to_dict(self) -> dict[str, Any]:
         """The card as plain JSON-able data (the layout of ``material.json``)."""
-        laws = {k: CONTACT_LAWS[k] for k in ("elastic", "normal", "damping", "tangential")}
-        laws["rolling"] = ROLLING_LAWS.get(self.rolling_model, self.rolling_model)
+        if self.engine_name == "lammps":
+            laws = {k: LAMMPS_CONTACT_LAWS[k] for k in ("elastic", "normal", "damping",
+                                                        "tangential", "rolling")}
+        else:
+            laws = {k: CONTACT_LAWS[k] for k in ("elastic", "normal", "damping", "tangential")}
+            laws["rolling"] = ROLLING_LAWS.get(self.rolling_model, self.rolling_model)
         params = {}
         for r in self.rows():
             params[r["parameter"]] = {k: r[k] for k in ("value", "unit", "role", "symbol",
@@ -329,6 +356,11 @@ def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
                          "every parameter)")
     engine = {k: v for k, v in _table(doc, "engine", name, required=False).items()
               if k not in ("name", "contact_laws")}
+    name_ = _table(doc, "engine", name, required=False).get("name") or "demcal"
+    if name_ not in ("demcal", "lammps"):
+        raise InputError(f"{name}: engine.name must be 'demcal' or 'lammps'; got {name_!r}")
+    if name_ != "demcal":
+        engine["name"] = name_
     rolling = engine.get("rolling_model", "A")
     if rolling not in ROLLING_LAWS:
         raise InputError(f"{name}: engine.rolling_model must be one of "
