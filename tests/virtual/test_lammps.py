@@ -136,6 +136,7 @@ def test_read_dump(tmp_path):
                     "1 1 2.0 0.001 0 0 0.001\n2 1 2.0 0.001 0.002 0 0.001\n")
     d = lr.read_dump(path)
     centres, radii, com, mass = lr._clumps(d)
+    assert radii.tolist() == [0.001, 0.001]
     assert centres.shape == (2, 3) and mass.tolist() == [4.0]
     assert np.allclose(com, [[0.001, 0.0, 0.001]])
 
