@@ -103,7 +103,7 @@ def _engine(tmp_path: Path, mode: str = "ok", **kw) -> TestDef:
         "result": {"kind": "positions", "file": "pile.csv"}, **kw})
     engine = load_engine(spec, tmp_path, KNOWN)
     engine.update(runs_dir=str(tmp_path / "runs"), symbols={"x3": "pp.static_friction"})
-    return TestDef(kind="template", engine=engine)
+    return TestDef(kind="template", external=engine)
 
 
 def _task(test: TestDef, mu: float = 0.6, seed: int = 3) -> RunTask:
@@ -144,17 +144,17 @@ def test_engine_failures_are_typed_with_the_log(tmp_path, mode, outcome, match):
 
 def test_a_missing_program_is_an_engine_error(tmp_path):
     test = _engine(tmp_path)
-    engine = {**test.engine, "command": ["no-such-dem-engine-xyz", "{input}"]}
-    res = run_template(_task(TestDef(kind="template", engine=engine)))
+    engine = {**test.external, "command": ["no-such-dem-engine-xyz", "{input}"]}
+    res = run_template(_task(TestDef(kind="template", external=engine)))
     assert res["outcome"] == "engine_error" and "command not found" in res["reason"]
 
 
 def test_timeout_kills_the_engine_and_its_children(tmp_path):
     test = _engine(tmp_path, timeout_s=3.0)  # time for sh to start on a loaded machine
-    engine = {**test.engine,
+    engine = {**test.external,
               "command": ["sh", "-c", "sleep 60 & echo $! > child.pid; wait"]}
     t0 = time.monotonic()
-    res = run_template(_task(TestDef(kind="template", engine=engine)))
+    res = run_template(_task(TestDef(kind="template", external=engine)))
     assert time.monotonic() - t0 < 30
     assert res["outcome"] == "timeout" and "3 s" in res["reason"]
     pid = int((Path(res["result"]["engine"]["run_dir"]) / "child.pid").read_text())
@@ -180,7 +180,7 @@ def test_identity_holds_the_template_and_command_not_the_timeout(tmp_path):
     spec = TemplateEngine.model_validate({
         "template": "input.txt.template", "command": "{python} engine.py {input}",
         "result": {"kind": "positions", "file": "pile.csv"}})
-    c = TestDef(kind="template", engine=load_engine(spec, tmp_path, KNOWN))
+    c = TestDef(kind="template", external=load_engine(spec, tmp_path, KNOWN))
     assert c.identity()["engine"]["template_sha256"] != a.identity()["engine"][
         "template_sha256"]
     assert c.identity()["engine"]["command"] == ["{python}", "engine.py", "{input}"]
@@ -208,7 +208,7 @@ def test_a_hook_adds_placeholders(tmp_path):
     engine = load_engine(spec, tmp_path, KNOWN)
     assert engine["hook_sha256"] and engine["input"] == "t.in"
     engine["runs_dir"] = str(tmp_path / "runs")
-    res = run_template(_task(TestDef(kind="template", engine=engine), seed=4))
+    res = run_template(_task(TestDef(kind="template", external=engine), seed=4))
     run_dir = Path(res["result"]["engine"]["run_dir"])
     assert (run_dir / "t.in").read_text() == "seed 10015\n"
     assert (run_dir / "extra.txt").is_file() and "seed 10015" in (run_dir / LOG_NAME).read_text()
@@ -224,8 +224,8 @@ def test_a_terminated_worker_takes_its_engine_down(tmp_path):
     import sys
 
     test = _engine(tmp_path, timeout_s=60.0)
-    engine = {**test.engine, "command": ["sh", "-c", "echo $$ > engine.pid; sleep 60"]}
-    task = _task(TestDef(kind="template", engine=engine))
+    engine = {**test.external, "command": ["sh", "-c", "echo $$ > engine.pid; sleep 60"]}
+    task = _task(TestDef(kind="template", external=engine))
     (tmp_path / "task.pkl").write_bytes(pickle.dumps(task))
     code = ("import pickle, sys; from demcal.execute.template_engine import run_template; "
             "run_template(pickle.load(open(sys.argv[1], 'rb')))")

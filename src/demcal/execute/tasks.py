@@ -23,9 +23,10 @@ MEASUREMENT_VERSION = 2
 
 @dataclass(frozen=True)
 class TestDef:
-    """The virtual test: ``kind`` "aor" (engine; fidelity, overrides), "analytic" (stand-in)
-    or "template" (an external engine: ``engine`` as from
-    :func:`demcal.execute.engine_spec.load_engine`, plus ``runs_dir`` and ``symbols``)."""
+    """The virtual test: ``kind`` "aor" (fidelity, overrides; on ``engine`` "demcal" or
+    "lammps", started as ``lammps`` says), "analytic" (stand-in) or "template" (an external
+    engine: ``external`` as from :func:`demcal.execute.engine_spec.load_engine`, plus
+    ``runs_dir`` and ``symbols``)."""
 
     __test__ = False  # not a pytest class
 
@@ -34,21 +35,29 @@ class TestDef:
     overrides: dict[str, Any] = field(default_factory=dict)
     analytic: dict[str, Any] = field(default_factory=dict)
     backend: str = "auto"
-    engine: dict[str, Any] = field(default_factory=dict)
+    engine: str = "demcal"
+    lammps: dict[str, Any] = field(default_factory=dict)
+    external: dict[str, Any] = field(default_factory=dict)
 
     def identity(self) -> dict[str, Any]:
-        """What defines the test's results (the backend does not)."""
+        """What defines the test's results (the backend and how LAMMPS is started do not;
+        the engine does: a LAMMPS run is never taken for a demcal one, nor the other way)."""
         if self.kind == "analytic":
             return {"kind": "analytic", "analytic": self.analytic}
         if self.kind == "template":
             from demcal.execute.engine_spec import engine_identity
 
-            ident = {"kind": "template", "engine": engine_identity(self.engine)}
-            if self.engine["result"]["kind"] == "positions":
+            ident = {"kind": "template", "engine": engine_identity(self.external)}
+            if self.external["result"]["kind"] == "positions":
                 ident["measurement"] = MEASUREMENT_VERSION
             return ident
-        return {"kind": "aor", "fidelity": self.fidelity, "overrides": self.overrides,
-                "measurement": MEASUREMENT_VERSION}
+        out = {"kind": "aor", "fidelity": self.fidelity, "overrides": self.overrides,
+               "measurement": MEASUREMENT_VERSION}
+        if self.engine != "demcal":  # demcal's identity (and its stored runs) unchanged
+            from demcal.virtual.lammps_laws import LAWS_VERSION
+
+            out["engine"] = {"name": self.engine, "laws": LAWS_VERSION}
+        return out
 
 
 @dataclass(frozen=True)
@@ -64,11 +73,35 @@ class RunTask:
     plot_path: str | None = None
 
 
+def _lammps_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> None:
+    """The runs on LAMMPS, one after another (each on ``test.lammps["np"]`` MPI ranks)."""
+    from demcal.virtual import fidelity_config
+    from demcal.virtual.lammps_options import LammpsOptions
+    from demcal.virtual.lammps_run import run_aor_lammps
+
+    test = tasks[0].test
+    options = LammpsOptions.model_validate(test.lammps)
+    for t in tasks:
+        config = fidelity_config(test.fidelity, **test.overrides)
+        if t.dt_scale != 1.0:
+            config = config.model_copy(update={"dt_fraction": config.dt_fraction * t.dt_scale})
+
+        def done(_i: int, r: Any, t: RunTask = t) -> None:
+            emit({"key": t.key, "outcome": str(r.outcome), "aor_deg": r.aor_deg,
+                  "reason": r.reason, "wall_time_s": r.wall_time_s, "result": r.to_dict()})
+
+        run_aor_lammps([t.params], config=config, seeds=[t.seed], options=options,
+                       plot_paths=[t.plot_path], on_result=done)
+
+
 def _aor_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> None:
     from demcal.errors import SimulationUnstable
     from demcal.virtual import fidelity_config, run_aor
 
     test = tasks[0].test
+    if test.engine == "lammps":
+        _lammps_chunk(tasks, emit)
+        return
     # one engine per time-step scale (worlds of a batch share the fraction)
     for scale in sorted({t.dt_scale for t in tasks}):
         group = [t for t in tasks if t.dt_scale == scale]

@@ -179,7 +179,7 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
     Parameters
     ----------
     task : RunTask
-        The run (its ``test.engine`` holds the engine, ``runs_dir`` among it).
+        The run (its ``test.external`` holds the engine, ``runs_dir`` among it).
     plot_path : str, optional
         Where to save a side view of a measured pile (PNG).
 
@@ -196,7 +196,7 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
         The template names a placeholder no value is given for, or the hook fails to load:
         a mistake of the study, not of one run.
     """
-    engine = task.test.engine
+    engine = task.test.external
     t0 = time.perf_counter()
     run_dir = Path(engine["runs_dir"]) / run_dir_name(task.key)
     if run_dir.exists():

@@ -193,23 +193,29 @@ def _material(b: _Builder) -> str:
         return _section("material", "Calibrated material", "missing",
                         '<div class="banner missing"><b>No calibrated parameter set</b> is '
                         "stored yet (the optimum and verification have not run).</div>")
+    lammps = card.engine_name == "lammps"
     laws = "".join(f"<li><b>{escape(k)}</b>: {escape(v)}</li>" for k, v in (
-        ("elastic", CONTACT_LAWS["elastic"]), ("normal", CONTACT_LAWS["normal"]),
-        ("damping", CONTACT_LAWS["damping"]), ("tangential", CONTACT_LAWS["tangential"]),
-        ("rolling", f"model {card.rolling_model}: "
-                    + ROLLING_LAWS.get(card.rolling_model, card.rolling_model))))
+        card.to_dict()["engine"]["contact_laws"].items() if lammps else (
+            ("elastic", CONTACT_LAWS["elastic"]), ("normal", CONTACT_LAWS["normal"]),
+            ("damping", CONTACT_LAWS["damping"]), ("tangential", CONTACT_LAWS["tangential"]),
+            ("rolling", f"model {card.rolling_model}: "
+                        + ROLLING_LAWS.get(card.rolling_model, card.rolling_model)))))
     eng = card.engine
     test = card.test
-    line = (f"<p><b>Engine:</b> demcal {escape(str(eng.get('version') or ''))} (backend "
-            f"{escape(str(eng.get('backend') or 'auto'))}, rolling friction model "
-            f"{escape(card.rolling_model)}); virtual test {escape(str(test.get('kind')))}"
+    who = (f"LAMMPS (pair granular; demcal {escape(str(eng.get('version') or ''))} wrote the "
+           "test and measured the piles): <b>these parameters are for LAMMPS</b> with "
+           "demcal's mapping (docs/lammps.md), not for demcal's engine"
+           if lammps else f"demcal {escape(str(eng.get('version') or ''))} (backend "
+           f"{escape(str(eng.get('backend') or 'auto'))}, rolling friction model "
+           f"{escape(card.rolling_model)})")
+    line = (f"<p><b>Engine:</b> {who}; virtual test {escape(str(test.get('kind')))}"
             f" at fidelity {escape(str(test.get('fidelity')))}"
             + (f", time step {_fmt(eng.get('dt_fraction'), '.3g')} of the Rayleigh step"
                if eng.get("dt_fraction") is not None else "") + ".</p>"
             + _shape_line(card.shape)
             + f'<p class="verdict"><b>Verification:</b> '
             f"{escape(str(card.verification.get('line', '')))}.</p>")
-    if not card.is_demcal:  # an external engine: its laws, not demcal's
+    if card.is_external:  # an external engine: its laws, not demcal's
         line = (f"<p><b>Engine:</b> {escape(str(eng.get('name')))}: "
                 f"<code>{escape(str(eng.get('command') or ''))}</code> (input template "
                 f"<code>{escape(str(eng.get('template') or ''))}</code>, SHA-256 "
@@ -226,7 +232,8 @@ def _material(b: _Builder) -> str:
              "<code>demcal simulate aor --material material.toml</code>.</p>")
     return _section("material", "Calibrated material", None,
                     line + b.table(M.card_table(card)) + files
-                    + f"<details open><summary>Contact laws of the engine (demcal.dem.contact)"
+                    + f"<details open><summary>Contact laws of the engine "
+                      f"({'LAMMPS pair granular' if lammps else 'demcal.dem.contact'})"
                       f"</summary><ul>{laws}</ul></details>")
 
 

@@ -70,6 +70,9 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
     engine = {"version": str(versions.get("demcal") or ""),
               "backend": str(versions.get("engine_backend") or study.get("backend") or "auto"),
               "rolling_model": "A"}
+    name = versions.get("engine") or (study.get("executor") or {}).get("engine") or "demcal"
+    if name != "demcal":  # the parameters are that engine's (docs/lammps.md)
+        engine["name"] = str(name)
     shape: dict[str, Any] = {}
     try:
         from demcal.virtual.config import fidelity_config

@@ -30,7 +30,13 @@ from demcal.dem.state import ClumpGroup, World
 from demcal.dem.walls import PlaneWall, TubeWall
 from demcal.errors import InputError
 from demcal.virtual.config import AoRTestConfig
-from demcal.virtual.factory import SphereGrid, draw_scales, make_template, place_in_cylinder
+from demcal.virtual.factory import (
+    SphereGrid,
+    draw_scales,
+    make_template,
+    pack_cylinder,
+    place_in_cylinder,
+)
 from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled
 from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
@@ -73,6 +79,7 @@ class AoRResult:
     views_deg: list[dict[str, float]] = field(default_factory=list)
     phase_times_s: dict[str, float] = field(default_factory=dict)
     artefacts: dict[str, str] = field(default_factory=dict)
+    engine: str = "demcal"  #: the DEM engine that ran the test: "demcal" or "lammps"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (``aor_deg`` is None unless the outcome is ``pile``)."""
@@ -253,26 +260,8 @@ def _required() -> list[str]:
 def _start_fill(sim: Simulation, run: _Run, config: AoRTestConfig, template) -> None:
     fill = config.fill
     if fill.method == "packing":
-        g = config.geometry
-        r_in = 0.5 * g.cylinder_inner_diameter
-        mean_vol = template.volume * float(np.mean(run.scales**3))
-        height = run.capacity * mean_vol / (fill.packing_fraction * math.pi * r_in**2)
-        z_low = float(run.scales.max() * template.bounding_radius)
-        grid = SphereGrid(2.0 * float(template.radii.max() * run.scales.max()))
-        todo = np.arange(run.capacity)
-        for _ in range(20):
-            idx, pos, quat = place_in_cylinder(template, run.scales[todo], radius=r_in,
-                                               z_low=z_low, z_high=z_low + height,
-                                               rng=run.rng, grid=grid, attempts=30)
-            if len(idx):
-                sim.place_clumps(run.index, todo[idx], pos, quat)
-            todo = np.delete(todo, idx)
-            if len(todo) == 0:
-                break
-            height *= 1.25
-        if len(todo):
-            raise InputError(f"could not place {len(todo)} of {run.capacity} particles in the "
-                             "cylinder; lower fill.count")
+        idx, pos, quat = pack_cylinder(template, run.scales, config, run.rng)
+        sim.place_clumps(run.index, idx, pos, quat)
         run.inserted = run.capacity
         _enter(run, "fill_settle", 0.0)
 

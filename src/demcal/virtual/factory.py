@@ -16,9 +16,9 @@ import numpy as np
 from demcal.dem.shapes import ClumpTemplate, cylinder_template, sphere_template, stalk_template
 from demcal.dem.state import random_quaternions, rotate
 from demcal.errors import InputError
-from demcal.virtual.config import ParticleShape
+from demcal.virtual.config import AoRTestConfig, ParticleShape
 
-__all__ = ["SphereGrid", "draw_scales", "make_template", "place_in_cylinder"]
+__all__ = ["SphereGrid", "draw_scales", "make_template", "pack_cylinder", "place_in_cylinder"]
 
 
 def make_template(shape: ParticleShape) -> ClumpTemplate:
@@ -140,3 +140,62 @@ def place_in_cylinder(template: ClumpTemplate, scales: np.ndarray, *, radius: fl
             break
     return (np.asarray(placed, dtype=np.int64), np.asarray(positions).reshape(-1, 3),
             np.asarray(quats).reshape(-1, 4))
+
+
+def pack_cylinder(template: ClumpTemplate, scales: np.ndarray, config: AoRTestConfig,
+                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The loose packing of the ``packing`` fill: every clump placed in the test's tube.
+
+    The clumps are placed in a column of the height that holds them at
+    ``config.fill.packing_fraction`` (grown by x1.25 while some do not fit, at most 20 times),
+    from just above the plate. Both engines (demcal's and LAMMPS) start from this packing, so
+    the same seed gives them the same initial state.
+
+    Parameters
+    ----------
+    template : ClumpTemplate
+        Unscaled template.
+    scales : (n,) ndarray
+        Size factor of every clump.
+    config : AoRTestConfig
+        The test (tube radius, fill packing fraction).
+    rng : numpy.random.Generator
+        Random source (positions and orientations).
+
+    Returns
+    -------
+    indices : (n,) int ndarray
+        Clump indices (into ``scales``) in placement order.
+    positions : (n, 3) ndarray
+        Their centres, m.
+    orientations : (n, 4) ndarray
+        Their unit quaternions (w, x, y, z).
+
+    Raises
+    ------
+    InputError
+        If the clumps do not fit (lower ``fill.count``).
+    """
+    r_in = 0.5 * config.geometry.cylinder_inner_diameter
+    n = len(scales)
+    mean_vol = template.volume * float(np.mean(scales**3))
+    height = n * mean_vol / (config.fill.packing_fraction * math.pi * r_in**2)
+    z_low = float(scales.max() * template.bounding_radius)
+    grid = SphereGrid(2.0 * float(template.radii.max() * scales.max()))
+    todo = np.arange(n)
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    for _ in range(20):
+        idx, pos, quat = place_in_cylinder(template, scales[todo], radius=r_in, z_low=z_low,
+                                           z_high=z_low + height, rng=rng, grid=grid,
+                                           attempts=30)
+        if len(idx):
+            parts.append((todo[idx], pos, quat))
+        todo = np.delete(todo, idx)
+        if len(todo) == 0:
+            break
+        height *= 1.25
+    if len(todo):
+        raise InputError(f"could not place {len(todo)} of {n} particles in the cylinder; "
+                         "lower fill.count")
+    return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
+            np.concatenate([p[2] for p in parts]))

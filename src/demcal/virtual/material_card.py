@@ -45,6 +45,9 @@ __all__ = [
 CARD_FORMAT = "demcal-material-card"
 #: Version of the card layout this module writes and reads.
 CARD_VERSION = 1
+#: The engines a card may be for: demcal's own, LAMMPS (docs/lammps.md) or an external engine
+#: driven through an input template (docs/external_engines.md).
+ENGINE_NAMES = ("demcal", "lammps", "template")
 
 #: The contact laws of demcal's engine that the parameters enter (see demcal.dem.contact).
 CONTACT_LAWS: dict[str, str] = {
@@ -68,6 +71,24 @@ ROLLING_LAWS: dict[str, str] = {
     "C": "type C, elastic-plastic spring (EPSD): k_r = 2.25 S_n mu_r^2 R*^2 with S_n = 2 E* a, "
          "torque capped at mu_r R* F_rep (history-dependent; demcal.dem.kernels._rolling_c)",
     "none": "no rolling resistance (rolling friction coefficients unused)",
+}
+
+#: The laws of the LAMMPS engine (``[executor] engine = "lammps"``) that the parameters enter:
+#: LAMMPS' pair granular with demcal's parameters mapped as in demcal.virtual.lammps_laws.
+LAMMPS_CONTACT_LAWS: dict[str, str] = {
+    "elastic": "LAMMPS hertz/material with (E, nu) chosen so that LAMMPS' E* and G* are "
+               "demcal's (1/E* = (1-v1^2)/E1 + (1-v2^2)/E2, 1/G* = (2-v1)/G1 + (2-v2)/G2)",
+    "normal": "LAMMPS jkr when gamma > 0 (the hysteretic JKR, EDEM's version 2: no force on "
+              "approach, pull-off 3/2 pi w R*), else Hertz",
+    "damping": "LAMMPS damping coeff_restitution (= EDEM's 2 sqrt(5/6) beta sqrt(S_n m*)), "
+               "tangential x_gamma_t = sqrt(4 G*/E*); with jkr: damping viscoelastic matched "
+               "at a typical contact",
+    "tangential": "LAMMPS tangential mindlin (k_t = 8 G* a), Coulomb limit mu_s |F_n| "
+                  "(with jkr: mu_s |F_ne + 2 F_pulloff|)",
+    "rolling": "LAMMPS rolling sds: torque capped at mu_r R* |F_n| (demcal's model C lever "
+               "arm), spring k_roll = 4.5 E* a mu_r^2 at a typical contact, no damping",
+    "mass": "clump mass and inertia tensor of demcal's union-of-spheres template (fix "
+            "rigid/small infile)",
 }
 
 _LAW_OF = {"poisson": "elastic", "shear_modulus": "elastic", "density": "mass",
@@ -122,14 +143,21 @@ class MaterialCard:
     shape: dict[str, Any] = field(default_factory=dict)
 
     @property
+    def engine_name(self) -> str:
+        """The engine the parameters are for: ``"demcal"``, ``"lammps"`` or ``"template"``
+        (an external engine, :mod:`demcal.execute.template_engine`)."""
+        return str(self.engine.get("name") or "demcal")
+
+    @property
     def rolling_model(self) -> str:
         """The rolling-friction model (``"A"`` unless the card says otherwise)."""
         return str(self.engine.get("rolling_model") or "A")
 
     @property
-    def is_demcal(self) -> bool:
-        """Calibrated with demcal's own engine (else an external one, ``engine.name``)."""
-        return str(self.engine.get("name") or "demcal") == "demcal"
+    def is_external(self) -> bool:
+        """Calibrated in an external engine driven through a template (``engine.name``
+        ``"template"``): its values mean that engine's laws, which demcal does not know."""
+        return self.engine_name not in ("demcal", "lammps")
 
     def rows(self) -> list[dict[str, Any]]:
         """One row per parameter: name, symbol, value, unit, role, law, description."""
@@ -147,14 +175,18 @@ class MaterialCard:
 
     def to_dict(self) -> dict[str, Any]:
         """The card as plain JSON-able data (the layout of ``material.json``)."""
-        laws = {k: CONTACT_LAWS[k] for k in ("elastic", "normal", "damping", "tangential")}
-        laws["rolling"] = ROLLING_LAWS.get(self.rolling_model, self.rolling_model)
+        if self.engine_name == "lammps":
+            laws = {k: LAMMPS_CONTACT_LAWS[k] for k in ("elastic", "normal", "damping",
+                                                        "tangential", "rolling")}
+        else:
+            laws = {k: CONTACT_LAWS[k] for k in ("elastic", "normal", "damping", "tangential")}
+            laws["rolling"] = ROLLING_LAWS.get(self.rolling_model, self.rolling_model)
         params = {}
         for r in self.rows():
             params[r["parameter"]] = {k: r[k] for k in ("value", "unit", "role", "symbol",
                                                           "law", "description")}
         engine = {"name": "demcal", **self.engine}
-        if self.is_demcal:  # an external engine's parameters mean that engine's laws
+        if not self.is_external:  # an external engine's parameters mean its own laws
             engine.update(rolling_model=self.rolling_model, contact_laws=laws)
         out = {"card": {"format": CARD_FORMAT, "version": CARD_VERSION, "study": self.study},
                "engine": engine,
@@ -175,7 +207,7 @@ class MaterialCard:
                  "# contact laws they belong to and the verification. Run it again with",
                  "#   demcal simulate aor --material material.toml",
                  "# See docs/material_card.md.", ""]
-        if not self.is_demcal:
+        if self.is_external:
             lines[:4] = ["# demcal material card: every parameter of the material in SI units and",
                          "# the verification, calibrated in the EXTERNAL engine of [engine]: the",
                          "# values mean that engine's contact laws, not demcal's. See",
@@ -342,7 +374,13 @@ def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
         raise InputError(f"{name}: parameters missing: {', '.join(missing)} (a card gives "
                          "every parameter)")
     engine = {k: v for k, v in _table(doc, "engine", name, required=False).items()
-              if k != "contact_laws" and (k != "name" or v != "demcal")}
+              if k not in ("name", "contact_laws")}
+    name_ = _table(doc, "engine", name, required=False).get("name") or "demcal"
+    if name_ not in ENGINE_NAMES:
+        raise InputError(f"{name}: engine.name must be one of {', '.join(ENGINE_NAMES)}; "
+                         f"got {name_!r}")
+    if name_ != "demcal":
+        engine["name"] = name_
     rolling = engine.get("rolling_model", "A")
     if rolling not in ROLLING_LAWS:
         raise InputError(f"{name}: engine.rolling_model must be one of "

