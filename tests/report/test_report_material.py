@@ -85,6 +85,19 @@ def test_the_material_card_of_the_paper_store(tmp_path):
     assert x3[4:6] == ["calibrated", "tangential"]
 
 
+def test_a_lammps_study_gives_a_lammps_card_with_model_c(tmp_path):
+    """LAMMPS has no rolling model A: a LAMMPS card names its sds law's demcal twin, C."""
+    study = build_paper_store(tmp_path / "study")
+    with RunStore(study) as store:
+        store.set_meta("versions", {**store.meta("versions"), "engine": "lammps"})
+    path = build_report(study)
+    card = read_material_card(path.parent / "material.toml")
+    assert card.engine_name == "lammps" and card.rolling_model == "C"
+    laws = json.loads((path.parent / "material.json").read_text())["engine"]["contact_laws"]
+    assert laws["rolling"].startswith("LAMMPS rolling sds")
+    assert "these parameters are for LAMMPS" in section(path.read_text("utf-8"), "material")
+
+
 def test_no_card_before_an_optimum(tmp_path):
     study = build_paper_store(tmp_path / "study", stages=("rangefind", "screening"))
     path = build_report(study)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import pytest
 from typer.testing import CliRunner
@@ -176,6 +177,26 @@ def test_simulate_refuses_bad_cards(captured, tmp_path, args, field):
     assert res.exit_code == 2, res.output
     assert field in res.output and "Traceback" not in res.output
     assert not captured  # nothing ran
+
+
+def test_simulate_refuses_a_card_from_an_external_engine(captured, tmp_path):
+    """A template engine's values mean that engine's laws: demcal does not run them."""
+    card = replace(_card(), engine={"name": "template", "command": "liggghts -in in.aor",
+                                    "template": "in.aor.template", "template_sha256": "0" * 64})
+    toml_path, _ = card.write(tmp_path)
+    assert read_material_card(toml_path).is_external
+    res = CliRunner().invoke(app, ["simulate", "aor", "--material", str(toml_path)])
+    assert res.exit_code == 2, res.output
+    assert "external engine (liggghts -in in.aor)" in res.output
+    assert "Traceback" not in res.output and not captured  # nothing ran
+
+
+def test_a_card_names_only_known_engines(tmp_path):
+    toml_path, _ = replace(_card(), engine={"name": "lammps", "rolling_model": "C"}).write(tmp_path)
+    assert read_material_card(toml_path).engine_name == "lammps"
+    text = toml_path.read_text().replace('name = "lammps"', 'name = "edem"')
+    with pytest.raises(InputError, match=r"engine\.name must be one of demcal, lammps, template"):
+        parse_material_card(text)
 
 
 @pytest.mark.slow

@@ -80,6 +80,9 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
         cfg = fidelity_config(str(test.get("fidelity") or "quick"),
                               **(test.get("overrides") or {}))
         engine["rolling_model"] = cfg.rolling_model
+        if name == "lammps" and cfg.rolling_model != "none":
+            # LAMMPS has no model A: its rolling sds is model C's law (docs/lammps.md)
+            engine["rolling_model"] = "C"
         engine["dt_fraction"] = cfg.dt_fraction
         p = cfg.particle
         shape = {"template": p.template, "length_m": p.length, "diameter_m": p.diameter,
