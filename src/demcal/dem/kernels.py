@@ -23,17 +23,21 @@ import math
 
 from numba import njit
 
-from demcal.dem.contact import normal_contact, tangential_contact
+from demcal.dem.contact import (  # noqa: F401 (re-exported: the launchers' imports)
+    N_PAIR_FIELDS,
+    P_BETA,
+    P_ESTAR,
+    P_GAMMA,
+    P_GSTAR,
+    P_MU_R,
+    P_MU_S,
+    ROLLING_A,
+    ROLLING_C,
+    ROLLING_NONE,
+    ZERO3,
+    contact_response,
+)
 from demcal.dem.walls import WALL_NONE, closest_point, surely_beyond
-
-# pair-parameter fields (last axis of ``pair_params``)
-P_ESTAR = 0
-P_GSTAR = 1
-P_BETA = 2
-P_MU_S = 3
-P_MU_R = 4
-P_GAMMA = 5
-N_PAIR_FIELDS = 6
 
 #: most walls per world: a sphere's wall candidates are the bits of one int64
 MAX_WALLS = 64
@@ -42,11 +46,6 @@ MAX_WALLS = 64
 INACTIVE = 0
 ACTIVE = 1
 REMOVED = 2
-
-# rolling friction models
-ROLLING_NONE = 0
-ROLLING_A = 1  # constant directional torque (EDEM standard)
-ROLLING_C = 2  # elastic-plastic spring-dashpot (EPSD)
 
 # cell-key packing
 CELL_BITS = 16
@@ -139,41 +138,17 @@ def zero3(arr, i, k):
 
 
 @njit(cache=True)
-def _rolling_c(m_x, m_y, m_z, n_x, n_y, n_z, w_x, w_y, w_z, dt, stiff_n, eff_radius,
-               mu_r, f_rep):
-    """EPSD rolling spring (type C): torque on body b, updated history (3 floats).
+def load3(arr, i, k):
+    """``arr[i, k, 0:3]`` as a tuple (a slot's 3-vector)."""
+    return arr[i, k, 0], arr[i, k, 1], arr[i, k, 2]
 
-    ``w`` is the angular velocity of b relative to a. The spring ``k_r = 2.25 S_n mu_r^2 R*^2``
-    accumulates ``-k_r w_t dt`` (tangential part of w) and is capped at ``mu_r R* F_rep``.
-    """
-    wn = w_x * n_x + w_y * n_y + w_z * n_z
-    w_x -= wn * n_x
-    w_y -= wn * n_y
-    w_z -= wn * n_z
-    old2 = m_x * m_x + m_y * m_y + m_z * m_z
-    mn = m_x * n_x + m_y * n_y + m_z * n_z
-    m_x -= mn * n_x
-    m_y -= mn * n_y
-    m_z -= mn * n_z
-    new2 = m_x * m_x + m_y * m_y + m_z * m_z
-    if new2 > 0.0 and old2 > new2:
-        sc = math.sqrt(old2 / new2)
-        m_x *= sc
-        m_y *= sc
-        m_z *= sc
-    kr = 2.25 * stiff_n * mu_r * mu_r * eff_radius * eff_radius
-    m_x -= kr * w_x * dt
-    m_y -= kr * w_y * dt
-    m_z -= kr * w_z * dt
-    mmax = mu_r * eff_radius * f_rep
-    mag = math.sqrt(m_x * m_x + m_y * m_y + m_z * m_z)
-    if mag > mmax:
-        if mag > 0.0:
-            r = mmax / mag
-            m_x *= r
-            m_y *= r
-            m_z *= r
-    return m_x, m_y, m_z
+
+@njit(cache=True)
+def store3(arr, i, k, v):
+    """Write the 3-vector ``v`` into ``arr[i, k, 0:3]``."""
+    arr[i, k, 0] = v[0]
+    arr[i, k, 1] = v[1]
+    arr[i, k, 2] = v[2]
 
 
 @njit(cache=True)
@@ -192,7 +167,8 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
     its world's walls ``s_wall_force[i, k]`` (N), and its contact histories. Only the walls
     in the sphere's candidate mask ``s_wall_near[i]`` (bit k: wall k, from
     :func:`wall_candidates` at the last neighbour build) are visited; the slots of the others
-    are zero and stay so until the next build.
+    are zero and stay so until the next build. Each contact's response comes from
+    :func:`~demcal.dem.contact.contact_response`.
     """
     for i in range(lo, hi):
         ci = s_clump[i]
@@ -232,6 +208,7 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
         oix = c_omega[ci, 0]
         oiy = c_omega[ci, 1]
         oiz = c_omega[ci, 2]
+        spin = (oix, oiy, oiz)
         om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
         use_c = rolling_model == ROLLING_C
         n_nb = nb_count[i]
@@ -273,14 +250,6 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             ny = dy / dist
             nz = dz / dist
             overlap = rsum - dist
-            mat_a = s_material[a]
-            mat_b = s_material[b]
-            estar = pair_params[w, mat_a, mat_b, P_ESTAR]
-            gstar = pair_params[w, mat_a, mat_b, P_GSTAR]
-            beta = pair_params[w, mat_a, mat_b, P_BETA]
-            mu_s = pair_params[w, mat_a, mat_b, P_MU_S]
-            mu_r = pair_params[w, mat_a, mat_b, P_MU_R]
-            gamma = pair_params[w, mat_a, mat_b, P_GAMMA]
             reff = ra * rb / rsum
             ma = c_mass[ca]
             mb = c_mass[cb]
@@ -305,28 +274,7 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             vx = (c_veval[cb, 0] + wby * pbz - wbz * pby) - (c_veval[ca, 0] + way * paz - waz * pay)
             vy = (c_veval[cb, 1] + wbz * pbx - wbx * pbz) - (c_veval[ca, 1] + waz * pax - wax * paz)
             vz = (c_veval[cb, 2] + wbx * pby - wby * pbx) - (c_veval[ca, 2] + wax * pay - way * pax)
-            vn = vx * nx + vy * ny + vz * nz
-            fn, frep, arad = normal_contact(overlap, vn, reff, estar, meff, beta, gamma)
-            if arad <= 0.0:
-                zero3(nb_hist, i, k)
-                if use_c:
-                    zero3(nb_rhist, i, k)
-                continue
-            if overlap > max_overlap_fraction * min(ra, rb):
-                flag_overlap[w] = 1
-            vtx = vx - vn * nx
-            vty = vy - vn * ny
-            vtz = vz - vn * nz
-            xi0, xi1, xi2, ftx, fty, ftz = tangential_contact(
-                nb_hist[i, k, 0], nb_hist[i, k, 1], nb_hist[i, k, 2], nx, ny, nz, vtx, vty, vtz,
-                dt, arad, gstar, meff, beta, mu_s, frep)
-            nb_hist[i, k, 0] = xi0
-            nb_hist[i, k, 1] = xi1
-            nb_hist[i, k, 2] = xi2
-            # force on b
-            fbx = fn * nx + ftx
-            fby = fn * ny + fty
-            fbz = fn * nz + ftz
+            # this sphere's side: the force on b acts on i with sign sgn, lever p from i's clump
             if i == b:
                 sgn = 1.0
                 px = pbx
@@ -337,32 +285,35 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
                 px = pax
                 py = pay
                 pz = paz
-            fix = sgn * fbx
-            fiy = sgn * fby
-            fiz = sgn * fbz
+            arad, fb, xi, roll_a, roll_c = contact_response(
+                overlap, (nx, ny, nz), (vx, vy, vz), pair_params[w, s_material[a], s_material[b]],
+                reff, meff, dt, load3(nb_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
+                (wbx - wax, wby - way, wbz - waz), load3(nb_rhist, i, k) if use_c else ZERO3)
+            if arad <= 0.0:
+                zero3(nb_hist, i, k)
+                if use_c:
+                    zero3(nb_rhist, i, k)
+                continue
+            if overlap > max_overlap_fraction * min(ra, rb):
+                flag_overlap[w] = 1
+            store3(nb_hist, i, k, xi)
+            fix = sgn * fb[0]
+            fiy = sgn * fb[1]
+            fiz = sgn * fb[2]
             fx += fix
             fy += fiy
             fz += fiz
             tx += py * fiz - pz * fiy
             ty += pz * fix - px * fiz
             tz += px * fiy - py * fix
-            if rolling_model == ROLLING_A:
-                if om_i > 0.0 and mu_r > 0.0:
-                    arm = math.sqrt(px * px + py * py + pz * pz)
-                    mag = mu_r * frep * arm / om_i
-                    rx -= mag * oix
-                    ry -= mag * oiy
-                    rz -= mag * oiz
-            elif use_c:
-                m0, m1, m2 = _rolling_c(nb_rhist[i, k, 0], nb_rhist[i, k, 1], nb_rhist[i, k, 2],
-                                        nx, ny, nz, wbx - wax, wby - way, wbz - waz, dt,
-                                        2.0 * estar * arad, reff, mu_r, frep)
-                nb_rhist[i, k, 0] = m0
-                nb_rhist[i, k, 1] = m1
-                nb_rhist[i, k, 2] = m2
-                tx += sgn * m0
-                ty += sgn * m1
-                tz += sgn * m2
+            rx -= roll_a[0]
+            ry -= roll_a[1]
+            rz -= roll_a[2]
+            if use_c:
+                store3(nb_rhist, i, k, roll_c)
+                tx += sgn * roll_c[0]
+                ty += sgn * roll_c[1]
+                tz += sgn * roll_c[2]
         # walls of this world: wall = a, sphere = b
         vix = c_veval[ci, 0]
         viy = c_veval[ci, 1]
@@ -389,13 +340,6 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
                 if use_c:
                     zero3(w_rhist, i, k)
                 continue
-            mat_w = wall_material[w, k]
-            estar = pair_params[w, mat_w, mat_i, P_ESTAR]
-            gstar = pair_params[w, mat_w, mat_i, P_GSTAR]
-            beta = pair_params[w, mat_w, mat_i, P_BETA]
-            mu_s = pair_params[w, mat_w, mat_i, P_MU_S]
-            mu_r = pair_params[w, mat_w, mat_i, P_MU_R]
-            gamma = pair_params[w, mat_w, mat_i, P_GAMMA]
             lever = ri - 0.5 * overlap
             cx = pix - nx * lever
             cy = piy - ny * lever
@@ -406,8 +350,10 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             vx = vix + oiy * pz - oiz * py - wall_vel[w, k, 0]
             vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
             vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
-            vn = vx * nx + vy * ny + vz * nz
-            fn, frep, arad = normal_contact(overlap, vn, ri, estar, mass_i, beta, gamma)
+            arad, fb, xi, roll_a, roll_c = contact_response(
+                overlap, (nx, ny, nz), (vx, vy, vz), pair_params[w, wall_material[w, k], mat_i],
+                ri, mass_i, dt, load3(w_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
+                spin, load3(w_rhist, i, k) if use_c else ZERO3)
             if arad <= 0.0:
                 zero3(w_hist, i, k)
                 if use_c:
@@ -415,18 +361,10 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
                 continue
             if overlap > max_overlap_fraction * ri:
                 flag_overlap[w] = 1
-            vtx = vx - vn * nx
-            vty = vy - vn * ny
-            vtz = vz - vn * nz
-            xi0, xi1, xi2, ftx, fty, ftz = tangential_contact(
-                w_hist[i, k, 0], w_hist[i, k, 1], w_hist[i, k, 2], nx, ny, nz, vtx, vty, vtz,
-                dt, arad, gstar, mass_i, beta, mu_s, frep)
-            w_hist[i, k, 0] = xi0
-            w_hist[i, k, 1] = xi1
-            w_hist[i, k, 2] = xi2
-            fix = fn * nx + ftx
-            fiy = fn * ny + fty
-            fiz = fn * nz + ftz
+            store3(w_hist, i, k, xi)
+            fix = fb[0]
+            fiy = fb[1]
+            fiz = fb[2]
             fx += fix
             fy += fiy
             fz += fiz
@@ -436,23 +374,14 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             s_wall_force[i, k, 0] = -fix
             s_wall_force[i, k, 1] = -fiy
             s_wall_force[i, k, 2] = -fiz
-            if rolling_model == ROLLING_A:
-                if om_i > 0.0 and mu_r > 0.0:
-                    arm = math.sqrt(px * px + py * py + pz * pz)
-                    mag = mu_r * frep * arm / om_i
-                    rx -= mag * oix
-                    ry -= mag * oiy
-                    rz -= mag * oiz
-            elif use_c:
-                m0, m1, m2 = _rolling_c(w_rhist[i, k, 0], w_rhist[i, k, 1], w_rhist[i, k, 2],
-                                        nx, ny, nz, oix, oiy, oiz, dt, 2.0 * estar * arad, ri,
-                                        mu_r, frep)
-                w_rhist[i, k, 0] = m0
-                w_rhist[i, k, 1] = m1
-                w_rhist[i, k, 2] = m2
-                tx += m0
-                ty += m1
-                tz += m2
+            rx -= roll_a[0]
+            ry -= roll_a[1]
+            rz -= roll_a[2]
+            if use_c:
+                store3(w_rhist, i, k, roll_c)
+                tx += roll_c[0]
+                ty += roll_c[1]
+                tz += roll_c[2]
         s_force[i, 0] = fx
         s_force[i, 1] = fy
         s_force[i, 2] = fz

@@ -15,6 +15,7 @@ from numba import njit, prange
 
 from demcal.dem.kernels import (
     ACTIVE,
+    ROLLING_C,
     advance_world,
     cell_bucket,
     cell_coords,
@@ -390,7 +391,7 @@ def run_chunk(
     size in ``stats`` (0: largest neighbour count, 1: fullest bucket); the host grows the
     arrays and calls again, losing nothing. ``stats[2]`` counts neighbour rebuilds.
     """
-    carry_rolling = rolling_model == 2
+    carry_rolling = rolling_model == ROLLING_C
     n_worlds = world_dt.shape[0]
     for step in range(n_steps):
         if flag_rebuild[0] != 0:

@@ -43,6 +43,7 @@ from demcal.dem.kernels import (
     ACTIVE,
     CELL_BITS,
     CELL_MAX,
+    ROLLING_C,
     advance_world,
     cell_bucket,
     cell_coords,
@@ -352,7 +353,7 @@ class CudaRunner:
         mask = np.int64(len(sim.arrays["bucket_count"]) - 1)
         inv_cell = 1.0 / sim.cell_size
         extra = sim.skin + sim.contact_margin
-        carry = sim.rolling_model == 2
+        carry = sim.rolling_model == ROLLING_C
         nb_cap = d["nb_index_a"].shape[1]
         bcap = d["bucket_members"].shape[1]
         k.k_bin[nb, THREADS, s](
@@ -463,7 +464,7 @@ class CudaRunner:
                 a[f"nb_count_{side}"][:] = old["nb_count"]
                 a[f"nb_index_{side}"][:, :cap] = old["nb_index"]
                 a[f"nb_hist_{side}"][:, :cap] = old["nb_hist"]
-                if sim.rolling_model == 2:
+                if sim.rolling_model == ROLLING_C:
                     a[f"nb_rhist_{side}"][:, :cap] = old["nb_rhist"]
         if need_b > a["bucket_members"].shape[1]:
             sim._grow_buckets(need_b)
