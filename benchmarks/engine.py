@@ -190,7 +190,7 @@ def _case(backend: str, n_clumps: int, n_steps: int, repeat: int, settle: int,
 def _batch(backend: str, base: Simulation, n_worlds: int, n_steps: int, repeat: int,
            cohesion: float) -> dict:
     """``n_worlds`` copies of a settled bed (its clump poses) in one engine."""
-    base._runner.pull("c_pos", "c_quat")
+    base.runner.pull("c_pos", "c_quat")
     pos, quat = base.arrays["c_pos"].copy(), base.arrays["c_quat"].copy()
     _, _, half, height = woodpile(len(pos))
     sim = Simulation([bed_world(pos, quat, half, height, cohesion) for _ in range(n_worlds)],

@@ -144,6 +144,14 @@ def load3(arr, i, k):
 
 
 @njit(cache=True)
+def store2(arr, i, v):
+    """Write the 3-vector ``v`` into ``arr[i, 0:3]``."""
+    arr[i, 0] = v[0]
+    arr[i, 1] = v[1]
+    arr[i, 2] = v[2]
+
+
+@njit(cache=True)
 def store3(arr, i, k, v):
     """Write the 3-vector ``v`` into ``arr[i, k, 0:3]``."""
     arr[i, k, 0] = v[0]
@@ -151,268 +159,318 @@ def store3(arr, i, k, v):
     arr[i, k, 2] = v[2]
 
 
-@njit(cache=True)
-def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
-                  c_pos, c_veval, c_omega, c_mass, c_world, c_state,
-                  nb_count, nb_index, nb_hist, nb_rhist,
-                  wall_type, wall_origin, wall_geom, wall_vel, wall_material, w_hist, w_rhist,
-                  s_wall_near, pair_params, world_dt, world_active, rolling_model,
-                  contact_margin, max_overlap_fraction,
-                  s_force, s_torque, s_roll, s_wall_force, flag_overlap):
-    """Gather the contact forces and torques acting on sphere ``i``.
+@njit(cache=True, inline="always")
+def pair_contacts(i, ci, w, sph, clu, nb, worlds, prm, flags, spin, om_i):
+    """Forces of sphere ``i``'s neighbour slots on it: (force, torque, type-A roll), 3-tuples.
 
-    Writes ``s_force[i]`` (N), ``s_torque[i]`` (contact torque about the clump's centre of
-    mass plus type-C rolling torque, N m), ``s_roll[i]`` (type-A rolling torque, N m, applied
-    with a no-reversal limit by :func:`clump_step`), the forces this sphere exerts on each of
-    its world's walls ``s_wall_force[i, k]`` (N), and its contact histories. Only the walls
-    in the sphere's candidate mask ``s_wall_near[i]`` (bit k: wall k, from
-    :func:`wall_candidates` at the last neighbour build) are visited; the slots of the others
-    are zero and stay so until the next build. Each contact's response comes from
-    :func:`~demcal.dem.contact.contact_response`.
+    ``ci`` and ``w`` are its clump and world, ``spin`` its clump's angular velocity (rad/s)
+    and ``om_i`` the magnitude. Updates the slots' histories.
     """
-    for i in range(lo, hi):
-        ci = s_clump[i]
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        tx = 0.0
-        ty = 0.0
-        tz = 0.0
-        rx = 0.0
-        ry = 0.0
-        rz = 0.0
-        n_walls = wall_type.shape[1]
-        if c_state[ci] != ACTIVE or world_active[c_world[ci]] == 0:
-            s_force[i, 0] = 0.0
-            s_force[i, 1] = 0.0
-            s_force[i, 2] = 0.0
-            s_torque[i, 0] = 0.0
-            s_torque[i, 1] = 0.0
-            s_torque[i, 2] = 0.0
-            s_roll[i, 0] = 0.0
-            s_roll[i, 1] = 0.0
-            s_roll[i, 2] = 0.0
-            for k in range(n_walls):
-                zero3(s_wall_force, i, k)
+    s_pos = sph.pos
+    s_radius = sph.radius
+    s_clump = sph.clump
+    s_material = sph.material
+    c_pos = clu.pos
+    c_veval = clu.veval
+    c_omega = clu.omega
+    c_mass = clu.mass
+    c_state = clu.state
+    nb_index = nb.index
+    nb_hist = nb.hist
+    nb_rhist = nb.rhist
+    pair_params = worlds.pair_params
+    contact_margin = prm.contact_margin
+    rolling_model = prm.rolling_model
+    use_c = rolling_model == ROLLING_C
+    dt = worlds.dt[w]
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    tx = 0.0
+    ty = 0.0
+    tz = 0.0
+    rx = 0.0
+    ry = 0.0
+    rz = 0.0
+    n_nb = nb.count[i]
+    cap = nb_index.shape[1]
+    if n_nb > cap:
+        n_nb = cap
+    for k in range(n_nb):
+        j = nb_index[i, k]
+        # canonical orientation: a = lower index, b = higher index
+        if i < j:
+            a = i
+            b = j
+        else:
+            a = j
+            b = i
+        dx = s_pos[b, 0] - s_pos[a, 0]
+        dy = s_pos[b, 1] - s_pos[a, 1]
+        dz = s_pos[b, 2] - s_pos[a, 2]
+        ra = s_radius[a]
+        rb = s_radius[b]
+        rsum = ra + rb
+        dist2 = dx * dx + dy * dy + dz * dz
+        reach = rsum + contact_margin
+        # the clump of j is looked up only for pairs within reach
+        cj = s_clump[j] if dist2 < reach * reach else ci
+        if dist2 >= reach * reach or c_state[cj] != ACTIVE:
+            zero3(nb_hist, i, k)
+            if use_c:
+                zero3(nb_rhist, i, k)
             continue
-        w = c_world[ci]
-        dt = world_dt[w]
-        pix = s_pos[i, 0]
-        piy = s_pos[i, 1]
-        piz = s_pos[i, 2]
-        ri = s_radius[i]
-        mat_i = s_material[i]
-        com_ix = c_pos[ci, 0]
-        com_iy = c_pos[ci, 1]
-        com_iz = c_pos[ci, 2]
-        oix = c_omega[ci, 0]
-        oiy = c_omega[ci, 1]
-        oiz = c_omega[ci, 2]
+        if i < j:
+            ca = ci
+            cb = cj
+        else:
+            ca = cj
+            cb = ci
+        dist = math.sqrt(dist2)
+        nx = dx / dist
+        ny = dy / dist
+        nz = dz / dist
+        overlap = rsum - dist
+        reff = ra * rb / rsum
+        ma = c_mass[ca]
+        mb = c_mass[cb]
+        meff = ma * mb / (ma + mb)
+        # contact point and relative velocity (b w.r.t. a) there
+        lever = ra - 0.5 * overlap
+        cx = s_pos[a, 0] + nx * lever
+        cy = s_pos[a, 1] + ny * lever
+        cz = s_pos[a, 2] + nz * lever
+        pax = cx - c_pos[ca, 0]
+        pay = cy - c_pos[ca, 1]
+        paz = cz - c_pos[ca, 2]
+        pbx = cx - c_pos[cb, 0]
+        pby = cy - c_pos[cb, 1]
+        pbz = cz - c_pos[cb, 2]
+        wax = c_omega[ca, 0]
+        way = c_omega[ca, 1]
+        waz = c_omega[ca, 2]
+        wbx = c_omega[cb, 0]
+        wby = c_omega[cb, 1]
+        wbz = c_omega[cb, 2]
+        vx = (c_veval[cb, 0] + wby * pbz - wbz * pby) - (c_veval[ca, 0] + way * paz - waz * pay)
+        vy = (c_veval[cb, 1] + wbz * pbx - wbx * pbz) - (c_veval[ca, 1] + waz * pax - wax * paz)
+        vz = (c_veval[cb, 2] + wbx * pby - wby * pbx) - (c_veval[ca, 2] + wax * pay - way * pax)
+        # this sphere's side: the force on b acts on i with sign sgn, lever p from i's clump
+        if i == b:
+            sgn = 1.0
+            px = pbx
+            py = pby
+            pz = pbz
+        else:
+            sgn = -1.0
+            px = pax
+            py = pay
+            pz = paz
+        arad, fb, xi, roll_a, roll_c = contact_response(
+            overlap, (nx, ny, nz), (vx, vy, vz), pair_params[w, s_material[a], s_material[b]],
+            reff, meff, dt, load3(nb_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
+            (wbx - wax, wby - way, wbz - waz), load3(nb_rhist, i, k) if use_c else ZERO3)
+        if arad <= 0.0:
+            zero3(nb_hist, i, k)
+            if use_c:
+                zero3(nb_rhist, i, k)
+            continue
+        if overlap > prm.max_overlap_fraction * min(ra, rb):
+            flags.overlap[w] = 1
+        store3(nb_hist, i, k, xi)
+        fix = sgn * fb[0]
+        fiy = sgn * fb[1]
+        fiz = sgn * fb[2]
+        fx += fix
+        fy += fiy
+        fz += fiz
+        tx += py * fiz - pz * fiy
+        ty += pz * fix - px * fiz
+        tz += px * fiy - py * fix
+        rx -= roll_a[0]
+        ry -= roll_a[1]
+        rz -= roll_a[2]
+        if use_c:
+            store3(nb_rhist, i, k, roll_c)
+            tx += sgn * roll_c[0]
+            ty += sgn * roll_c[1]
+            tz += sgn * roll_c[2]
+    return (fx, fy, fz), (tx, ty, tz), (rx, ry, rz)
+
+
+@njit(cache=True, inline="always")
+def wall_contacts(i, ci, w, sph, clu, walls, worlds, prm, flags, spin, om_i, force, torque,
+                  roll):
+    """Add the forces of sphere ``i``'s candidate walls to (force, torque, roll), 3-tuples.
+
+    Updates the sphere-wall slots' histories and the forces on the walls.
+    """
+    ri = sph.radius[i]
+    pix = sph.pos[i, 0]
+    piy = sph.pos[i, 1]
+    piz = sph.pos[i, 2]
+    mat_i = sph.material[i]
+    com_ix = clu.pos[ci, 0]
+    com_iy = clu.pos[ci, 1]
+    com_iz = clu.pos[ci, 2]
+    oix, oiy, oiz = spin
+    wall_type = walls.type
+    wall_origin = walls.origin
+    wall_geom = walls.geom
+    wall_vel = walls.vel
+    wall_material = walls.material
+    w_hist = walls.hist
+    w_rhist = walls.rhist
+    s_wall_force = walls.force
+    pair_params = worlds.pair_params
+    contact_margin = prm.contact_margin
+    rolling_model = prm.rolling_model
+    use_c = rolling_model == ROLLING_C
+    dt = worlds.dt[w]
+    n_walls = wall_type.shape[1]
+    fx, fy, fz = force
+    tx, ty, tz = torque
+    rx, ry, rz = roll
+    # walls of this world: wall = a, sphere = b
+    vix = clu.veval[ci, 0]
+    viy = clu.veval[ci, 1]
+    viz = clu.veval[ci, 2]
+    mass_i = clu.mass[ci]
+    near = walls.near[i]
+    for k in range(n_walls if near != 0 else 0):
+        if ((near >> k) & 1) == 0:
+            continue
+        wt = wall_type[w, k]  # never WALL_NONE: wall_candidates marks none of those
+        zero3(s_wall_force, i, k)
+        # most spheres are far from most walls: a bound without square roots skips them
+        far = surely_beyond(wt, wall_origin[w, k, 0], wall_origin[w, k, 1],
+                            wall_origin[w, k, 2], wall_geom[w, k], pix, piy, piz,
+                            ri + contact_margin)
+        overlap = -contact_margin
+        if not far:
+            d, nx, ny, nz, _qx, _qy, _qz = closest_point(
+                wt, wall_origin[w, k, 0], wall_origin[w, k, 1], wall_origin[w, k, 2],
+                wall_geom[w, k], pix, piy, piz)
+            overlap = ri - d
+        if overlap <= -contact_margin:
+            zero3(w_hist, i, k)
+            if use_c:
+                zero3(w_rhist, i, k)
+            continue
+        lever = ri - 0.5 * overlap
+        cx = pix - nx * lever
+        cy = piy - ny * lever
+        cz = piz - nz * lever
+        px = cx - com_ix
+        py = cy - com_iy
+        pz = cz - com_iz
+        vx = vix + oiy * pz - oiz * py - wall_vel[w, k, 0]
+        vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
+        vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
+        arad, fb, xi, roll_a, roll_c = contact_response(
+            overlap, (nx, ny, nz), (vx, vy, vz), pair_params[w, wall_material[w, k], mat_i],
+            ri, mass_i, dt, load3(w_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
+            spin, load3(w_rhist, i, k) if use_c else ZERO3)
+        if arad <= 0.0:
+            zero3(w_hist, i, k)
+            if use_c:
+                zero3(w_rhist, i, k)
+            continue
+        if overlap > prm.max_overlap_fraction * ri:
+            flags.overlap[w] = 1
+        store3(w_hist, i, k, xi)
+        fix = fb[0]
+        fiy = fb[1]
+        fiz = fb[2]
+        fx += fix
+        fy += fiy
+        fz += fiz
+        tx += py * fiz - pz * fiy
+        ty += pz * fix - px * fiz
+        tz += px * fiy - py * fix
+        s_wall_force[i, k, 0] = -fix
+        s_wall_force[i, k, 1] = -fiy
+        s_wall_force[i, k, 2] = -fiz
+        rx -= roll_a[0]
+        ry -= roll_a[1]
+        rz -= roll_a[2]
+        if use_c:
+            store3(w_rhist, i, k, roll_c)
+            tx += roll_c[0]
+            ty += roll_c[1]
+            tz += roll_c[2]
+    return (fx, fy, fz), (tx, ty, tz), (rx, ry, rz)
+
+
+@njit(cache=True)
+def sphere_forces(lo, hi, sph, clu, nb, walls, worlds, prm, flags):
+    """Gather the contact forces and torques acting on spheres ``lo`` to ``hi - 1``.
+
+    Writes ``sph.force[i]`` (N), ``sph.torque[i]`` (contact torque about the clump's centre
+    of mass plus type-C rolling torque, N m), ``sph.roll[i]`` (type-A rolling torque, N m,
+    applied with a no-reversal limit by :func:`clump_step`), the forces the sphere exerts on
+    each of its world's walls ``walls.force[i, k]`` (N), and its contact histories (in the
+    current neighbour list ``nb`` and in ``walls``). Only the walls in the sphere's candidate
+    mask ``walls.near[i]`` (bit k: wall k, from :func:`wall_candidates` at the last neighbour
+    build) are visited; the slots of the others are zero and stay so until the next build.
+    Each contact's response comes from :func:`~demcal.dem.contact.contact_response`
+    (:func:`pair_contacts`, :func:`wall_contacts`).
+    """
+    s_force = sph.force
+    s_torque = sph.torque
+    s_roll = sph.roll
+    for i in range(lo, hi):
+        ci = sph.clump[i]
+        if clu.state[ci] != ACTIVE or worlds.active[clu.world[ci]] == 0:
+            store2(s_force, i, ZERO3)
+            store2(s_torque, i, ZERO3)
+            store2(s_roll, i, ZERO3)
+            for k in range(walls.type.shape[1]):
+                zero3(walls.force, i, k)
+            continue
+        w = clu.world[ci]
+        oix = clu.omega[ci, 0]
+        oiy = clu.omega[ci, 1]
+        oiz = clu.omega[ci, 2]
         spin = (oix, oiy, oiz)
         om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
-        use_c = rolling_model == ROLLING_C
-        n_nb = nb_count[i]
-        cap = nb_index.shape[1]
-        if n_nb > cap:
-            n_nb = cap
-        for k in range(n_nb):
-            j = nb_index[i, k]
-            # canonical orientation: a = lower index, b = higher index
-            if i < j:
-                a = i
-                b = j
-            else:
-                a = j
-                b = i
-            dx = s_pos[b, 0] - s_pos[a, 0]
-            dy = s_pos[b, 1] - s_pos[a, 1]
-            dz = s_pos[b, 2] - s_pos[a, 2]
-            ra = s_radius[a]
-            rb = s_radius[b]
-            rsum = ra + rb
-            dist2 = dx * dx + dy * dy + dz * dz
-            reach = rsum + contact_margin
-            # the clump of j is looked up only for pairs within reach
-            cj = s_clump[j] if dist2 < reach * reach else ci
-            if dist2 >= reach * reach or c_state[cj] != ACTIVE:
-                zero3(nb_hist, i, k)
-                if use_c:
-                    zero3(nb_rhist, i, k)
-                continue
-            if i < j:
-                ca = ci
-                cb = cj
-            else:
-                ca = cj
-                cb = ci
-            dist = math.sqrt(dist2)
-            nx = dx / dist
-            ny = dy / dist
-            nz = dz / dist
-            overlap = rsum - dist
-            reff = ra * rb / rsum
-            ma = c_mass[ca]
-            mb = c_mass[cb]
-            meff = ma * mb / (ma + mb)
-            # contact point and relative velocity (b w.r.t. a) there
-            lever = ra - 0.5 * overlap
-            cx = s_pos[a, 0] + nx * lever
-            cy = s_pos[a, 1] + ny * lever
-            cz = s_pos[a, 2] + nz * lever
-            pax = cx - c_pos[ca, 0]
-            pay = cy - c_pos[ca, 1]
-            paz = cz - c_pos[ca, 2]
-            pbx = cx - c_pos[cb, 0]
-            pby = cy - c_pos[cb, 1]
-            pbz = cz - c_pos[cb, 2]
-            wax = c_omega[ca, 0]
-            way = c_omega[ca, 1]
-            waz = c_omega[ca, 2]
-            wbx = c_omega[cb, 0]
-            wby = c_omega[cb, 1]
-            wbz = c_omega[cb, 2]
-            vx = (c_veval[cb, 0] + wby * pbz - wbz * pby) - (c_veval[ca, 0] + way * paz - waz * pay)
-            vy = (c_veval[cb, 1] + wbz * pbx - wbx * pbz) - (c_veval[ca, 1] + waz * pax - wax * paz)
-            vz = (c_veval[cb, 2] + wbx * pby - wby * pbx) - (c_veval[ca, 2] + wax * pay - way * pax)
-            # this sphere's side: the force on b acts on i with sign sgn, lever p from i's clump
-            if i == b:
-                sgn = 1.0
-                px = pbx
-                py = pby
-                pz = pbz
-            else:
-                sgn = -1.0
-                px = pax
-                py = pay
-                pz = paz
-            arad, fb, xi, roll_a, roll_c = contact_response(
-                overlap, (nx, ny, nz), (vx, vy, vz), pair_params[w, s_material[a], s_material[b]],
-                reff, meff, dt, load3(nb_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
-                (wbx - wax, wby - way, wbz - waz), load3(nb_rhist, i, k) if use_c else ZERO3)
-            if arad <= 0.0:
-                zero3(nb_hist, i, k)
-                if use_c:
-                    zero3(nb_rhist, i, k)
-                continue
-            if overlap > max_overlap_fraction * min(ra, rb):
-                flag_overlap[w] = 1
-            store3(nb_hist, i, k, xi)
-            fix = sgn * fb[0]
-            fiy = sgn * fb[1]
-            fiz = sgn * fb[2]
-            fx += fix
-            fy += fiy
-            fz += fiz
-            tx += py * fiz - pz * fiy
-            ty += pz * fix - px * fiz
-            tz += px * fiy - py * fix
-            rx -= roll_a[0]
-            ry -= roll_a[1]
-            rz -= roll_a[2]
-            if use_c:
-                store3(nb_rhist, i, k, roll_c)
-                tx += sgn * roll_c[0]
-                ty += sgn * roll_c[1]
-                tz += sgn * roll_c[2]
-        # walls of this world: wall = a, sphere = b
-        vix = c_veval[ci, 0]
-        viy = c_veval[ci, 1]
-        viz = c_veval[ci, 2]
-        mass_i = c_mass[ci]
-        near = s_wall_near[i]
-        for k in range(n_walls if near != 0 else 0):
-            if ((near >> k) & 1) == 0:
-                continue
-            wt = wall_type[w, k]  # never WALL_NONE: wall_candidates marks none of those
-            zero3(s_wall_force, i, k)
-            # most spheres are far from most walls: a bound without square roots skips them
-            far = surely_beyond(wt, wall_origin[w, k, 0], wall_origin[w, k, 1],
-                                wall_origin[w, k, 2], wall_geom[w, k], pix, piy, piz,
-                                ri + contact_margin)
-            overlap = -contact_margin
-            if not far:
-                d, nx, ny, nz, _qx, _qy, _qz = closest_point(
-                    wt, wall_origin[w, k, 0], wall_origin[w, k, 1], wall_origin[w, k, 2],
-                    wall_geom[w, k], pix, piy, piz)
-                overlap = ri - d
-            if overlap <= -contact_margin:
-                zero3(w_hist, i, k)
-                if use_c:
-                    zero3(w_rhist, i, k)
-                continue
-            lever = ri - 0.5 * overlap
-            cx = pix - nx * lever
-            cy = piy - ny * lever
-            cz = piz - nz * lever
-            px = cx - com_ix
-            py = cy - com_iy
-            pz = cz - com_iz
-            vx = vix + oiy * pz - oiz * py - wall_vel[w, k, 0]
-            vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
-            vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
-            arad, fb, xi, roll_a, roll_c = contact_response(
-                overlap, (nx, ny, nz), (vx, vy, vz), pair_params[w, wall_material[w, k], mat_i],
-                ri, mass_i, dt, load3(w_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
-                spin, load3(w_rhist, i, k) if use_c else ZERO3)
-            if arad <= 0.0:
-                zero3(w_hist, i, k)
-                if use_c:
-                    zero3(w_rhist, i, k)
-                continue
-            if overlap > max_overlap_fraction * ri:
-                flag_overlap[w] = 1
-            store3(w_hist, i, k, xi)
-            fix = fb[0]
-            fiy = fb[1]
-            fiz = fb[2]
-            fx += fix
-            fy += fiy
-            fz += fiz
-            tx += py * fiz - pz * fiy
-            ty += pz * fix - px * fiz
-            tz += px * fiy - py * fix
-            s_wall_force[i, k, 0] = -fix
-            s_wall_force[i, k, 1] = -fiy
-            s_wall_force[i, k, 2] = -fiz
-            rx -= roll_a[0]
-            ry -= roll_a[1]
-            rz -= roll_a[2]
-            if use_c:
-                store3(w_rhist, i, k, roll_c)
-                tx += roll_c[0]
-                ty += roll_c[1]
-                tz += roll_c[2]
-        s_force[i, 0] = fx
-        s_force[i, 1] = fy
-        s_force[i, 2] = fz
-        s_torque[i, 0] = tx
-        s_torque[i, 1] = ty
-        s_torque[i, 2] = tz
-        s_roll[i, 0] = rx
-        s_roll[i, 1] = ry
-        s_roll[i, 2] = rz
+        force, torque, roll = pair_contacts(i, ci, w, sph, clu, nb, worlds, prm, flags, spin,
+                                            om_i)
+        force, torque, roll = wall_contacts(i, ci, w, sph, clu, walls, worlds, prm, flags, spin,
+                                            om_i, force, torque, roll)
+        store2(s_force, i, force)
+        store2(s_torque, i, torque)
+        store2(s_roll, i, roll)
 
 
 @njit(cache=True)
-def wall_candidates(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, wall_type, wall_origin,
-                    wall_geom, extra, s_wall_near, w_hist, w_rhist, s_wall_force, carry_rolling):
+def wall_candidates(lo, hi, sph, clu, walls, prm):
     """Mark the walls each sphere may touch before the next neighbour build.
 
-    Bit ``k`` of ``s_wall_near[i]`` is set when wall ``k`` comes within ``r_i + extra`` of the
-    sphere's centre (``extra`` = skin + contact margin; a conservative bound, see
+    Bit ``k`` of ``walls.near[i]`` is set when wall ``k`` comes within ``r_i + prm.wall_extra``
+    of the sphere's centre (skin + contact margin; a conservative bound, see
     :func:`~demcal.dem.walls.surely_beyond`). The rebuild rule (a sphere or a wall moving half
     the skin since the build) keeps every unmarked wall out of reach until the next build, so
     its slots are zeroed here, as the force pass would zero them at every step, and the force
     pass skips it: the results are bitwise those of visiting every wall at every step.
     """
+    s_pos = sph.pos
+    s_clump = sph.clump
+    c_state = clu.state
+    wall_type = walls.type
+    wall_origin = walls.origin
+    wall_geom = walls.geom
+    s_wall_near = walls.near
+    extra = prm.wall_extra
+    carry_rolling = prm.carry_rolling
     n_walls = wall_type.shape[1]
     for i in range(lo, hi):
         ci = s_clump[i]
         if c_state[ci] != ACTIVE:
             s_wall_near[i] = 0
             continue
-        w = c_world[ci]
-        reach = s_radius[i] + extra
+        w = clu.world[ci]
+        reach = sph.radius[i] + extra
         near = 0
         for k in range(n_walls):
             wt = wall_type[w, k]
@@ -421,19 +479,16 @@ def wall_candidates(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, wall_typ
                     wall_geom[w, k], s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], reach):
                 near |= 1 << k
                 continue
-            zero3(w_hist, i, k)
+            zero3(walls.hist, i, k)
             if carry_rolling:
-                zero3(w_rhist, i, k)
-            zero3(s_wall_force, i, k)
+                zero3(walls.rhist, i, k)
+            zero3(walls.force, i, k)
         s_wall_near[i] = near
 
 
 @njit(cache=True)
-def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass, c_inertia, c_world,
-               c_state, c_first, c_count, s_offset, s_pos, s_ref, s_force, s_torque, s_roll,
-               world_dt, world_gravity, world_active, world_lo, world_hi, half_skin,
-               flag_rebuild, flag_nan):
-    """Integrate clump ``c`` over one step and place its spheres.
+def clump_step(lo, hi, clu, sph, worlds, prm, flags):
+    """Integrate clumps ``lo`` to ``hi - 1`` over one step and place their spheres.
 
     Translation: leapfrog (velocities at half steps). Rotation: the space-frame angular
     momentum is kicked by the contact torques, then by the type-A rolling torque, limited so
@@ -443,15 +498,35 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
     world's NaN flag; a sphere that moved more than half the skin since the last neighbour
     build raises the rebuild flag.
     """
+    c_pos = clu.pos
+    c_quat = clu.quat
+    c_vel = clu.vel
+    c_veval = clu.veval
+    c_angmom = clu.angmom
+    c_omega = clu.omega
+    c_inertia = clu.inertia
+    c_world = clu.world
+    c_state = clu.state
+    s_pos = sph.pos
+    s_ref = sph.ref
+    s_force = sph.force
+    s_torque = sph.torque
+    s_roll = sph.roll
+    world_dt = worlds.dt
+    world_gravity = worlds.gravity
+    world_lo = worlds.lo
+    world_hi = worlds.hi
+    half_skin = prm.half_skin
+    flag_rebuild = flags.rebuild
     for c in range(lo, hi):
         if c_state[c] != ACTIVE:
             continue
         w = c_world[c]
-        if world_active[w] == 0:
+        if worlds.active[w] == 0:
             continue
         dt = world_dt[w]
-        first = c_first[c]
-        last = first + c_count[c]
+        first = clu.first[c]
+        last = first + clu.count[c]
         fx = 0.0
         fy = 0.0
         fz = 0.0
@@ -471,7 +546,7 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
             jx += s_roll[s, 0]
             jy += s_roll[s, 1]
             jz += s_roll[s, 2]
-        m = c_mass[c]
+        m = clu.mass[c]
         ax_ = fx / m + world_gravity[w, 0]
         ay_ = fy / m + world_gravity[w, 1]
         az_ = fz / m + world_gravity[w, 2]
@@ -540,7 +615,8 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
         hs2 = half_skin * half_skin
         moved = False
         for s in range(first, last):
-            bx, by, bz = quat_rotate(qw, qx, qy, qz, s_offset[s, 0], s_offset[s, 1], s_offset[s, 2])
+            bx, by, bz = quat_rotate(qw, qx, qy, qz, sph.offset[s, 0], sph.offset[s, 1],
+                                     sph.offset[s, 2])
             sx = x + bx
             sy = y + by
             sz = z + bz
@@ -557,7 +633,7 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(vx)
                 and math.isfinite(vy) and math.isfinite(vz) and math.isfinite(lx)
                 and math.isfinite(ly) and math.isfinite(lz)):
-            flag_nan[w] = 1
+            flags.nan[w] = 1
             c_state[c] = REMOVED
             flag_rebuild[0] = 1
             continue
@@ -568,15 +644,17 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
 
 
 @njit(cache=True)
-def advance_world(w, world_dt, world_active, world_time, world_steps, wall_origin, wall_vel,
-                  wall_ref, half_skin, flag_rebuild):
+def advance_world(w, worlds, walls, prm, flags):
     """End world ``w``'s step (if it is active): move its walls by velocity x dt (m), raise the
     rebuild flag for a wall that moved more than half the skin since the last neighbour build
     (its wall candidates must be renewed), and advance its clock (s) and step count."""
-    if world_active[w] == 0:
+    if worlds.active[w] == 0:
         return
-    dt = world_dt[w]
-    hs2 = half_skin * half_skin
+    wall_origin = walls.origin
+    wall_vel = walls.vel
+    wall_ref = walls.ref
+    dt = worlds.dt[w]
+    hs2 = prm.half_skin * prm.half_skin
     for k in range(wall_origin.shape[1]):
         wall_origin[w, k, 0] += wall_vel[w, k, 0] * dt
         wall_origin[w, k, 1] += wall_vel[w, k, 1] * dt
@@ -585,9 +663,9 @@ def advance_world(w, world_dt, world_active, world_time, world_steps, wall_origi
         ddy = wall_origin[w, k, 1] - wall_ref[w, k, 1]
         ddz = wall_origin[w, k, 2] - wall_ref[w, k, 2]
         if ddx * ddx + ddy * ddy + ddz * ddz > hs2:
-            flag_rebuild[0] = 1
-    world_time[w] += dt
-    world_steps[w] += 1
+            flags.rebuild[0] = 1
+    worlds.time[w] += dt
+    worlds.steps[w] += 1
 
 
 @njit(cache=True)
@@ -616,25 +694,40 @@ def cell_bucket(w, ix, iy, iz, mask):
 
 
 @njit(cache=True)
-def neighbor_search(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, s_cellkey, grid_lo,
-                    inv_cell, bucket_count, bucket_members, mask, extra,
-                    old_count, old_index, old_hist, old_rhist,
-                    new_count, new_index, new_hist, new_rhist, carry_rolling):
-    """Fill sphere ``i``'s neighbour slots and carry its contact history over.
+def neighbor_search(lo, hi, sph, clu, grid, prm, old, new):
+    """Fill the neighbour slots of spheres ``lo`` to ``hi - 1`` in list ``new`` and carry
+    their contact history over from list ``old``.
 
     Candidates are spheres of the same world, of another clump, whose centres are closer than
-    ``r_i + r_j + extra`` (``extra`` = skin + contact margin). Slots are sorted by neighbour
+    ``r_i + r_j + prm.extra`` (skin + contact margin). Slots are sorted by neighbour
     index, so the list (and the force summation order) does not depend on the binning order.
     Writes the number of neighbours found to ``new_count[i]``, which may exceed the
     capacity (then only the first ``capacity`` are stored and the host must grow it).
     """
+    s_pos = sph.pos
+    s_radius = sph.radius
+    s_clump = sph.clump
+    s_cellkey = sph.cellkey
+    bucket_count = grid.bucket_count
+    bucket_members = grid.bucket_members
+    mask = prm.mask
+    extra = prm.extra
+    carry_rolling = prm.carry_rolling
+    old_count = old.count
+    old_index = old.index
+    old_hist = old.hist
+    old_rhist = old.rhist
+    new_count = new.count
+    new_index = new.index
+    new_hist = new.hist
+    new_rhist = new.rhist
     for i in range(lo, hi):
         ci = s_clump[i]
         cap = new_index.shape[1]
-        if c_state[ci] != ACTIVE:
+        if clu.state[ci] != ACTIVE:
             new_count[i] = 0
             continue
-        w = c_world[ci]
+        w = clu.world[ci]
         key = s_cellkey[i]
         iz = key & CELL_MAX
         iy = (key >> CELL_BITS) & CELL_MAX
