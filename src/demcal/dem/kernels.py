@@ -14,7 +14,11 @@ rows, so a launcher may run them in any order or in parallel:
   :func:`wall_candidates` marks, at the same builds, the walls each sphere may reach before
   the next build (a Verlet list for walls: the force pass then skips the rest).
 
-The launchers live in :mod:`demcal.dem.backends`.
+Every body takes the state containers of :mod:`demcal.dem.containers` (``sph``: Spheres,
+``clu``: Clumps, ``nb``: Neighbors, ``walls``, ``worlds``, ``prm``: Params, ``flags``) and a
+range ``lo`` to ``hi - 1`` of elements (the CPU launchers pass blocks, CUDA one element per
+thread). The contact laws are in :mod:`demcal.dem.contact`; the launchers live in
+:mod:`demcal.dem.backends`.
 """
 
 from __future__ import annotations
