@@ -54,6 +54,7 @@ __all__ = [
     "jkr_pull_off_force",
     "normal_contact",
     "pair_modulus",
+    "pair_row",
     "pair_shear_modulus",
     "project_keep_length",
     "rayleigh_time_step",
@@ -413,6 +414,16 @@ def rolling_c(m_x: float, m_y: float, m_z: float, n_x: float, n_y: float, n_z: f
 
 
 @njit(cache=True)
+def pair_row(pair_params, w: int, mat_a: int, mat_b: int):
+    """The pair parameters of materials ``mat_a`` and ``mat_b`` in world ``w`` as a tuple of
+    :data:`N_PAIR_FIELDS` floats (scalars, not an array view: a view in the contact loop would
+    cost a reference count per contact)."""
+    return (pair_params[w, mat_a, mat_b, P_ESTAR], pair_params[w, mat_a, mat_b, P_GSTAR],
+            pair_params[w, mat_a, mat_b, P_BETA], pair_params[w, mat_a, mat_b, P_MU_S],
+            pair_params[w, mat_a, mat_b, P_MU_R], pair_params[w, mat_a, mat_b, P_GAMMA])
+
+
+@njit(cache=True)
 def contact_response(overlap: float, normal, velocity, params, eff_radius: float,
                      eff_mass: float, dt: float, hist, rolling_model: int, spin, spin_rate: float,
                      lever, rel_spin, rhist):
@@ -430,8 +441,9 @@ def contact_response(overlap: float, normal, velocity, params, eff_radius: float
         Unit normal from *a* to *b*.
     velocity : tuple of 3 floats
         Velocity of *b* relative to *a* at the contact point, m/s.
-    params : (N_PAIR_FIELDS,) array
-        The pair's row of ``pair_params`` (``P_ESTAR`` ... ``P_GAMMA``).
+    params : tuple of N_PAIR_FIELDS floats
+        The pair's row of ``pair_params`` (indexed by ``P_ESTAR`` ... ``P_GAMMA``), from
+        :func:`pair_row`.
     eff_radius, eff_mass : float
         R* (m) and m* (kg).
     dt : float

@@ -145,6 +145,7 @@ class Params(NamedTuple):
     half_skin: float  #: a sphere or wall moving this far since the build raises one, m
     inv_cell: float  #: 1 / cell size, 1/m
     mask: int  #: buckets - 1 (a power of two minus one)
+    threads: int = 1  #: CPU threads of the run (sets the kernel bodies' block size)
 
 
 class EngineState(NamedTuple):

@@ -40,6 +40,7 @@ from demcal.dem.contact import (  # noqa: F401 (re-exported: the launchers' impo
     ROLLING_NONE,
     ZERO3,
     contact_response,
+    pair_row,
 )
 from demcal.dem.walls import WALL_NONE, closest_point, surely_beyond
 
@@ -148,6 +149,12 @@ def load3(arr, i, k):
 
 
 @njit(cache=True)
+def load2(arr, i):
+    """``arr[i, 0:3]`` as a tuple."""
+    return arr[i, 0], arr[i, 1], arr[i, 2]
+
+
+@njit(cache=True)
 def store2(arr, i, v):
     """Write the 3-vector ``v`` into ``arr[i, 0:3]``."""
     arr[i, 0] = v[0]
@@ -163,13 +170,23 @@ def store3(arr, i, k, v):
     arr[i, k, 2] = v[2]
 
 
-@njit(cache=True, inline="always")
-def pair_contacts(i, ci, w, sph, clu, nb, worlds, prm, flags, spin, om_i):
-    """Forces of sphere ``i``'s neighbour slots on it: (force, torque, type-A roll), 3-tuples.
+@njit(cache=True)
+def pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags):
+    """Sphere-sphere part of :func:`sphere_forces`: for spheres ``lo`` to ``hi - 1``, the
+    forces of their neighbour slots, written to ``sph.force``/``torque``/``roll`` (zero for
+    an inactive sphere); updates the slots' histories.
 
-    ``ci`` and ``w`` are its clump and world, ``spin`` its clump's angular velocity (rad/s)
-    and ``om_i`` the magnitude. Updates the slots' histories.
+    Containers are passed per block, never per sphere: numba counts references to each array
+    of a container at every call, which per sphere cost more than the contacts.
     """
+    worlds_active = worlds.active
+    clu_world = clu.world
+    sph_force = sph.force
+    sph_torque = sph.torque
+    sph_roll = sph.roll
+    worlds_dt = worlds.dt
+    nb_count = nb.count
+    flags_overlap = flags.overlap
     s_pos = sph.pos
     s_radius = sph.radius
     s_clump = sph.clump
@@ -186,138 +203,160 @@ def pair_contacts(i, ci, w, sph, clu, nb, worlds, prm, flags, spin, om_i):
     contact_margin = prm.contact_margin
     rolling_model = prm.rolling_model
     use_c = rolling_model == ROLLING_C
-    dt = worlds.dt[w]
-    fx = 0.0
-    fy = 0.0
-    fz = 0.0
-    tx = 0.0
-    ty = 0.0
-    tz = 0.0
-    rx = 0.0
-    ry = 0.0
-    rz = 0.0
-    n_nb = nb.count[i]
     cap = nb_index.shape[1]
-    if n_nb > cap:
-        n_nb = cap
-    for k in range(n_nb):
-        j = nb_index[i, k]
-        # canonical orientation: a = lower index, b = higher index
-        if i < j:
-            a = i
-            b = j
-        else:
-            a = j
-            b = i
-        dx = s_pos[b, 0] - s_pos[a, 0]
-        dy = s_pos[b, 1] - s_pos[a, 1]
-        dz = s_pos[b, 2] - s_pos[a, 2]
-        ra = s_radius[a]
-        rb = s_radius[b]
-        rsum = ra + rb
-        dist2 = dx * dx + dy * dy + dz * dz
-        reach = rsum + contact_margin
-        # the clump of j is looked up only for pairs within reach
-        cj = s_clump[j] if dist2 < reach * reach else ci
-        if dist2 >= reach * reach or c_state[cj] != ACTIVE:
-            zero3(nb_hist, i, k)
-            if use_c:
-                zero3(nb_rhist, i, k)
+    for i in range(lo, hi):
+        ci = s_clump[i]
+        if c_state[ci] != ACTIVE or worlds_active[clu_world[ci]] == 0:
+            store2(sph_force, i, ZERO3)
+            store2(sph_torque, i, ZERO3)
+            store2(sph_roll, i, ZERO3)
             continue
-        if i < j:
-            ca = ci
-            cb = cj
-        else:
-            ca = cj
-            cb = ci
-        dist = math.sqrt(dist2)
-        nx = dx / dist
-        ny = dy / dist
-        nz = dz / dist
-        overlap = rsum - dist
-        reff = ra * rb / rsum
-        ma = c_mass[ca]
-        mb = c_mass[cb]
-        meff = ma * mb / (ma + mb)
-        # contact point and relative velocity (b w.r.t. a) there
-        lever = ra - 0.5 * overlap
-        cx = s_pos[a, 0] + nx * lever
-        cy = s_pos[a, 1] + ny * lever
-        cz = s_pos[a, 2] + nz * lever
-        pax = cx - c_pos[ca, 0]
-        pay = cy - c_pos[ca, 1]
-        paz = cz - c_pos[ca, 2]
-        pbx = cx - c_pos[cb, 0]
-        pby = cy - c_pos[cb, 1]
-        pbz = cz - c_pos[cb, 2]
-        wax = c_omega[ca, 0]
-        way = c_omega[ca, 1]
-        waz = c_omega[ca, 2]
-        wbx = c_omega[cb, 0]
-        wby = c_omega[cb, 1]
-        wbz = c_omega[cb, 2]
-        vx = (c_veval[cb, 0] + wby * pbz - wbz * pby) - (c_veval[ca, 0] + way * paz - waz * pay)
-        vy = (c_veval[cb, 1] + wbz * pbx - wbx * pbz) - (c_veval[ca, 1] + waz * pax - wax * paz)
-        vz = (c_veval[cb, 2] + wbx * pby - wby * pbx) - (c_veval[ca, 2] + wax * pay - way * pax)
-        # this sphere's side: the force on b acts on i with sign sgn, lever p from i's clump
-        if i == b:
-            sgn = 1.0
-            px = pbx
-            py = pby
-            pz = pbz
-        else:
-            sgn = -1.0
-            px = pax
-            py = pay
-            pz = paz
-        arad, fb, xi, roll_a, roll_c = contact_response(
-            overlap, (nx, ny, nz), (vx, vy, vz), pair_params[w, s_material[a], s_material[b]],
-            reff, meff, dt, load3(nb_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
-            (wbx - wax, wby - way, wbz - waz), load3(nb_rhist, i, k) if use_c else ZERO3)
-        if arad <= 0.0:
-            zero3(nb_hist, i, k)
+        w = clu_world[ci]
+        dt = worlds_dt[w]
+        oix = c_omega[ci, 0]
+        oiy = c_omega[ci, 1]
+        oiz = c_omega[ci, 2]
+        spin = (oix, oiy, oiz)
+        om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        rx = 0.0
+        ry = 0.0
+        rz = 0.0
+        n_nb = nb_count[i]
+        if n_nb > cap:
+            n_nb = cap
+        for k in range(n_nb):
+            j = nb_index[i, k]
+            # canonical orientation: a = lower index, b = higher index
+            if i < j:
+                a = i
+                b = j
+            else:
+                a = j
+                b = i
+            dx = s_pos[b, 0] - s_pos[a, 0]
+            dy = s_pos[b, 1] - s_pos[a, 1]
+            dz = s_pos[b, 2] - s_pos[a, 2]
+            ra = s_radius[a]
+            rb = s_radius[b]
+            rsum = ra + rb
+            dist2 = dx * dx + dy * dy + dz * dz
+            reach = rsum + contact_margin
+            # the clump of j is looked up only for pairs within reach
+            cj = s_clump[j] if dist2 < reach * reach else ci
+            if dist2 >= reach * reach or c_state[cj] != ACTIVE:
+                zero3(nb_hist, i, k)
+                if use_c:
+                    zero3(nb_rhist, i, k)
+                continue
+            if i < j:
+                ca = ci
+                cb = cj
+            else:
+                ca = cj
+                cb = ci
+            dist = math.sqrt(dist2)
+            nx = dx / dist
+            ny = dy / dist
+            nz = dz / dist
+            overlap = rsum - dist
+            reff = ra * rb / rsum
+            ma = c_mass[ca]
+            mb = c_mass[cb]
+            meff = ma * mb / (ma + mb)
+            # contact point and relative velocity (b w.r.t. a) there
+            lever = ra - 0.5 * overlap
+            cx = s_pos[a, 0] + nx * lever
+            cy = s_pos[a, 1] + ny * lever
+            cz = s_pos[a, 2] + nz * lever
+            pax = cx - c_pos[ca, 0]
+            pay = cy - c_pos[ca, 1]
+            paz = cz - c_pos[ca, 2]
+            pbx = cx - c_pos[cb, 0]
+            pby = cy - c_pos[cb, 1]
+            pbz = cz - c_pos[cb, 2]
+            wax = c_omega[ca, 0]
+            way = c_omega[ca, 1]
+            waz = c_omega[ca, 2]
+            wbx = c_omega[cb, 0]
+            wby = c_omega[cb, 1]
+            wbz = c_omega[cb, 2]
+            vx = (c_veval[cb, 0] + wby * pbz - wbz * pby) - (c_veval[ca, 0] + way * paz - waz * pay)
+            vy = (c_veval[cb, 1] + wbz * pbx - wbx * pbz) - (c_veval[ca, 1] + waz * pax - wax * paz)
+            vz = (c_veval[cb, 2] + wbx * pby - wby * pbx) - (c_veval[ca, 2] + wax * pay - way * pax)
+            # this sphere's side: the force on b acts on i with sign sgn, lever p from i's clump
+            if i == b:
+                sgn = 1.0
+                px = pbx
+                py = pby
+                pz = pbz
+            else:
+                sgn = -1.0
+                px = pax
+                py = pay
+                pz = paz
+            params = pair_row(pair_params, w, s_material[a], s_material[b])
+            arad, fb, xi, roll_a, roll_c = contact_response(
+                overlap, (nx, ny, nz), (vx, vy, vz), params,
+                reff, meff, dt, load3(nb_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
+                (wbx - wax, wby - way, wbz - waz), load3(nb_rhist, i, k) if use_c else ZERO3)
+            if arad <= 0.0:
+                zero3(nb_hist, i, k)
+                if use_c:
+                    zero3(nb_rhist, i, k)
+                continue
+            if overlap > prm.max_overlap_fraction * min(ra, rb):
+                flags_overlap[w] = 1
+            store3(nb_hist, i, k, xi)
+            fix = sgn * fb[0]
+            fiy = sgn * fb[1]
+            fiz = sgn * fb[2]
+            fx += fix
+            fy += fiy
+            fz += fiz
+            tx += py * fiz - pz * fiy
+            ty += pz * fix - px * fiz
+            tz += px * fiy - py * fix
+            rx -= roll_a[0]
+            ry -= roll_a[1]
+            rz -= roll_a[2]
             if use_c:
-                zero3(nb_rhist, i, k)
-            continue
-        if overlap > prm.max_overlap_fraction * min(ra, rb):
-            flags.overlap[w] = 1
-        store3(nb_hist, i, k, xi)
-        fix = sgn * fb[0]
-        fiy = sgn * fb[1]
-        fiz = sgn * fb[2]
-        fx += fix
-        fy += fiy
-        fz += fiz
-        tx += py * fiz - pz * fiy
-        ty += pz * fix - px * fiz
-        tz += px * fiy - py * fix
-        rx -= roll_a[0]
-        ry -= roll_a[1]
-        rz -= roll_a[2]
-        if use_c:
-            store3(nb_rhist, i, k, roll_c)
-            tx += sgn * roll_c[0]
-            ty += sgn * roll_c[1]
-            tz += sgn * roll_c[2]
-    return (fx, fy, fz), (tx, ty, tz), (rx, ry, rz)
+                store3(nb_rhist, i, k, roll_c)
+                tx += sgn * roll_c[0]
+                ty += sgn * roll_c[1]
+                tz += sgn * roll_c[2]
+        store2(sph_force, i, (fx, fy, fz))
+        store2(sph_torque, i, (tx, ty, tz))
+        store2(sph_roll, i, (rx, ry, rz))
 
 
-@njit(cache=True, inline="always")
-def wall_contacts(i, ci, w, sph, clu, walls, worlds, prm, flags, spin, om_i, force, torque,
-                  roll):
-    """Add the forces of sphere ``i``'s candidate walls to (force, torque, roll), 3-tuples.
-
-    Updates the sphere-wall slots' histories and the forces on the walls.
+@njit(cache=True)
+def wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags):
+    """Sphere-wall part of :func:`sphere_forces`, after :func:`pair_contacts`: adds the
+    forces of each sphere's candidate walls to ``sph.force``/``torque``/``roll``; updates the
+    sphere-wall slots' histories and the forces on the walls (zero for an inactive sphere).
     """
-    ri = sph.radius[i]
-    pix = sph.pos[i, 0]
-    piy = sph.pos[i, 1]
-    piz = sph.pos[i, 2]
-    mat_i = sph.material[i]
-    com_ix = clu.pos[ci, 0]
-    com_iy = clu.pos[ci, 1]
-    com_iz = clu.pos[ci, 2]
-    oix, oiy, oiz = spin
+    sph_clump = sph.clump
+    clu_state = clu.state
+    worlds_active = worlds.active
+    clu_world = clu.world
+    worlds_dt = worlds.dt
+    sph_radius = sph.radius
+    sph_pos = sph.pos
+    sph_material = sph.material
+    clu_pos = clu.pos
+    sph_force = sph.force
+    sph_torque = sph.torque
+    sph_roll = sph.roll
+    clu_veval = clu.veval
+    clu_mass = clu.mass
+    walls_near = walls.near
+    flags_overlap = flags.overlap
     wall_type = walls.type
     wall_origin = walls.origin
     wall_geom = walls.geom
@@ -326,84 +365,109 @@ def wall_contacts(i, ci, w, sph, clu, walls, worlds, prm, flags, spin, om_i, for
     w_hist = walls.hist
     w_rhist = walls.rhist
     s_wall_force = walls.force
+    c_omega = clu.omega
     pair_params = worlds.pair_params
     contact_margin = prm.contact_margin
     rolling_model = prm.rolling_model
     use_c = rolling_model == ROLLING_C
-    dt = worlds.dt[w]
     n_walls = wall_type.shape[1]
-    fx, fy, fz = force
-    tx, ty, tz = torque
-    rx, ry, rz = roll
-    # walls of this world: wall = a, sphere = b
-    vix = clu.veval[ci, 0]
-    viy = clu.veval[ci, 1]
-    viz = clu.veval[ci, 2]
-    mass_i = clu.mass[ci]
-    near = walls.near[i]
-    for k in range(n_walls if near != 0 else 0):
-        if ((near >> k) & 1) == 0:
+    for i in range(lo, hi):
+        ci = sph_clump[i]
+        if clu_state[ci] != ACTIVE or worlds_active[clu_world[ci]] == 0:
+            for k in range(n_walls):
+                zero3(s_wall_force, i, k)
             continue
-        wt = wall_type[w, k]  # never WALL_NONE: wall_candidates marks none of those
-        zero3(s_wall_force, i, k)
-        # most spheres are far from most walls: a bound without square roots skips them
-        far = surely_beyond(wt, wall_origin[w, k, 0], wall_origin[w, k, 1],
-                            wall_origin[w, k, 2], wall_geom[w, k], pix, piy, piz,
-                            ri + contact_margin)
-        overlap = -contact_margin
-        if not far:
-            d, nx, ny, nz, _qx, _qy, _qz = closest_point(
-                wt, wall_origin[w, k, 0], wall_origin[w, k, 1], wall_origin[w, k, 2],
-                wall_geom[w, k], pix, piy, piz)
-            overlap = ri - d
-        if overlap <= -contact_margin:
-            zero3(w_hist, i, k)
+        w = clu_world[ci]
+        dt = worlds_dt[w]
+        oix = c_omega[ci, 0]
+        oiy = c_omega[ci, 1]
+        oiz = c_omega[ci, 2]
+        spin = (oix, oiy, oiz)
+        om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
+        ri = sph_radius[i]
+        pix = sph_pos[i, 0]
+        piy = sph_pos[i, 1]
+        piz = sph_pos[i, 2]
+        mat_i = sph_material[i]
+        com_ix = clu_pos[ci, 0]
+        com_iy = clu_pos[ci, 1]
+        com_iz = clu_pos[ci, 2]
+        # the sums of pair_contacts go on (bitwise the sums of one pass over all contacts)
+        fx, fy, fz = load2(sph_force, i)
+        tx, ty, tz = load2(sph_torque, i)
+        rx, ry, rz = load2(sph_roll, i)
+        # walls of this world: wall = a, sphere = b
+        vix = clu_veval[ci, 0]
+        viy = clu_veval[ci, 1]
+        viz = clu_veval[ci, 2]
+        mass_i = clu_mass[ci]
+        near = walls_near[i]
+        for k in range(n_walls if near != 0 else 0):
+            if ((near >> k) & 1) == 0:
+                continue
+            wt = wall_type[w, k]  # never WALL_NONE: wall_candidates marks none of those
+            zero3(s_wall_force, i, k)
+            # most spheres are far from most walls: a bound without square roots skips them
+            far = surely_beyond(wt, wall_origin[w, k, 0], wall_origin[w, k, 1],
+                                wall_origin[w, k, 2], wall_geom[w, k], pix, piy, piz,
+                                ri + contact_margin)
+            overlap = -contact_margin
+            if not far:
+                d, nx, ny, nz, _qx, _qy, _qz = closest_point(
+                    wt, wall_origin[w, k, 0], wall_origin[w, k, 1], wall_origin[w, k, 2],
+                    wall_geom[w, k], pix, piy, piz)
+                overlap = ri - d
+            if overlap <= -contact_margin:
+                zero3(w_hist, i, k)
+                if use_c:
+                    zero3(w_rhist, i, k)
+                continue
+            lever = ri - 0.5 * overlap
+            cx = pix - nx * lever
+            cy = piy - ny * lever
+            cz = piz - nz * lever
+            px = cx - com_ix
+            py = cy - com_iy
+            pz = cz - com_iz
+            vx = vix + oiy * pz - oiz * py - wall_vel[w, k, 0]
+            vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
+            vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
+            params = pair_row(pair_params, w, wall_material[w, k], mat_i)
+            arad, fb, xi, roll_a, roll_c = contact_response(
+                overlap, (nx, ny, nz), (vx, vy, vz), params,
+                ri, mass_i, dt, load3(w_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
+                spin, load3(w_rhist, i, k) if use_c else ZERO3)
+            if arad <= 0.0:
+                zero3(w_hist, i, k)
+                if use_c:
+                    zero3(w_rhist, i, k)
+                continue
+            if overlap > prm.max_overlap_fraction * ri:
+                flags_overlap[w] = 1
+            store3(w_hist, i, k, xi)
+            fix = fb[0]
+            fiy = fb[1]
+            fiz = fb[2]
+            fx += fix
+            fy += fiy
+            fz += fiz
+            tx += py * fiz - pz * fiy
+            ty += pz * fix - px * fiz
+            tz += px * fiy - py * fix
+            s_wall_force[i, k, 0] = -fix
+            s_wall_force[i, k, 1] = -fiy
+            s_wall_force[i, k, 2] = -fiz
+            rx -= roll_a[0]
+            ry -= roll_a[1]
+            rz -= roll_a[2]
             if use_c:
-                zero3(w_rhist, i, k)
-            continue
-        lever = ri - 0.5 * overlap
-        cx = pix - nx * lever
-        cy = piy - ny * lever
-        cz = piz - nz * lever
-        px = cx - com_ix
-        py = cy - com_iy
-        pz = cz - com_iz
-        vx = vix + oiy * pz - oiz * py - wall_vel[w, k, 0]
-        vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
-        vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
-        arad, fb, xi, roll_a, roll_c = contact_response(
-            overlap, (nx, ny, nz), (vx, vy, vz), pair_params[w, wall_material[w, k], mat_i],
-            ri, mass_i, dt, load3(w_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
-            spin, load3(w_rhist, i, k) if use_c else ZERO3)
-        if arad <= 0.0:
-            zero3(w_hist, i, k)
-            if use_c:
-                zero3(w_rhist, i, k)
-            continue
-        if overlap > prm.max_overlap_fraction * ri:
-            flags.overlap[w] = 1
-        store3(w_hist, i, k, xi)
-        fix = fb[0]
-        fiy = fb[1]
-        fiz = fb[2]
-        fx += fix
-        fy += fiy
-        fz += fiz
-        tx += py * fiz - pz * fiy
-        ty += pz * fix - px * fiz
-        tz += px * fiy - py * fix
-        s_wall_force[i, k, 0] = -fix
-        s_wall_force[i, k, 1] = -fiy
-        s_wall_force[i, k, 2] = -fiz
-        rx -= roll_a[0]
-        ry -= roll_a[1]
-        rz -= roll_a[2]
-        if use_c:
-            store3(w_rhist, i, k, roll_c)
-            tx += roll_c[0]
-            ty += roll_c[1]
-            tz += roll_c[2]
-    return (fx, fy, fz), (tx, ty, tz), (rx, ry, rz)
+                store3(w_rhist, i, k, roll_c)
+                tx += roll_c[0]
+                ty += roll_c[1]
+                tz += roll_c[2]
+        store2(sph_force, i, (fx, fy, fz))
+        store2(sph_torque, i, (tx, ty, tz))
+        store2(sph_roll, i, (rx, ry, rz))
 
 
 @njit(cache=True)
@@ -414,37 +478,15 @@ def sphere_forces(lo, hi, sph, clu, nb, walls, worlds, prm, flags):
     of mass plus type-C rolling torque, N m), ``sph.roll[i]`` (type-A rolling torque, N m,
     applied with a no-reversal limit by :func:`clump_step`), the forces the sphere exerts on
     each of its world's walls ``walls.force[i, k]`` (N), and its contact histories (in the
-    current neighbour list ``nb`` and in ``walls``). Only the walls in the sphere's candidate
-    mask ``walls.near[i]`` (bit k: wall k, from :func:`wall_candidates` at the last neighbour
-    build) are visited; the slots of the others are zero and stay so until the next build.
-    Each contact's response comes from :func:`~demcal.dem.contact.contact_response`
-    (:func:`pair_contacts`, :func:`wall_contacts`).
+    current neighbour list ``nb`` and in ``walls``): first the neighbour slots
+    (:func:`pair_contacts`), then the walls (:func:`wall_contacts`). Only the walls in the
+    sphere's candidate mask ``walls.near[i]`` (bit k: wall k, from :func:`wall_candidates` at
+    the last neighbour build) are visited; the slots of the others are zero and stay so until
+    the next build. Each contact's response comes from
+    :func:`~demcal.dem.contact.contact_response`.
     """
-    s_force = sph.force
-    s_torque = sph.torque
-    s_roll = sph.roll
-    for i in range(lo, hi):
-        ci = sph.clump[i]
-        if clu.state[ci] != ACTIVE or worlds.active[clu.world[ci]] == 0:
-            store2(s_force, i, ZERO3)
-            store2(s_torque, i, ZERO3)
-            store2(s_roll, i, ZERO3)
-            for k in range(walls.type.shape[1]):
-                zero3(walls.force, i, k)
-            continue
-        w = clu.world[ci]
-        oix = clu.omega[ci, 0]
-        oiy = clu.omega[ci, 1]
-        oiz = clu.omega[ci, 2]
-        spin = (oix, oiy, oiz)
-        om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
-        force, torque, roll = pair_contacts(i, ci, w, sph, clu, nb, worlds, prm, flags, spin,
-                                            om_i)
-        force, torque, roll = wall_contacts(i, ci, w, sph, clu, walls, worlds, prm, flags, spin,
-                                            om_i, force, torque, roll)
-        store2(s_force, i, force)
-        store2(s_torque, i, torque)
-        store2(s_roll, i, roll)
+    pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags)
+    wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags)
 
 
 @njit(cache=True)
@@ -458,6 +500,11 @@ def wall_candidates(lo, hi, sph, clu, walls, prm):
     its slots are zeroed here, as the force pass would zero them at every step, and the force
     pass skips it: the results are bitwise those of visiting every wall at every step.
     """
+    clu_world = clu.world
+    sph_radius = sph.radius
+    walls_hist = walls.hist
+    walls_rhist = walls.rhist
+    walls_force = walls.force
     s_pos = sph.pos
     s_clump = sph.clump
     c_state = clu.state
@@ -473,8 +520,8 @@ def wall_candidates(lo, hi, sph, clu, walls, prm):
         if c_state[ci] != ACTIVE:
             s_wall_near[i] = 0
             continue
-        w = clu.world[ci]
-        reach = sph.radius[i] + extra
+        w = clu_world[ci]
+        reach = sph_radius[i] + extra
         near = 0
         for k in range(n_walls):
             wt = wall_type[w, k]
@@ -483,10 +530,10 @@ def wall_candidates(lo, hi, sph, clu, walls, prm):
                     wall_geom[w, k], s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], reach):
                 near |= 1 << k
                 continue
-            zero3(walls.hist, i, k)
+            zero3(walls_hist, i, k)
             if carry_rolling:
-                zero3(walls.rhist, i, k)
-            zero3(walls.force, i, k)
+                zero3(walls_rhist, i, k)
+            zero3(walls_force, i, k)
         s_wall_near[i] = near
 
 
@@ -502,6 +549,12 @@ def clump_step(lo, hi, clu, sph, worlds, prm, flags):
     world's NaN flag; a sphere that moved more than half the skin since the last neighbour
     build raises the rebuild flag.
     """
+    worlds_active = worlds.active
+    clu_first = clu.first
+    clu_count = clu.count
+    clu_mass = clu.mass
+    sph_offset = sph.offset
+    flags_nan = flags.nan
     c_pos = clu.pos
     c_quat = clu.quat
     c_vel = clu.vel
@@ -526,11 +579,11 @@ def clump_step(lo, hi, clu, sph, worlds, prm, flags):
         if c_state[c] != ACTIVE:
             continue
         w = c_world[c]
-        if worlds.active[w] == 0:
+        if worlds_active[w] == 0:
             continue
         dt = world_dt[w]
-        first = clu.first[c]
-        last = first + clu.count[c]
+        first = clu_first[c]
+        last = first + clu_count[c]
         fx = 0.0
         fy = 0.0
         fz = 0.0
@@ -550,7 +603,7 @@ def clump_step(lo, hi, clu, sph, worlds, prm, flags):
             jx += s_roll[s, 0]
             jy += s_roll[s, 1]
             jz += s_roll[s, 2]
-        m = clu.mass[c]
+        m = clu_mass[c]
         ax_ = fx / m + world_gravity[w, 0]
         ay_ = fy / m + world_gravity[w, 1]
         az_ = fz / m + world_gravity[w, 2]
@@ -619,8 +672,8 @@ def clump_step(lo, hi, clu, sph, worlds, prm, flags):
         hs2 = half_skin * half_skin
         moved = False
         for s in range(first, last):
-            bx, by, bz = quat_rotate(qw, qx, qy, qz, sph.offset[s, 0], sph.offset[s, 1],
-                                     sph.offset[s, 2])
+            bx, by, bz = quat_rotate(qw, qx, qy, qz, sph_offset[s, 0], sph_offset[s, 1],
+                                     sph_offset[s, 2])
             sx = x + bx
             sy = y + by
             sz = z + bz
@@ -637,7 +690,7 @@ def clump_step(lo, hi, clu, sph, worlds, prm, flags):
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(vx)
                 and math.isfinite(vy) and math.isfinite(vz) and math.isfinite(lx)
                 and math.isfinite(ly) and math.isfinite(lz)):
-            flags.nan[w] = 1
+            flags_nan[w] = 1
             c_state[c] = REMOVED
             flag_rebuild[0] = 1
             continue
@@ -708,6 +761,8 @@ def neighbor_search(lo, hi, sph, clu, grid, prm, old, new):
     Writes the number of neighbours found to ``new_count[i]``, which may exceed the
     capacity (then only the first ``capacity`` are stored and the host must grow it).
     """
+    clu_state = clu.state
+    clu_world = clu.world
     s_pos = sph.pos
     s_radius = sph.radius
     s_clump = sph.clump
@@ -728,10 +783,10 @@ def neighbor_search(lo, hi, sph, clu, grid, prm, old, new):
     for i in range(lo, hi):
         ci = s_clump[i]
         cap = new_index.shape[1]
-        if clu.state[ci] != ACTIVE:
+        if clu_state[ci] != ACTIVE:
             new_count[i] = 0
             continue
-        w = clu.world[ci]
+        w = clu_world[ci]
         key = s_cellkey[i]
         iz = key & CELL_MAX
         iy = (key >> CELL_BITS) & CELL_MAX

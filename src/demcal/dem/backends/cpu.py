@@ -26,8 +26,20 @@ from demcal.dem.kernels import (
     wall_candidates,
 )
 
-#: elements per call of a kernel body (amortises the per-call cost)
+#: fewest elements per call of a kernel body
 BLOCK = 64
+
+
+@njit(cache=True)
+def block_size(n, threads):
+    """Elements per call of a kernel body: one block per thread (at least ``BLOCK``).
+
+    A call costs several microseconds when it passes the state containers (numba counts
+    references to each of their arrays), so a pass makes as few calls as it has threads;
+    ``prange`` schedules statically, so the load is shared as with small blocks. Each element
+    is independent of the others: the results do not depend on the blocks.
+    """
+    return max(BLOCK, (n + threads - 1) // threads)
 
 STATUS_OK = 0
 STATUS_NEIGHBOR_OVERFLOW = 1
@@ -72,9 +84,10 @@ def search_pass(sph, clu, grid, prm, old, new):
     """Neighbour search for every sphere (list ``new``, history carried over from ``old``);
     returns the largest neighbour count found."""
     n = sph.pos.shape[0]
-    n_blocks = (n + BLOCK - 1) // BLOCK
+    size = block_size(n, prm.threads)
+    n_blocks = (n + size - 1) // size
     for blk in prange(n_blocks):
-        neighbor_search(blk * BLOCK, min(blk * BLOCK + BLOCK, n), sph, clu, grid, prm, old, new)
+        neighbor_search(blk * size, min(blk * size + size, n), sph, clu, grid, prm, old, new)
     most = 0
     for i in range(n):
         if new.count[i] > most:
@@ -86,18 +99,20 @@ def search_pass(sph, clu, grid, prm, old, new):
 def candidates_pass(sph, clu, walls, prm):
     """Wall candidates of every sphere (:func:`~demcal.dem.kernels.wall_candidates`)."""
     n = sph.pos.shape[0]
-    n_blocks = (n + BLOCK - 1) // BLOCK
+    size = block_size(n, prm.threads)
+    n_blocks = (n + size - 1) // size
     for blk in prange(n_blocks):
-        wall_candidates(blk * BLOCK, min(blk * BLOCK + BLOCK, n), sph, clu, walls, prm)
+        wall_candidates(blk * size, min(blk * size + size, n), sph, clu, walls, prm)
 
 
 @njit(parallel=True, cache=True)
 def force_pass(sph, clu, nb, walls, worlds, prm, flags):
     """Contact forces on every sphere (:func:`~demcal.dem.kernels.sphere_forces`)."""
     n = sph.pos.shape[0]
-    n_blocks = (n + BLOCK - 1) // BLOCK
+    size = block_size(n, prm.threads)
+    n_blocks = (n + size - 1) // size
     for blk in prange(n_blocks):
-        sphere_forces(blk * BLOCK, min(blk * BLOCK + BLOCK, n), sph, clu, nb, walls, worlds,
+        sphere_forces(blk * size, min(blk * size + size, n), sph, clu, nb, walls, worlds,
                       prm, flags)
 
 
@@ -105,9 +120,10 @@ def force_pass(sph, clu, nb, walls, worlds, prm, flags):
 def clump_pass(clu, sph, worlds, prm, flags):
     """One step of every clump (:func:`~demcal.dem.kernels.clump_step`)."""
     n = clu.pos.shape[0]
-    n_blocks = (n + BLOCK - 1) // BLOCK
+    size = block_size(n, prm.threads)
+    n_blocks = (n + size - 1) // size
     for blk in prange(n_blocks):
-        clump_step(blk * BLOCK, min(blk * BLOCK + BLOCK, n), clu, sph, worlds, prm, flags)
+        clump_step(blk * size, min(blk * size + size, n), clu, sph, worlds, prm, flags)
 
 
 @njit(cache=True)

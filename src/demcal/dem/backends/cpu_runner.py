@@ -56,7 +56,7 @@ class CpuBackend:
         stats = sim.arrays["stats"]
         while done < n_steps:
             # packed again after a growth (new arrays)
-            state = pack(sim.arrays, sim.params())
+            state = pack(sim.arrays, sim.params()._replace(threads=numba.get_num_threads()))
             steps, status, parity = cpu.run_chunk(n_steps - done, self.parity, state)
             self.parity = int(parity)
             done += int(steps)
