@@ -118,7 +118,7 @@ def graph_and_growth(steps: int) -> dict:
             ref = p
         res[f"{label}_bitwise_equal"] = bool(np.array_equal(p, ref))
         res[f"{label}_nb_capacity"] = int(sim.arrays["nb_index_a"].shape[1])
-        res[f"{label}_used_graphs"] = bool(sim._runner.use_graphs)
+        res[f"{label}_used_graphs"] = bool(sim.runner.use_graphs)
     os.environ["DEMCAL_CUDA_GRAPHS"] = "1"
     _config.NEIGHBOR_CAPACITY = 32
     _config.BUCKET_CAPACITY = 16
@@ -205,7 +205,7 @@ def profile(n: int, settle_s: float, steps: int) -> dict:
 
     sim = Simulation([bed_world(n, 0)], backend="cuda")
     sim.run(settle_s)
-    runner = sim._runner
+    runner = sim.runner
     k = runner.k
     names = [n for n in dir(k) if n.startswith("k_")]
     timings = {name: 0.0 for name in names}

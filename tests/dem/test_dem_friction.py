@@ -42,8 +42,7 @@ def test_clump_on_a_slowly_tilted_plane_slides_at_tan_alpha_equal_mu_s():
     onset = None
     while alpha < 35.0:
         alpha += rate * chunk * dt
-        sim.arrays["world_gravity"][0] = gravity(alpha)
-        sim._runner.push("world_gravity")
+        sim.set_gravity(0, gravity(alpha))
         sim.advance(chunk)
         if sim.arrays["c_vel"][0, 0] > 1e-5:
             onset = alpha

@@ -40,8 +40,7 @@ def _step_trace(sim, n, gravity_z=None):
     over, force = [], []
     for k in range(n):
         if gravity_z is not None and k % 20 == 0:
-            sim.arrays["world_gravity"][0, 2] = gravity_z(k)
-            sim._runner.push("world_gravity")
+            sim.set_gravity(0, (0.0, 0.0, gravity_z(k)))
         over.append(R + float(sim.arrays["c_pos"][0, 2]))
         sim.advance(1)
         force.append(float(sim.wall_forces(0)[0, 2]))
@@ -57,8 +56,7 @@ def test_pull_off_force_and_break_off_overlap():
     sim.advance(3000)
     g_pull = pull_off / MASS
     for frac in np.linspace(0.0, 0.9, 46):  # quickly to 90 %, then slowly (quasi-static)
-        sim.arrays["world_gravity"][0, 2] = -frac * g_pull
-        sim._runner.push("world_gravity")
+        sim.set_gravity(0, (0.0, 0.0, -frac * g_pull))
         sim.advance(100)
     n = 12000
     over, force = _step_trace(sim, n, lambda k: -g_pull * (0.9 + 0.2 * k / n))

@@ -68,13 +68,13 @@ def random_world(rng: np.random.Generator, mats: MaterialTable, n_clumps: int = 
 
 def current_side(sim: Simulation) -> str:
     """Which neighbour buffer holds the current list ("a" or "b")."""
-    return "a" if sim.backend == "cuda" or sim.parity == 0 else "b"
+    return sim.runner.neighbor_side
 
 
 def slot_pairs(sim: Simulation):
     """(sphere i, slot k, neighbour j) of every stored neighbour slot of the current list."""
     side = current_side(sim)
-    sim._runner.pull(f"nb_count_{side}", f"nb_index_{side}")
+    sim.runner.pull(f"nb_count_{side}", f"nb_index_{side}")
     count = sim.arrays[f"nb_count_{side}"]
     index = sim.arrays[f"nb_index_{side}"]
     for i in range(len(count)):
@@ -84,7 +84,7 @@ def slot_pairs(sim: Simulation):
 
 def wall_descriptions(sim: Simulation) -> list[list[dict]]:
     """Walls of each world for :mod:`naive`, at their current origins."""
-    sim._runner.pull("wall_origin", "wall_vel")
+    sim.runner.pull("wall_origin", "wall_vel")
     out = []
     for w, world in enumerate(sim.worlds):
         walls = []
@@ -113,7 +113,7 @@ def randomize_history(sim: Simulation, rng: np.random.Generator, scale: float) -
     on both sides of a pair, as the engine keeps them."""
     side = current_side(sim)
     names = [f"nb_hist_{side}", f"nb_rhist_{side}", "w_hist", "w_rhist"]
-    sim._runner.pull(*names)
+    sim.runner.pull(*names)
     a = sim.arrays
     pair_vals: dict = {}
     rolling_c = a[f"nb_rhist_{side}"].shape[0] == sim.n_spheres
@@ -127,14 +127,14 @@ def randomize_history(sim: Simulation, rng: np.random.Generator, scale: float) -
     # wall slots: those the engine tracks, the candidate walls of the last neighbour build
     # (the others stay zero between builds); the reference then checks that no wall in
     # contact is missing from the candidates
-    sim._runner.pull("s_wall_near")
+    sim.runner.pull("s_wall_near")
     bits = (a["s_wall_near"][:, None] >> np.arange(sim.max_walls)) & 1
     near = bits.astype(bool)
     n_near = int(near.sum())
     a["w_hist"][near] = rng.normal(0, scale, (n_near, 3))
     if rolling_c:
         a["w_rhist"][near] = rng.normal(0, 1e-6, (n_near, 3))
-    sim._runner.push(*names)
+    sim.runner.push(*names)
 
 
 def snapshot(sim: Simulation) -> dict:
@@ -142,7 +142,7 @@ def snapshot(sim: Simulation) -> dict:
     side = current_side(sim)
     names = ["s_pos", "c_pos", "c_veval", "c_omega", "c_state", "w_hist", "w_rhist",
              f"nb_hist_{side}", f"nb_rhist_{side}"]
-    sim._runner.pull(*names)
+    sim.runner.pull(*names)
     a = sim.arrays
     st = {k: np.array(a[k]) for k in ("s_pos", "s_radius", "s_clump", "c_pos", "c_veval",
                                       "c_omega", "c_mass", "c_world", "c_state", "world_dt",
@@ -170,7 +170,7 @@ def engine_outputs(sim: Simulation) -> dict:
     side = current_side(sim)
     names = ["s_force", "s_torque", "s_roll", "s_wall_force", "w_hist", "w_rhist",
              f"nb_hist_{side}", f"nb_rhist_{side}"]
-    sim._runner.pull(*names)
+    sim.runner.pull(*names)
     a = sim.arrays
     rolling_c = a[f"nb_rhist_{side}"].shape[0] == sim.n_spheres
     hist: dict = {}

@@ -1,7 +1,8 @@
 """Contact force laws as pure scalar functions (Hertz-Mindlin, JKR, rolling friction).
 
-Every function here takes and returns plain floats (tuples of floats), touches no array and
-no global state, and is compiled with ``numba.njit``; the CPU kernels call them directly and
+Every function here takes and returns plain floats (tuples of floats; the pair parameters as
+one row of ``pair_params``), writes no array and touches no global state, and is compiled with
+``numba.njit``; the CPU kernels call them directly and
 the CUDA kernels compile the same bodies for the GPU. Plain-Python versions are available as
 ``function.py_func`` for tests.
 
@@ -12,6 +13,10 @@ Conventions (see ``docs/physics.md``):
   unit normal pointing from *a* to *b* (> 0: separating), m/s;
 - a positive normal force pushes *b* away from *a* (repulsion), N;
 - ``beta`` is EDEM's damping ratio ``ln(e) / sqrt(ln(e)^2 + pi^2)`` (<= 0).
+
+:func:`contact_response` is the one place where a contact's forces are put together (normal,
+tangential, rolling type A or C): the sphere-sphere and sphere-wall blocks of
+:func:`demcal.dem.kernels.sphere_forces` both call it. A new contact law goes here.
 
 The equivalent properties: ``1/E* = (1-v1^2)/E1 + (1-v2^2)/E2``,
 ``1/G* = (2-v1)/G1 + (2-v2)/G2``, ``1/R* = 1/R1 + 1/R2``, ``1/m* = 1/m1 + 1/m2``.
@@ -27,7 +32,18 @@ from demcal.dem._config import JKR_MAX_ITER
 
 __all__ = [
     "DAMPING_FACTOR",
+    "N_PAIR_FIELDS",
+    "P_BETA",
+    "P_ESTAR",
+    "P_GAMMA",
+    "P_GSTAR",
+    "P_MU_R",
+    "P_MU_S",
+    "ROLLING_A",
+    "ROLLING_C",
+    "ROLLING_NONE",
     "beta_from_restitution",
+    "contact_response",
     "effective_radius",
     "hertz_normal",
     "jkr_contact_radius",
@@ -38,13 +54,35 @@ __all__ = [
     "jkr_pull_off_force",
     "normal_contact",
     "pair_modulus",
+    "pair_row",
     "pair_shear_modulus",
+    "project_keep_length",
     "rayleigh_time_step",
+    "rolling_a",
+    "rolling_c",
     "tangential_contact",
 ]
 
 #: 2 sqrt(5/6), the prefactor of EDEM's Hertz-Mindlin damping forces.
 DAMPING_FACTOR = 2.0 * math.sqrt(5.0 / 6.0)
+
+# pair-parameter fields: the last axis of ``pair_params`` (world, material, material, field),
+# built by :meth:`demcal.dem.materials.MaterialTable.pair_table`
+P_ESTAR = 0  #: equivalent Young's modulus E*, Pa
+P_GSTAR = 1  #: equivalent shear modulus G*, Pa
+P_BETA = 2  #: damping ratio (<= 0)
+P_MU_S = 3  #: static friction coefficient
+P_MU_R = 4  #: rolling friction coefficient
+P_GAMMA = 5  #: JKR surface energy, J/m^2
+N_PAIR_FIELDS = 6
+
+# rolling friction models (``Simulation(rolling_friction=...)``: "none", "A", "C")
+ROLLING_NONE = 0  #: no rolling resistance
+ROLLING_A = 1  #: constant directional torque (EDEM standard), :func:`rolling_a`
+ROLLING_C = 2  #: elastic-plastic spring-dashpot (EPSD), history-dependent, :func:`rolling_c`
+
+#: a zero 3-vector (the response of a rolling model that is off)
+ZERO3 = (0.0, 0.0, 0.0)
 
 
 @njit(cache=True)
@@ -219,6 +257,28 @@ def normal_contact(delta: float, v_n: float, eff_radius: float, eff_modulus: flo
 
 
 @njit(cache=True)
+def project_keep_length(x: float, y: float, z: float, n_x: float, n_y: float, n_z: float):
+    """Rotate a contact history vector into the current tangent plane, keeping its length.
+
+    The part along the unit normal ``n`` is removed and the rest scaled back to the old
+    length (a history that lay along ``n`` stays zero). Used for the tangential spring
+    (m) and the type-C rolling spring (N m).
+    """
+    old2 = x * x + y * y + z * z
+    dn = x * n_x + y * n_y + z * n_z
+    x -= dn * n_x
+    y -= dn * n_y
+    z -= dn * n_z
+    new2 = x * x + y * y + z * z
+    if new2 > 0.0 and old2 > new2:
+        scale = math.sqrt(old2 / new2)
+        x *= scale
+        y *= scale
+        z *= scale
+    return x, y, z
+
+
+@njit(cache=True)
 def tangential_contact(xi_x: float, xi_y: float, xi_z: float,
                        n_x: float, n_y: float, n_z: float,
                        vt_x: float, vt_y: float, vt_z: float,
@@ -259,18 +319,7 @@ def tangential_contact(xi_x: float, xi_y: float, xi_z: float,
     scaled onto the limit and the spring is reset to match (``xi = -(F + c_t v_t)/S_t``), so
     the contact slides.
     """
-    # rotate the history into the current tangent plane, keeping its length
-    old2 = xi_x * xi_x + xi_y * xi_y + xi_z * xi_z
-    dn = xi_x * n_x + xi_y * n_y + xi_z * n_z
-    xi_x -= dn * n_x
-    xi_y -= dn * n_y
-    xi_z -= dn * n_z
-    new2 = xi_x * xi_x + xi_y * xi_y + xi_z * xi_z
-    if new2 > 0.0 and old2 > new2:
-        scale = math.sqrt(old2 / new2)
-        xi_x *= scale
-        xi_y *= scale
-        xi_z *= scale
+    xi_x, xi_y, xi_z = project_keep_length(xi_x, xi_y, xi_z, n_x, n_y, n_z)
     xi_x += vt_x * dt
     xi_y += vt_y * dt
     xi_z += vt_z * dt
@@ -298,3 +347,155 @@ def tangential_contact(xi_x: float, xi_y: float, xi_z: float,
             xi_y = 0.0
             xi_z = 0.0
     return xi_x, xi_y, xi_z, fx, fy, fz
+
+
+@njit(cache=True)
+def rolling_a(spin, spin_rate: float, lever, friction: float, normal_limit: float):
+    """Type-A rolling resistance (constant directional torque, EDEM standard).
+
+    Parameters
+    ----------
+    spin : tuple of 3 floats
+        Angular velocity of the body the torque acts on, rad/s (space frame).
+    spin_rate : float
+        Its magnitude ``|spin|``, rad/s.
+    lever : tuple of 3 floats
+        From the body's centre of mass to the contact point, m.
+    friction : float
+        Rolling friction coefficient mu_r.
+    normal_limit : float
+        Repulsive normal force, N.
+
+    Returns
+    -------
+    tuple of 3 floats
+        ``mu_r F_rep |lever| spin / |spin|``, N m: the torque *opposes* the spin, so the caller
+        subtracts it (:func:`~demcal.dem.kernels.clump_step` applies it with a no-reversal
+        limit). Zero when the body does not spin or mu_r is 0.
+    """
+    if spin_rate > 0.0 and friction > 0.0:
+        arm = math.sqrt(lever[0] * lever[0] + lever[1] * lever[1] + lever[2] * lever[2])
+        mag = friction * normal_limit * arm / spin_rate
+        return mag * spin[0], mag * spin[1], mag * spin[2]
+    return ZERO3
+
+
+@njit(cache=True)
+def rolling_c(m_x: float, m_y: float, m_z: float, n_x: float, n_y: float, n_z: float,
+              w_x: float, w_y: float, w_z: float, dt: float, stiff_n: float, eff_radius: float,
+              mu_r: float, f_rep: float):
+    """EPSD rolling spring (type C): the torque on body *b* and its updated history, N m.
+
+    ``m`` is the spring torque (the history), ``n`` the unit normal from *a* to *b*, ``w`` the
+    angular velocity of *b* relative to *a* (rad/s), ``dt`` the step (s), ``stiff_n`` the
+    normal stiffness ``S_n = 2 E* a`` (N/m), ``eff_radius`` R* (m), ``f_rep`` the repulsive
+    normal force (N). The spring ``k_r = 2.25 S_n mu_r^2 R*^2`` accumulates ``-k_r w_t dt``
+    (tangential part of w) and is capped at ``mu_r R* F_rep``. Returns the new ``m`` (3
+    floats), which is also the torque on *b*.
+    """
+    wn = w_x * n_x + w_y * n_y + w_z * n_z
+    w_x -= wn * n_x
+    w_y -= wn * n_y
+    w_z -= wn * n_z
+    m_x, m_y, m_z = project_keep_length(m_x, m_y, m_z, n_x, n_y, n_z)
+    kr = 2.25 * stiff_n * mu_r * mu_r * eff_radius * eff_radius
+    m_x -= kr * w_x * dt
+    m_y -= kr * w_y * dt
+    m_z -= kr * w_z * dt
+    mmax = mu_r * eff_radius * f_rep
+    mag = math.sqrt(m_x * m_x + m_y * m_y + m_z * m_z)
+    if mag > mmax:
+        if mag > 0.0:
+            r = mmax / mag
+            m_x *= r
+            m_y *= r
+            m_z *= r
+    return m_x, m_y, m_z
+
+
+@njit(cache=True)
+def pair_row(pair_params, w: int, mat_a: int, mat_b: int):
+    """The pair parameters of materials ``mat_a`` and ``mat_b`` in world ``w`` as a tuple of
+    :data:`N_PAIR_FIELDS` floats (scalars, not an array view: a view in the contact loop would
+    cost a reference count per contact)."""
+    return (pair_params[w, mat_a, mat_b, P_ESTAR], pair_params[w, mat_a, mat_b, P_GSTAR],
+            pair_params[w, mat_a, mat_b, P_BETA], pair_params[w, mat_a, mat_b, P_MU_S],
+            pair_params[w, mat_a, mat_b, P_MU_R], pair_params[w, mat_a, mat_b, P_GAMMA])
+
+
+@njit(cache=True)
+def contact_response(overlap: float, normal, velocity, params, eff_radius: float,
+                     eff_mass: float, dt: float, hist, rolling_model: int, spin, spin_rate: float,
+                     lever, rel_spin, rhist):
+    """Everything one contact does in one step: normal, tangential and rolling response.
+
+    The sphere-sphere and sphere-wall blocks of :func:`demcal.dem.kernels.sphere_forces` both
+    call this (a wall is body *a* with infinite radius and mass: ``eff_radius`` = the sphere's
+    radius, ``eff_mass`` = its clump's mass).
+
+    Parameters
+    ----------
+    overlap : float
+        ``delta``, m (> 0 interpenetrating).
+    normal : tuple of 3 floats
+        Unit normal from *a* to *b*.
+    velocity : tuple of 3 floats
+        Velocity of *b* relative to *a* at the contact point, m/s.
+    params : tuple of N_PAIR_FIELDS floats
+        The pair's row of ``pair_params`` (indexed by ``P_ESTAR`` ... ``P_GAMMA``), from
+        :func:`pair_row`.
+    eff_radius, eff_mass : float
+        R* (m) and m* (kg).
+    dt : float
+        Time step, s.
+    hist : tuple of 3 floats
+        Tangential history (accumulated displacement of *b* w.r.t. *a*), m.
+    rolling_model : int
+        ``ROLLING_NONE``, ``ROLLING_A`` or ``ROLLING_C``.
+    spin, spin_rate, lever
+        Type A: angular velocity (rad/s) and its magnitude of the body the rolling torque
+        acts on, and its lever from centre of mass to contact point (m).
+    rel_spin : tuple of 3 floats
+        Type C: angular velocity of *b* relative to *a*, rad/s.
+    rhist : tuple of 3 floats
+        Type C: rolling spring torque (the rolling history), N m; zeros otherwise.
+
+    Returns
+    -------
+    contact_radius : float
+        ``a``, m; <= 0 means no contact (then nothing else is meaningful: the caller zeroes
+        the contact's histories).
+    force : tuple of 3 floats
+        Normal + tangential force on *b*, N.
+    hist : tuple of 3 floats
+        New tangential history, m.
+    roll_a : tuple of 3 floats
+        Type-A rolling torque magnitude along ``spin`` (to subtract), N m; zeros otherwise.
+    roll_c : tuple of 3 floats
+        Type C: new rolling history = rolling torque on *b*, N m; zeros otherwise.
+    """
+    nx, ny, nz = normal
+    vx, vy, vz = velocity
+    estar = params[P_ESTAR]
+    beta = params[P_BETA]
+    mu_r = params[P_MU_R]
+    vn = vx * nx + vy * ny + vz * nz
+    fn, frep, arad = normal_contact(overlap, vn, eff_radius, estar, eff_mass, beta,
+                                    params[P_GAMMA])
+    if arad <= 0.0:
+        return arad, ZERO3, ZERO3, ZERO3, ZERO3
+    vtx = vx - vn * nx
+    vty = vy - vn * ny
+    vtz = vz - vn * nz
+    xi0, xi1, xi2, ftx, fty, ftz = tangential_contact(
+        hist[0], hist[1], hist[2], nx, ny, nz, vtx, vty, vtz, dt, arad, params[P_GSTAR],
+        eff_mass, beta, params[P_MU_S], frep)
+    force = (fn * nx + ftx, fn * ny + fty, fn * nz + ftz)
+    roll_a = ZERO3
+    roll_c = ZERO3
+    if rolling_model == ROLLING_A:
+        roll_a = rolling_a(spin, spin_rate, lever, mu_r, frep)
+    elif rolling_model == ROLLING_C:
+        roll_c = rolling_c(rhist[0], rhist[1], rhist[2], nx, ny, nz, rel_spin[0], rel_spin[1],
+                           rel_spin[2], dt, 2.0 * estar * arad, eff_radius, mu_r, frep)
+    return arad, force, (xi0, xi1, xi2), roll_a, roll_c

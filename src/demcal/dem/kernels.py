@@ -14,7 +14,11 @@ rows, so a launcher may run them in any order or in parallel:
   :func:`wall_candidates` marks, at the same builds, the walls each sphere may reach before
   the next build (a Verlet list for walls: the force pass then skips the rest).
 
-The launchers live in :mod:`demcal.dem.backends`.
+Every body takes the state containers of :mod:`demcal.dem.containers` (``sph``: Spheres,
+``clu``: Clumps, ``nb``: Neighbors, ``walls``, ``worlds``, ``prm``: Params, ``flags``) and a
+range ``lo`` to ``hi - 1`` of elements (the CPU launchers pass blocks, CUDA one element per
+thread). The contact laws are in :mod:`demcal.dem.contact`; the launchers live in
+:mod:`demcal.dem.backends`.
 """
 
 from __future__ import annotations
@@ -23,17 +27,22 @@ import math
 
 from numba import njit
 
-from demcal.dem.contact import normal_contact, tangential_contact
+from demcal.dem.contact import (  # noqa: F401 (re-exported: the launchers' imports)
+    N_PAIR_FIELDS,
+    P_BETA,
+    P_ESTAR,
+    P_GAMMA,
+    P_GSTAR,
+    P_MU_R,
+    P_MU_S,
+    ROLLING_A,
+    ROLLING_C,
+    ROLLING_NONE,
+    ZERO3,
+    contact_response,
+    pair_row,
+)
 from demcal.dem.walls import WALL_NONE, closest_point, surely_beyond
-
-# pair-parameter fields (last axis of ``pair_params``)
-P_ESTAR = 0
-P_GSTAR = 1
-P_BETA = 2
-P_MU_S = 3
-P_MU_R = 4
-P_GAMMA = 5
-N_PAIR_FIELDS = 6
 
 #: most walls per world: a sphere's wall candidates are the bits of one int64
 MAX_WALLS = 64
@@ -42,11 +51,6 @@ MAX_WALLS = 64
 INACTIVE = 0
 ACTIVE = 1
 REMOVED = 2
-
-# rolling friction models
-ROLLING_NONE = 0
-ROLLING_A = 1  # constant directional torque (EDEM standard)
-ROLLING_C = 2  # elastic-plastic spring-dashpot (EPSD)
 
 # cell-key packing
 CELL_BITS = 16
@@ -139,63 +143,81 @@ def zero3(arr, i, k):
 
 
 @njit(cache=True)
-def _rolling_c(m_x, m_y, m_z, n_x, n_y, n_z, w_x, w_y, w_z, dt, stiff_n, eff_radius,
-               mu_r, f_rep):
-    """EPSD rolling spring (type C): torque on body b, updated history (3 floats).
-
-    ``w`` is the angular velocity of b relative to a. The spring ``k_r = 2.25 S_n mu_r^2 R*^2``
-    accumulates ``-k_r w_t dt`` (tangential part of w) and is capped at ``mu_r R* F_rep``.
-    """
-    wn = w_x * n_x + w_y * n_y + w_z * n_z
-    w_x -= wn * n_x
-    w_y -= wn * n_y
-    w_z -= wn * n_z
-    old2 = m_x * m_x + m_y * m_y + m_z * m_z
-    mn = m_x * n_x + m_y * n_y + m_z * n_z
-    m_x -= mn * n_x
-    m_y -= mn * n_y
-    m_z -= mn * n_z
-    new2 = m_x * m_x + m_y * m_y + m_z * m_z
-    if new2 > 0.0 and old2 > new2:
-        sc = math.sqrt(old2 / new2)
-        m_x *= sc
-        m_y *= sc
-        m_z *= sc
-    kr = 2.25 * stiff_n * mu_r * mu_r * eff_radius * eff_radius
-    m_x -= kr * w_x * dt
-    m_y -= kr * w_y * dt
-    m_z -= kr * w_z * dt
-    mmax = mu_r * eff_radius * f_rep
-    mag = math.sqrt(m_x * m_x + m_y * m_y + m_z * m_z)
-    if mag > mmax:
-        if mag > 0.0:
-            r = mmax / mag
-            m_x *= r
-            m_y *= r
-            m_z *= r
-    return m_x, m_y, m_z
+def load3(arr, i, k):
+    """``arr[i, k, 0:3]`` as a tuple (a slot's 3-vector)."""
+    return arr[i, k, 0], arr[i, k, 1], arr[i, k, 2]
 
 
 @njit(cache=True)
-def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
-                  c_pos, c_veval, c_omega, c_mass, c_world, c_state,
-                  nb_count, nb_index, nb_hist, nb_rhist,
-                  wall_type, wall_origin, wall_geom, wall_vel, wall_material, w_hist, w_rhist,
-                  s_wall_near, pair_params, world_dt, world_active, rolling_model,
-                  contact_margin, max_overlap_fraction,
-                  s_force, s_torque, s_roll, s_wall_force, flag_overlap):
-    """Gather the contact forces and torques acting on sphere ``i``.
+def load2(arr, i):
+    """``arr[i, 0:3]`` as a tuple."""
+    return arr[i, 0], arr[i, 1], arr[i, 2]
 
-    Writes ``s_force[i]`` (N), ``s_torque[i]`` (contact torque about the clump's centre of
-    mass plus type-C rolling torque, N m), ``s_roll[i]`` (type-A rolling torque, N m, applied
-    with a no-reversal limit by :func:`clump_step`), the forces this sphere exerts on each of
-    its world's walls ``s_wall_force[i, k]`` (N), and its contact histories. Only the walls
-    in the sphere's candidate mask ``s_wall_near[i]`` (bit k: wall k, from
-    :func:`wall_candidates` at the last neighbour build) are visited; the slots of the others
-    are zero and stay so until the next build.
+
+@njit(cache=True)
+def store2(arr, i, v):
+    """Write the 3-vector ``v`` into ``arr[i, 0:3]``."""
+    arr[i, 0] = v[0]
+    arr[i, 1] = v[1]
+    arr[i, 2] = v[2]
+
+
+@njit(cache=True)
+def store3(arr, i, k, v):
+    """Write the 3-vector ``v`` into ``arr[i, k, 0:3]``."""
+    arr[i, k, 0] = v[0]
+    arr[i, k, 1] = v[1]
+    arr[i, k, 2] = v[2]
+
+
+@njit(cache=True)
+def pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags):
+    """Sphere-sphere part of :func:`sphere_forces`: for spheres ``lo`` to ``hi - 1``, the
+    forces of their neighbour slots, written to ``sph.force``/``torque``/``roll`` (zero for
+    an inactive sphere); updates the slots' histories.
+
+    Containers are passed per block, never per sphere: numba counts references to each array
+    of a container at every call, which per sphere cost more than the contacts.
     """
+    worlds_active = worlds.active
+    clu_world = clu.world
+    sph_force = sph.force
+    sph_torque = sph.torque
+    sph_roll = sph.roll
+    worlds_dt = worlds.dt
+    nb_count = nb.count
+    flags_overlap = flags.overlap
+    s_pos = sph.pos
+    s_radius = sph.radius
+    s_clump = sph.clump
+    s_material = sph.material
+    c_pos = clu.pos
+    c_veval = clu.veval
+    c_omega = clu.omega
+    c_mass = clu.mass
+    c_state = clu.state
+    nb_index = nb.index
+    nb_hist = nb.hist
+    nb_rhist = nb.rhist
+    pair_params = worlds.pair_params
+    contact_margin = prm.contact_margin
+    rolling_model = prm.rolling_model
+    use_c = rolling_model == ROLLING_C
+    cap = nb_index.shape[1]
     for i in range(lo, hi):
         ci = s_clump[i]
+        if c_state[ci] != ACTIVE or worlds_active[clu_world[ci]] == 0:
+            store2(sph_force, i, ZERO3)
+            store2(sph_torque, i, ZERO3)
+            store2(sph_roll, i, ZERO3)
+            continue
+        w = clu_world[ci]
+        dt = worlds_dt[w]
+        oix = c_omega[ci, 0]
+        oiy = c_omega[ci, 1]
+        oiz = c_omega[ci, 2]
+        spin = (oix, oiy, oiz)
+        om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
         fx = 0.0
         fy = 0.0
         fz = 0.0
@@ -205,37 +227,7 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
         rx = 0.0
         ry = 0.0
         rz = 0.0
-        n_walls = wall_type.shape[1]
-        if c_state[ci] != ACTIVE or world_active[c_world[ci]] == 0:
-            s_force[i, 0] = 0.0
-            s_force[i, 1] = 0.0
-            s_force[i, 2] = 0.0
-            s_torque[i, 0] = 0.0
-            s_torque[i, 1] = 0.0
-            s_torque[i, 2] = 0.0
-            s_roll[i, 0] = 0.0
-            s_roll[i, 1] = 0.0
-            s_roll[i, 2] = 0.0
-            for k in range(n_walls):
-                zero3(s_wall_force, i, k)
-            continue
-        w = c_world[ci]
-        dt = world_dt[w]
-        pix = s_pos[i, 0]
-        piy = s_pos[i, 1]
-        piz = s_pos[i, 2]
-        ri = s_radius[i]
-        mat_i = s_material[i]
-        com_ix = c_pos[ci, 0]
-        com_iy = c_pos[ci, 1]
-        com_iz = c_pos[ci, 2]
-        oix = c_omega[ci, 0]
-        oiy = c_omega[ci, 1]
-        oiz = c_omega[ci, 2]
-        om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
-        use_c = rolling_model == ROLLING_C
         n_nb = nb_count[i]
-        cap = nb_index.shape[1]
         if n_nb > cap:
             n_nb = cap
         for k in range(n_nb):
@@ -273,14 +265,6 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             ny = dy / dist
             nz = dz / dist
             overlap = rsum - dist
-            mat_a = s_material[a]
-            mat_b = s_material[b]
-            estar = pair_params[w, mat_a, mat_b, P_ESTAR]
-            gstar = pair_params[w, mat_a, mat_b, P_GSTAR]
-            beta = pair_params[w, mat_a, mat_b, P_BETA]
-            mu_s = pair_params[w, mat_a, mat_b, P_MU_S]
-            mu_r = pair_params[w, mat_a, mat_b, P_MU_R]
-            gamma = pair_params[w, mat_a, mat_b, P_GAMMA]
             reff = ra * rb / rsum
             ma = c_mass[ca]
             mb = c_mass[cb]
@@ -305,28 +289,7 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             vx = (c_veval[cb, 0] + wby * pbz - wbz * pby) - (c_veval[ca, 0] + way * paz - waz * pay)
             vy = (c_veval[cb, 1] + wbz * pbx - wbx * pbz) - (c_veval[ca, 1] + waz * pax - wax * paz)
             vz = (c_veval[cb, 2] + wbx * pby - wby * pbx) - (c_veval[ca, 2] + wax * pay - way * pax)
-            vn = vx * nx + vy * ny + vz * nz
-            fn, frep, arad = normal_contact(overlap, vn, reff, estar, meff, beta, gamma)
-            if arad <= 0.0:
-                zero3(nb_hist, i, k)
-                if use_c:
-                    zero3(nb_rhist, i, k)
-                continue
-            if overlap > max_overlap_fraction * min(ra, rb):
-                flag_overlap[w] = 1
-            vtx = vx - vn * nx
-            vty = vy - vn * ny
-            vtz = vz - vn * nz
-            xi0, xi1, xi2, ftx, fty, ftz = tangential_contact(
-                nb_hist[i, k, 0], nb_hist[i, k, 1], nb_hist[i, k, 2], nx, ny, nz, vtx, vty, vtz,
-                dt, arad, gstar, meff, beta, mu_s, frep)
-            nb_hist[i, k, 0] = xi0
-            nb_hist[i, k, 1] = xi1
-            nb_hist[i, k, 2] = xi2
-            # force on b
-            fbx = fn * nx + ftx
-            fby = fn * ny + fty
-            fbz = fn * nz + ftz
+            # this sphere's side: the force on b acts on i with sign sgn, lever p from i's clump
             if i == b:
                 sgn = 1.0
                 px = pbx
@@ -337,38 +300,108 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
                 px = pax
                 py = pay
                 pz = paz
-            fix = sgn * fbx
-            fiy = sgn * fby
-            fiz = sgn * fbz
+            params = pair_row(pair_params, w, s_material[a], s_material[b])
+            arad, fb, xi, roll_a, roll_c = contact_response(
+                overlap, (nx, ny, nz), (vx, vy, vz), params,
+                reff, meff, dt, load3(nb_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
+                (wbx - wax, wby - way, wbz - waz), load3(nb_rhist, i, k) if use_c else ZERO3)
+            if arad <= 0.0:
+                zero3(nb_hist, i, k)
+                if use_c:
+                    zero3(nb_rhist, i, k)
+                continue
+            if overlap > prm.max_overlap_fraction * min(ra, rb):
+                flags_overlap[w] = 1
+            store3(nb_hist, i, k, xi)
+            fix = sgn * fb[0]
+            fiy = sgn * fb[1]
+            fiz = sgn * fb[2]
             fx += fix
             fy += fiy
             fz += fiz
             tx += py * fiz - pz * fiy
             ty += pz * fix - px * fiz
             tz += px * fiy - py * fix
-            if rolling_model == ROLLING_A:
-                if om_i > 0.0 and mu_r > 0.0:
-                    arm = math.sqrt(px * px + py * py + pz * pz)
-                    mag = mu_r * frep * arm / om_i
-                    rx -= mag * oix
-                    ry -= mag * oiy
-                    rz -= mag * oiz
-            elif use_c:
-                m0, m1, m2 = _rolling_c(nb_rhist[i, k, 0], nb_rhist[i, k, 1], nb_rhist[i, k, 2],
-                                        nx, ny, nz, wbx - wax, wby - way, wbz - waz, dt,
-                                        2.0 * estar * arad, reff, mu_r, frep)
-                nb_rhist[i, k, 0] = m0
-                nb_rhist[i, k, 1] = m1
-                nb_rhist[i, k, 2] = m2
-                tx += sgn * m0
-                ty += sgn * m1
-                tz += sgn * m2
+            rx -= roll_a[0]
+            ry -= roll_a[1]
+            rz -= roll_a[2]
+            if use_c:
+                store3(nb_rhist, i, k, roll_c)
+                tx += sgn * roll_c[0]
+                ty += sgn * roll_c[1]
+                tz += sgn * roll_c[2]
+        store2(sph_force, i, (fx, fy, fz))
+        store2(sph_torque, i, (tx, ty, tz))
+        store2(sph_roll, i, (rx, ry, rz))
+
+
+@njit(cache=True)
+def wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags):
+    """Sphere-wall part of :func:`sphere_forces`, after :func:`pair_contacts`: adds the
+    forces of each sphere's candidate walls to ``sph.force``/``torque``/``roll``; updates the
+    sphere-wall slots' histories and the forces on the walls (zero for an inactive sphere).
+    """
+    sph_clump = sph.clump
+    clu_state = clu.state
+    worlds_active = worlds.active
+    clu_world = clu.world
+    worlds_dt = worlds.dt
+    sph_radius = sph.radius
+    sph_pos = sph.pos
+    sph_material = sph.material
+    clu_pos = clu.pos
+    sph_force = sph.force
+    sph_torque = sph.torque
+    sph_roll = sph.roll
+    clu_veval = clu.veval
+    clu_mass = clu.mass
+    walls_near = walls.near
+    flags_overlap = flags.overlap
+    wall_type = walls.type
+    wall_origin = walls.origin
+    wall_geom = walls.geom
+    wall_vel = walls.vel
+    wall_material = walls.material
+    w_hist = walls.hist
+    w_rhist = walls.rhist
+    s_wall_force = walls.force
+    c_omega = clu.omega
+    pair_params = worlds.pair_params
+    contact_margin = prm.contact_margin
+    rolling_model = prm.rolling_model
+    use_c = rolling_model == ROLLING_C
+    n_walls = wall_type.shape[1]
+    for i in range(lo, hi):
+        ci = sph_clump[i]
+        if clu_state[ci] != ACTIVE or worlds_active[clu_world[ci]] == 0:
+            for k in range(n_walls):
+                zero3(s_wall_force, i, k)
+            continue
+        w = clu_world[ci]
+        dt = worlds_dt[w]
+        oix = c_omega[ci, 0]
+        oiy = c_omega[ci, 1]
+        oiz = c_omega[ci, 2]
+        spin = (oix, oiy, oiz)
+        om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
+        ri = sph_radius[i]
+        pix = sph_pos[i, 0]
+        piy = sph_pos[i, 1]
+        piz = sph_pos[i, 2]
+        mat_i = sph_material[i]
+        com_ix = clu_pos[ci, 0]
+        com_iy = clu_pos[ci, 1]
+        com_iz = clu_pos[ci, 2]
+        # the sums of pair_contacts go on (bitwise the sums of one pass over all contacts)
+        fx, fy, fz = load2(sph_force, i)
+        tx, ty, tz = load2(sph_torque, i)
+        rx, ry, rz = load2(sph_roll, i)
         # walls of this world: wall = a, sphere = b
-        vix = c_veval[ci, 0]
-        viy = c_veval[ci, 1]
-        viz = c_veval[ci, 2]
-        mass_i = c_mass[ci]
-        near = s_wall_near[i]
+        vix = clu_veval[ci, 0]
+        viy = clu_veval[ci, 1]
+        viz = clu_veval[ci, 2]
+        mass_i = clu_mass[ci]
+        near = walls_near[i]
         for k in range(n_walls if near != 0 else 0):
             if ((near >> k) & 1) == 0:
                 continue
@@ -389,13 +422,6 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
                 if use_c:
                     zero3(w_rhist, i, k)
                 continue
-            mat_w = wall_material[w, k]
-            estar = pair_params[w, mat_w, mat_i, P_ESTAR]
-            gstar = pair_params[w, mat_w, mat_i, P_GSTAR]
-            beta = pair_params[w, mat_w, mat_i, P_BETA]
-            mu_s = pair_params[w, mat_w, mat_i, P_MU_S]
-            mu_r = pair_params[w, mat_w, mat_i, P_MU_R]
-            gamma = pair_params[w, mat_w, mat_i, P_GAMMA]
             lever = ri - 0.5 * overlap
             cx = pix - nx * lever
             cy = piy - ny * lever
@@ -406,27 +432,22 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             vx = vix + oiy * pz - oiz * py - wall_vel[w, k, 0]
             vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
             vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
-            vn = vx * nx + vy * ny + vz * nz
-            fn, frep, arad = normal_contact(overlap, vn, ri, estar, mass_i, beta, gamma)
+            params = pair_row(pair_params, w, wall_material[w, k], mat_i)
+            arad, fb, xi, roll_a, roll_c = contact_response(
+                overlap, (nx, ny, nz), (vx, vy, vz), params,
+                ri, mass_i, dt, load3(w_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
+                spin, load3(w_rhist, i, k) if use_c else ZERO3)
             if arad <= 0.0:
                 zero3(w_hist, i, k)
                 if use_c:
                     zero3(w_rhist, i, k)
                 continue
-            if overlap > max_overlap_fraction * ri:
-                flag_overlap[w] = 1
-            vtx = vx - vn * nx
-            vty = vy - vn * ny
-            vtz = vz - vn * nz
-            xi0, xi1, xi2, ftx, fty, ftz = tangential_contact(
-                w_hist[i, k, 0], w_hist[i, k, 1], w_hist[i, k, 2], nx, ny, nz, vtx, vty, vtz,
-                dt, arad, gstar, mass_i, beta, mu_s, frep)
-            w_hist[i, k, 0] = xi0
-            w_hist[i, k, 1] = xi1
-            w_hist[i, k, 2] = xi2
-            fix = fn * nx + ftx
-            fiy = fn * ny + fty
-            fiz = fn * nz + ftz
+            if overlap > prm.max_overlap_fraction * ri:
+                flags_overlap[w] = 1
+            store3(w_hist, i, k, xi)
+            fix = fb[0]
+            fiy = fb[1]
+            fiz = fb[2]
             fx += fix
             fy += fiy
             fz += fiz
@@ -436,54 +457,71 @@ def sphere_forces(lo, hi, s_pos, s_radius, s_clump, s_material,
             s_wall_force[i, k, 0] = -fix
             s_wall_force[i, k, 1] = -fiy
             s_wall_force[i, k, 2] = -fiz
-            if rolling_model == ROLLING_A:
-                if om_i > 0.0 and mu_r > 0.0:
-                    arm = math.sqrt(px * px + py * py + pz * pz)
-                    mag = mu_r * frep * arm / om_i
-                    rx -= mag * oix
-                    ry -= mag * oiy
-                    rz -= mag * oiz
-            elif use_c:
-                m0, m1, m2 = _rolling_c(w_rhist[i, k, 0], w_rhist[i, k, 1], w_rhist[i, k, 2],
-                                        nx, ny, nz, oix, oiy, oiz, dt, 2.0 * estar * arad, ri,
-                                        mu_r, frep)
-                w_rhist[i, k, 0] = m0
-                w_rhist[i, k, 1] = m1
-                w_rhist[i, k, 2] = m2
-                tx += m0
-                ty += m1
-                tz += m2
-        s_force[i, 0] = fx
-        s_force[i, 1] = fy
-        s_force[i, 2] = fz
-        s_torque[i, 0] = tx
-        s_torque[i, 1] = ty
-        s_torque[i, 2] = tz
-        s_roll[i, 0] = rx
-        s_roll[i, 1] = ry
-        s_roll[i, 2] = rz
+            rx -= roll_a[0]
+            ry -= roll_a[1]
+            rz -= roll_a[2]
+            if use_c:
+                store3(w_rhist, i, k, roll_c)
+                tx += roll_c[0]
+                ty += roll_c[1]
+                tz += roll_c[2]
+        store2(sph_force, i, (fx, fy, fz))
+        store2(sph_torque, i, (tx, ty, tz))
+        store2(sph_roll, i, (rx, ry, rz))
 
 
 @njit(cache=True)
-def wall_candidates(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, wall_type, wall_origin,
-                    wall_geom, extra, s_wall_near, w_hist, w_rhist, s_wall_force, carry_rolling):
+def sphere_forces(lo, hi, sph, clu, nb, walls, worlds, prm, flags):
+    """Gather the contact forces and torques acting on spheres ``lo`` to ``hi - 1``.
+
+    Writes ``sph.force[i]`` (N), ``sph.torque[i]`` (contact torque about the clump's centre
+    of mass plus type-C rolling torque, N m), ``sph.roll[i]`` (type-A rolling torque, N m,
+    applied with a no-reversal limit by :func:`clump_step`), the forces the sphere exerts on
+    each of its world's walls ``walls.force[i, k]`` (N), and its contact histories (in the
+    current neighbour list ``nb`` and in ``walls``): first the neighbour slots
+    (:func:`pair_contacts`), then the walls (:func:`wall_contacts`). Only the walls in the
+    sphere's candidate mask ``walls.near[i]`` (bit k: wall k, from :func:`wall_candidates` at
+    the last neighbour build) are visited; the slots of the others are zero and stay so until
+    the next build. Each contact's response comes from
+    :func:`~demcal.dem.contact.contact_response`.
+    """
+    pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags)
+    wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags)
+
+
+@njit(cache=True)
+def wall_candidates(lo, hi, sph, clu, walls, prm):
     """Mark the walls each sphere may touch before the next neighbour build.
 
-    Bit ``k`` of ``s_wall_near[i]`` is set when wall ``k`` comes within ``r_i + extra`` of the
-    sphere's centre (``extra`` = skin + contact margin; a conservative bound, see
+    Bit ``k`` of ``walls.near[i]`` is set when wall ``k`` comes within ``r_i + prm.wall_extra``
+    of the sphere's centre (skin + contact margin; a conservative bound, see
     :func:`~demcal.dem.walls.surely_beyond`). The rebuild rule (a sphere or a wall moving half
     the skin since the build) keeps every unmarked wall out of reach until the next build, so
     its slots are zeroed here, as the force pass would zero them at every step, and the force
     pass skips it: the results are bitwise those of visiting every wall at every step.
     """
+    clu_world = clu.world
+    sph_radius = sph.radius
+    walls_hist = walls.hist
+    walls_rhist = walls.rhist
+    walls_force = walls.force
+    s_pos = sph.pos
+    s_clump = sph.clump
+    c_state = clu.state
+    wall_type = walls.type
+    wall_origin = walls.origin
+    wall_geom = walls.geom
+    s_wall_near = walls.near
+    extra = prm.wall_extra
+    carry_rolling = prm.carry_rolling
     n_walls = wall_type.shape[1]
     for i in range(lo, hi):
         ci = s_clump[i]
         if c_state[ci] != ACTIVE:
             s_wall_near[i] = 0
             continue
-        w = c_world[ci]
-        reach = s_radius[i] + extra
+        w = clu_world[ci]
+        reach = sph_radius[i] + extra
         near = 0
         for k in range(n_walls):
             wt = wall_type[w, k]
@@ -492,19 +530,16 @@ def wall_candidates(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, wall_typ
                     wall_geom[w, k], s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], reach):
                 near |= 1 << k
                 continue
-            zero3(w_hist, i, k)
+            zero3(walls_hist, i, k)
             if carry_rolling:
-                zero3(w_rhist, i, k)
-            zero3(s_wall_force, i, k)
+                zero3(walls_rhist, i, k)
+            zero3(walls_force, i, k)
         s_wall_near[i] = near
 
 
 @njit(cache=True)
-def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass, c_inertia, c_world,
-               c_state, c_first, c_count, s_offset, s_pos, s_ref, s_force, s_torque, s_roll,
-               world_dt, world_gravity, world_active, world_lo, world_hi, half_skin,
-               flag_rebuild, flag_nan):
-    """Integrate clump ``c`` over one step and place its spheres.
+def clump_step(lo, hi, clu, sph, worlds, prm, flags):
+    """Integrate clumps ``lo`` to ``hi - 1`` over one step and place their spheres.
 
     Translation: leapfrog (velocities at half steps). Rotation: the space-frame angular
     momentum is kicked by the contact torques, then by the type-A rolling torque, limited so
@@ -514,15 +549,41 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
     world's NaN flag; a sphere that moved more than half the skin since the last neighbour
     build raises the rebuild flag.
     """
+    worlds_active = worlds.active
+    clu_first = clu.first
+    clu_count = clu.count
+    clu_mass = clu.mass
+    sph_offset = sph.offset
+    flags_nan = flags.nan
+    c_pos = clu.pos
+    c_quat = clu.quat
+    c_vel = clu.vel
+    c_veval = clu.veval
+    c_angmom = clu.angmom
+    c_omega = clu.omega
+    c_inertia = clu.inertia
+    c_world = clu.world
+    c_state = clu.state
+    s_pos = sph.pos
+    s_ref = sph.ref
+    s_force = sph.force
+    s_torque = sph.torque
+    s_roll = sph.roll
+    world_dt = worlds.dt
+    world_gravity = worlds.gravity
+    world_lo = worlds.lo
+    world_hi = worlds.hi
+    half_skin = prm.half_skin
+    flag_rebuild = flags.rebuild
     for c in range(lo, hi):
         if c_state[c] != ACTIVE:
             continue
         w = c_world[c]
-        if world_active[w] == 0:
+        if worlds_active[w] == 0:
             continue
         dt = world_dt[w]
-        first = c_first[c]
-        last = first + c_count[c]
+        first = clu_first[c]
+        last = first + clu_count[c]
         fx = 0.0
         fy = 0.0
         fz = 0.0
@@ -542,7 +603,7 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
             jx += s_roll[s, 0]
             jy += s_roll[s, 1]
             jz += s_roll[s, 2]
-        m = c_mass[c]
+        m = clu_mass[c]
         ax_ = fx / m + world_gravity[w, 0]
         ay_ = fy / m + world_gravity[w, 1]
         az_ = fz / m + world_gravity[w, 2]
@@ -611,7 +672,8 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
         hs2 = half_skin * half_skin
         moved = False
         for s in range(first, last):
-            bx, by, bz = quat_rotate(qw, qx, qy, qz, s_offset[s, 0], s_offset[s, 1], s_offset[s, 2])
+            bx, by, bz = quat_rotate(qw, qx, qy, qz, sph_offset[s, 0], sph_offset[s, 1],
+                                     sph_offset[s, 2])
             sx = x + bx
             sy = y + by
             sz = z + bz
@@ -628,7 +690,7 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(vx)
                 and math.isfinite(vy) and math.isfinite(vz) and math.isfinite(lx)
                 and math.isfinite(ly) and math.isfinite(lz)):
-            flag_nan[w] = 1
+            flags_nan[w] = 1
             c_state[c] = REMOVED
             flag_rebuild[0] = 1
             continue
@@ -639,15 +701,17 @@ def clump_step(lo, hi, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
 
 
 @njit(cache=True)
-def advance_world(w, world_dt, world_active, world_time, world_steps, wall_origin, wall_vel,
-                  wall_ref, half_skin, flag_rebuild):
+def advance_world(w, worlds, walls, prm, flags):
     """End world ``w``'s step (if it is active): move its walls by velocity x dt (m), raise the
     rebuild flag for a wall that moved more than half the skin since the last neighbour build
     (its wall candidates must be renewed), and advance its clock (s) and step count."""
-    if world_active[w] == 0:
+    if worlds.active[w] == 0:
         return
-    dt = world_dt[w]
-    hs2 = half_skin * half_skin
+    wall_origin = walls.origin
+    wall_vel = walls.vel
+    wall_ref = walls.ref
+    dt = worlds.dt[w]
+    hs2 = prm.half_skin * prm.half_skin
     for k in range(wall_origin.shape[1]):
         wall_origin[w, k, 0] += wall_vel[w, k, 0] * dt
         wall_origin[w, k, 1] += wall_vel[w, k, 1] * dt
@@ -656,9 +720,9 @@ def advance_world(w, world_dt, world_active, world_time, world_steps, wall_origi
         ddy = wall_origin[w, k, 1] - wall_ref[w, k, 1]
         ddz = wall_origin[w, k, 2] - wall_ref[w, k, 2]
         if ddx * ddx + ddy * ddy + ddz * ddz > hs2:
-            flag_rebuild[0] = 1
-    world_time[w] += dt
-    world_steps[w] += 1
+            flags.rebuild[0] = 1
+    worlds.time[w] += dt
+    worlds.steps[w] += 1
 
 
 @njit(cache=True)
@@ -687,25 +751,42 @@ def cell_bucket(w, ix, iy, iz, mask):
 
 
 @njit(cache=True)
-def neighbor_search(lo, hi, s_pos, s_radius, s_clump, c_state, c_world, s_cellkey, grid_lo,
-                    inv_cell, bucket_count, bucket_members, mask, extra,
-                    old_count, old_index, old_hist, old_rhist,
-                    new_count, new_index, new_hist, new_rhist, carry_rolling):
-    """Fill sphere ``i``'s neighbour slots and carry its contact history over.
+def neighbor_search(lo, hi, sph, clu, grid, prm, old, new):
+    """Fill the neighbour slots of spheres ``lo`` to ``hi - 1`` in list ``new`` and carry
+    their contact history over from list ``old``.
 
     Candidates are spheres of the same world, of another clump, whose centres are closer than
-    ``r_i + r_j + extra`` (``extra`` = skin + contact margin). Slots are sorted by neighbour
+    ``r_i + r_j + prm.extra`` (skin + contact margin). Slots are sorted by neighbour
     index, so the list (and the force summation order) does not depend on the binning order.
     Writes the number of neighbours found to ``new_count[i]``, which may exceed the
     capacity (then only the first ``capacity`` are stored and the host must grow it).
     """
+    clu_state = clu.state
+    clu_world = clu.world
+    s_pos = sph.pos
+    s_radius = sph.radius
+    s_clump = sph.clump
+    s_cellkey = sph.cellkey
+    bucket_count = grid.bucket_count
+    bucket_members = grid.bucket_members
+    mask = prm.mask
+    extra = prm.extra
+    carry_rolling = prm.carry_rolling
+    old_count = old.count
+    old_index = old.index
+    old_hist = old.hist
+    old_rhist = old.rhist
+    new_count = new.count
+    new_index = new.index
+    new_hist = new.hist
+    new_rhist = new.rhist
     for i in range(lo, hi):
         ci = s_clump[i]
         cap = new_index.shape[1]
-        if c_state[ci] != ACTIVE:
+        if clu_state[ci] != ACTIVE:
             new_count[i] = 0
             continue
-        w = c_world[ci]
+        w = clu_world[ci]
         key = s_cellkey[i]
         iz = key & CELL_MAX
         iy = (key >> CELL_BITS) & CELL_MAX

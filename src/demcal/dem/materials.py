@@ -14,12 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.dem.contact import (
-    beta_from_restitution,
-    jkr_critical_overlap,
-    pair_modulus,
-    pair_shear_modulus,
-)
-from demcal.dem.kernels import (
     N_PAIR_FIELDS,
     P_BETA,
     P_ESTAR,
@@ -27,6 +21,10 @@ from demcal.dem.kernels import (
     P_GSTAR,
     P_MU_R,
     P_MU_S,
+    beta_from_restitution,
+    jkr_critical_overlap,
+    pair_modulus,
+    pair_shear_modulus,
 )
 from demcal.errors import InputError
 

@@ -52,7 +52,7 @@ def sphere_data(sim: Simulation, world: int) -> dict[str, np.ndarray]:
     m/s (clump velocity + omega x lever arm), ``clump_id`` (n,) (index within the world) and
     ``world_id`` (n,)."""
     sim._check_world(world)
-    sim._runner.pull("s_pos", "c_pos", "c_vel", "c_omega", "c_state")
+    sim.runner.pull("s_pos", "c_pos", "c_vel", "c_omega", "c_state")
     a = sim.arrays
     lo, hi = sim.sphere_range[world]
     clump = a["s_clump"][lo:hi]
@@ -108,7 +108,7 @@ def wall_mesh(sim: Simulation, world: int,
     (k, 4) point indices, wall index of each quad (k,). Infinite planes are clipped to the
     world's domain."""
     sim._check_world(world)
-    sim._runner.pull("wall_origin")
+    sim.runner.pull("wall_origin")
     a = sim.arrays
     clip = float(np.max(a["world_hi"][world] - a["world_lo"][world]))
     pts_all, quads_all, ids = [], [], []
@@ -455,9 +455,8 @@ def load_snapshot(path: str | Path, sim: Simulation | None = None, *,
                              f"fit this simulation ({mine.dtype}, {mine.shape})")
     for name, arr in saved.items():
         sim.arrays[name] = np.array(arr, copy=True)
-    sim.parity = int(meta["parity"])
     sim.world_errors = list(meta["world_errors"])
     sim._enabled = np.asarray(meta["enabled"], dtype=bool)
-    sim._runner.push_all()
+    sim.runner.push_all(parity=int(meta["parity"]))
     return sim
 

@@ -21,8 +21,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from demcal.dem import _config
-from demcal.dem.backends import resolve_backend
+from demcal.dem.backends import Backend, make_backend, resolve_backend
 from demcal.dem.contact import rayleigh_time_step
+from demcal.dem.containers import Params, alloc_neighbors
 from demcal.dem.kernels import (
     ACTIVE,
     INACTIVE,
@@ -98,7 +99,8 @@ class Simulation:
         self._enabled = np.ones(len(self.worlds), dtype=bool)
         self.arrays: dict[str, np.ndarray] = {}
         self._build(skin)
-        self._runner = self._make_runner()
+        #: the backend that runs the steps and holds the device copies (push/pull)
+        self.runner: Backend = make_backend(self)
 
     # ------------------------------------------------------------------ building
     def _build(self, skin: float | None) -> None:
@@ -245,7 +247,7 @@ class Simulation:
         a["w_rhist"] = np.zeros((n_sph, max_walls, 3) if rolling_c else (1, 1, 3))
         cap = _config.NEIGHBOR_CAPACITY
         for side in ("a", "b"):
-            self._alloc_neighbors(side, cap)
+            alloc_neighbors(a, side, n_sph, cap, rolling_c)
         n_buckets = _pow2_at_least(_config.BUCKETS_PER_SPHERE * n_sph)
         a["bucket_count"] = np.zeros(n_buckets, dtype=np.int32)
         a["bucket_members"] = np.zeros((n_buckets, _config.BUCKET_CAPACITY), dtype=np.int32)
@@ -269,7 +271,6 @@ class Simulation:
         a["flag_nan"] = np.zeros(n_worlds, dtype=np.int32)
         a["flag_overlap"] = np.zeros(n_worlds, dtype=np.int32)
         a["stats"] = np.zeros(4, dtype=np.int64)
-        self.parity = 0
         self.n_worlds = n_worlds
         self.n_clumps = n_clu
         self.n_spheres = n_sph
@@ -310,39 +311,32 @@ class Simulation:
         body = rotate_inverse(quat, omega) * inertia
         return rotate(quat, body)
 
-    def _alloc_neighbors(self, side: str, cap: int) -> None:
-        a = self.arrays
-        n = len(a["s_radius"])
-        a[f"nb_count_{side}"] = np.zeros(n, dtype=np.int32)
-        a[f"nb_index_{side}"] = np.full((n, cap), -1, dtype=np.int32)
-        a[f"nb_hist_{side}"] = np.zeros((n, cap, 3))
-        shape = (n, cap, 3) if self.rolling_model == ROLLING_C else (1, 1, 3)
-        a[f"nb_rhist_{side}"] = np.zeros(shape)
-
     def _place_all_spheres(self) -> None:
         a = self.arrays
         c = a["s_clump"]
         a["s_pos"] = a["c_pos"][c] + rotate(a["c_quat"][c], a["s_offset"])
 
-    def _make_runner(self):
-        if self.backend == "cuda":
-            from demcal.dem.backends.cuda import CudaRunner
+    # ------------------------------------------------------------------ backend view
+    @property
+    def carry_rolling(self) -> bool:
+        """True when contacts keep a rolling history (type C)."""
+        return self.rolling_model == ROLLING_C
 
-            return CudaRunner(self)
-        from demcal.dem.backends.cpu_runner import CpuRunner
+    @property
+    def parity(self) -> int:
+        """Which neighbour buffer holds the current list (0: "a", 1: "b"); the backend's."""
+        return self.runner.parity
 
-        return CpuRunner(self)
-
-    # ------------------------------------------------------------------ growth (overflow)
-    def _grow_neighbors(self, needed: int, current_side: str) -> None:
-        """Reallocate the non-current neighbour buffer with room for ``needed`` slots."""
-        target = "b" if current_side == "a" else "a"
-        self._alloc_neighbors(target, int(needed * 1.25) + 4)
-
-    def _grow_buckets(self, needed: int) -> None:
-        n_buckets = len(self.arrays["bucket_count"])
-        self.arrays["bucket_members"] = np.zeros((n_buckets, int(needed * 1.25) + 4),
-                                                 dtype=np.int32)
+    def params(self) -> Params:
+        """The scalars of a run, as the compiled code takes them (read at each run, so a
+        patched ``_config.MAX_OVERLAP_FRACTION`` applies to the next one)."""
+        return Params(
+            rolling_model=int(self.rolling_model), carry_rolling=self.carry_rolling,
+            contact_margin=float(self.contact_margin),
+            max_overlap_fraction=float(_config.MAX_OVERLAP_FRACTION),
+            extra=self.skin + self.contact_margin, wall_extra=float(self.wall_reach_extra),
+            half_skin=0.5 * self.skin, inv_cell=1.0 / self.cell_size,
+            mask=len(self.arrays["bucket_count"]) - 1)
 
     # ------------------------------------------------------------------ running
     @property
@@ -353,19 +347,19 @@ class Simulation:
     @property
     def time(self) -> np.ndarray:
         """Simulated time of each world, s, ``(n_worlds,)``."""
-        self._runner.pull("world_time")
+        self.runner.pull("world_time")
         return self.arrays["world_time"].copy()
 
     @property
     def steps(self) -> np.ndarray:
         """Steps taken by each world, ``(n_worlds,)`` int64."""
-        self._runner.pull("world_steps")
+        self.runner.pull("world_steps")
         return self.arrays["world_steps"].copy()
 
     @property
     def n_rebuilds(self) -> int:
         """Neighbour-list builds so far."""
-        self._runner.pull("stats")
+        self.runner.pull("stats")
         return int(self.arrays["stats"][2])
 
     def set_world_enabled(self, world: int, enabled: bool) -> None:
@@ -382,7 +376,15 @@ class Simulation:
         if not (dt > 0 and math.isfinite(dt)):
             raise InputError(f"time step must be > 0 s; got {dt}")
         self.arrays["world_dt"][world] = dt
-        self._runner.push("world_dt")
+        self.runner.push("world_dt")
+
+    def set_gravity(self, world: int, gravity) -> None:
+        """Set a world's gravitational acceleration, m/s^2 (e.g. a tilting or pulling test)."""
+        self._check_world(world)
+        self.runner.pull("world_gravity")
+        self.arrays["world_gravity"][world] = self._vec3(gravity, f"world {world} gravity "
+                                                                   "(m/s^2)")
+        self.runner.push("world_gravity")
 
     def advance(self, n_steps: int) -> None:
         """Advance every enabled world by ``n_steps`` steps (health-checked in chunks)."""
@@ -395,7 +397,7 @@ class Simulation:
             self._set_active()
             if not self.arrays["world_active"].any():
                 return
-            self._runner.run_steps(k)
+            self.runner.run_steps(k)
             done += k
             self._health_check()
 
@@ -415,7 +417,7 @@ class Simulation:
                 k = int(min(_config.CHUNK_STEPS, remaining[live].min()))
                 self._enabled = live
                 self._set_active()
-                self._runner.run_steps(k)
+                self.runner.run_steps(k)
                 remaining[live] -= k
                 self._health_check()
         finally:
@@ -427,14 +429,14 @@ class Simulation:
         act = ok.astype(np.int32)
         if not np.array_equal(act, self.arrays["world_active"]):
             self.arrays["world_active"] = act
-            self._runner.push("world_active")
+            self.runner.push("world_active")
 
     def _check_world(self, world: int) -> None:
         if not (0 <= world < self.n_worlds):
             raise InputError(f"world must be in [0, {self.n_worlds - 1}]; got {world}")
 
     def _health_check(self) -> None:
-        self._runner.pull("flag_nan", "flag_overlap", "c_vel", "c_state", "world_time")
+        self.runner.pull("flag_nan", "flag_overlap", "c_vel", "c_state", "world_time")
         a = self.arrays
         speeds = np.linalg.norm(a["c_vel"], axis=1)
         active = a["c_state"] == ACTIVE
@@ -501,7 +503,7 @@ class Simulation:
         omg = self._group_array(angular_velocities, k, 3, "angular_velocities", np.zeros(3))
         names = ("c_pos", "c_quat", "c_vel", "c_veval", "c_angmom", "c_omega", "c_state",
                  "s_pos", "flag_rebuild")
-        self._runner.pull(*names)
+        self.runner.pull(*names)
         a = self.arrays
         a["c_pos"][g] = pos
         a["c_quat"][g] = quat
@@ -515,7 +517,7 @@ class Simulation:
             a["s_pos"][f:f + n] = a["c_pos"][c] + rotate(
                 np.repeat(a["c_quat"][c][None], n, 0), a["s_offset"][f:f + n])
         a["flag_rebuild"][0] = 1
-        self._runner.push(*names)
+        self.runner.push(*names)
 
     def remove_clumps(self, world: int, indices: Sequence[int] | np.ndarray) -> None:
         """Remove clumps of a world (they are counted as removed, like clumps leaving)."""
@@ -525,10 +527,10 @@ class Simulation:
         if idx.size and (idx.min() < 0 or idx.max() >= hi - lo):
             raise InputError(f"clump indices must be in [0, {hi - lo - 1}] for world {world}")
         idx = idx + lo
-        self._runner.pull("c_state", "flag_rebuild")
+        self.runner.pull("c_state", "flag_rebuild")
         self.arrays["c_state"][idx] = REMOVED
         self.arrays["flag_rebuild"][0] = 1
-        self._runner.push("c_state", "flag_rebuild")
+        self.runner.push("c_state", "flag_rebuild")
 
     # ------------------------------------------------------------------ walls
     def set_wall_velocity(self, world: int, wall: int, velocity) -> None:
@@ -539,44 +541,44 @@ class Simulation:
         v = np.asarray(velocity, dtype=np.float64)
         if v.shape != (3,) or not np.all(np.isfinite(v)):
             raise InputError("velocity must be 3 finite numbers (m/s)")
-        self._runner.pull("wall_vel")
+        self.runner.pull("wall_vel")
         self.arrays["wall_vel"][world, wall] = v
-        self._runner.push("wall_vel")
+        self.runner.push("wall_vel")
 
     def wall_origin(self, world: int, wall: int) -> np.ndarray:
         """Current origin (plane centre / tube base) of a wall, m."""
-        self._runner.pull("wall_origin")
+        self.runner.pull("wall_origin")
         return self.arrays["wall_origin"][world, wall].copy()
 
     def wall_forces(self, world: int) -> np.ndarray:
         """Force exerted by the particles on each wall of a world, ``(n_walls, 3)``, N."""
         self._check_world(world)
-        self._runner.pull("s_wall_force")
+        self.runner.pull("s_wall_force")
         lo, hi = self.sphere_range[world]
         return self.arrays["s_wall_force"][lo:hi].sum(axis=0)[: len(self.worlds[world].walls)]
 
     # ------------------------------------------------------------------ queries
     def _clump_sel(self, world: int, states=(ACTIVE,)) -> np.ndarray:
         self._check_world(world)
-        self._runner.pull("c_state")
+        self.runner.pull("c_state")
         lo, hi = self.clump_range[world]
         return lo + np.flatnonzero(np.isin(self.arrays["c_state"][lo:hi], states))
 
     def clump_state(self, world: int) -> np.ndarray:
         """State of each clump of a world: 0 inactive, 1 active, 2 removed, ``(n,)`` int."""
         self._check_world(world)
-        self._runner.pull("c_state")
+        self.runner.pull("c_state")
         lo, hi = self.clump_range[world]
         return self.arrays["c_state"][lo:hi].copy()
 
     def clump_positions(self, world: int) -> np.ndarray:
         """Centres of mass of the active clumps of a world, ``(n, 3)``, m."""
-        self._runner.pull("c_pos")
+        self.runner.pull("c_pos")
         return self.arrays["c_pos"][self._clump_sel(world)].copy()
 
     def clump_velocities(self, world: int) -> np.ndarray:
         """Velocities of the active clumps of a world, ``(n, 3)``, m/s (half-step values)."""
-        self._runner.pull("c_vel")
+        self.runner.pull("c_vel")
         return self.arrays["c_vel"][self._clump_sel(world)].copy()
 
     def clump_masses(self, world: int) -> np.ndarray:
@@ -587,7 +589,7 @@ class Simulation:
         """Active spheres of a world: centres ``(n, 3)`` m, radii ``(n,)`` m, clump ids ``(n,)``
         (indices within the world)."""
         self._check_world(world)
-        self._runner.pull("s_pos", "c_state")
+        self.runner.pull("s_pos", "c_state")
         a = self.arrays
         lo, hi = self.sphere_range[world]
         clump = a["s_clump"][lo:hi]
@@ -604,7 +606,7 @@ class Simulation:
 
     def kinetic_energy(self, world: int) -> float:
         """Kinetic energy (translation + rotation) of a world's active clumps, J."""
-        self._runner.pull("c_vel", "c_angmom", "c_omega", "c_state")
+        self.runner.pull("c_vel", "c_angmom", "c_omega", "c_state")
         a = self.arrays
         sel = self._clump_sel(world)
         trans = 0.5 * np.sum(a["c_mass"][sel] * np.sum(a["c_vel"][sel] ** 2, axis=1))
@@ -613,7 +615,7 @@ class Simulation:
 
     def max_speed(self, world: int) -> float:
         """Largest clump speed in a world, m/s (0 if none active)."""
-        self._runner.pull("c_vel", "c_state")
+        self.runner.pull("c_vel", "c_state")
         sel = self._clump_sel(world)
         if len(sel) == 0:
             return 0.0
@@ -622,7 +624,7 @@ class Simulation:
     # ------------------------------------------------------------------ state i/o
     def state_dict(self) -> dict[str, np.ndarray]:
         """Copies of every array (static and dynamic): enough to restart the simulation."""
-        self._runner.pull(*DYNAMIC_ARRAYS)
+        self.runner.pull(*DYNAMIC_ARRAYS)
         out = {k: v.copy() for k, v in self.arrays.items()}
         out["parity"] = np.array(self.parity)
         return out
@@ -643,7 +645,6 @@ class Simulation:
                                  f"simulation needs {mine.shape}")
             self.arrays[name] = arr.astype(mine.dtype if mine is not None else arr.dtype,
                                            copy=True)
-        self.parity = int(state.get("parity", 0))
         if rebuild:
             self.arrays["flag_rebuild"][0] = 1
-        self._runner.push_all()
+        self.runner.push_all(parity=int(state.get("parity", 0)))

@@ -69,7 +69,7 @@ ROLLING_LAWS: dict[str, str] = {
     "A": "type A, EDEM's standard constant directional torque: T = -mu_r F_rep d "
          "omega / |omega| (d the contact arm, omega the sphere's angular velocity)",
     "C": "type C, elastic-plastic spring (EPSD): k_r = 2.25 S_n mu_r^2 R*^2 with S_n = 2 E* a, "
-         "torque capped at mu_r R* F_rep (history-dependent; demcal.dem.kernels._rolling_c)",
+         "torque capped at mu_r R* F_rep (history-dependent; demcal.dem.contact.rolling_c)",
     "none": "no rolling resistance (rolling friction coefficients unused)",
 }
 

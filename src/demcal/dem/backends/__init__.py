@@ -1,12 +1,53 @@
-"""Engine backends: launchers of the shared kernel bodies (CPU with numba, CUDA)."""
+"""Engine backends: launchers of the shared kernel bodies (CPU with numba, CUDA).
+
+A backend implements :class:`Backend`; :class:`~demcal.dem.simulation.Simulation` holds one
+as :attr:`~demcal.dem.simulation.Simulation.runner` and asks nothing else of it. The host
+arrays (``Simulation.arrays``) are the simulation's; a backend may mirror them (CUDA) and
+copies named arrays on ``pull``/``push``. Neighbour-list parity and the growth of the
+neighbour and bucket arrays live in the backend.
+"""
 
 from __future__ import annotations
 
-__all__ = ["cuda_available", "resolve_backend"]
+from typing import Protocol
+
+__all__ = ["Backend", "cuda_available", "make_backend", "resolve_backend"]
 
 from demcal.errors import InputError
 
 BACKENDS = ("auto", "cpu", "cuda")
+
+
+class Backend(Protocol):
+    """What a :class:`~demcal.dem.simulation.Simulation` asks of a backend."""
+
+    #: which neighbour buffer holds the current list: 0 ("a") or 1 ("b")
+    parity: int
+
+    @property
+    def neighbor_side(self) -> str:
+        """The neighbour buffer holding the current list: "a" or "b"."""
+        ...
+
+    def pull(self, *names: str) -> None:
+        """Make the host copies of the named arrays current (device -> host)."""
+        ...
+
+    def push(self, *names: str) -> None:
+        """The host changed the named arrays in place or replaced them: take them."""
+        ...
+
+    def push_all(self, parity: int = 0) -> None:
+        """The host replaced every array (a snapshot whose current buffer is ``parity``)."""
+        ...
+
+    def run_steps(self, n_steps: int) -> None:
+        """Advance every active world by ``n_steps`` steps (growing arrays as needed)."""
+        ...
+
+    def grow(self, neighbors: int = 0, buckets: int = 0) -> None:
+        """Make room for ``neighbors`` slots per sphere and ``buckets`` spheres per bucket."""
+        ...
 
 
 def cuda_available() -> bool:
@@ -34,3 +75,14 @@ def resolve_backend(backend: str) -> str:
     if backend == "auto":
         return "cuda" if cuda_available() else "cpu"
     return backend
+
+
+def make_backend(sim) -> Backend:
+    """The backend named by ``sim.backend`` ("cpu" or "cuda") for simulation ``sim``."""
+    if sim.backend == "cuda":
+        from demcal.dem.backends.cuda import CudaBackend
+
+        return CudaBackend(sim)
+    from demcal.dem.backends.cpu_runner import CpuBackend
+
+    return CpuBackend(sim)

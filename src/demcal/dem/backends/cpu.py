@@ -2,6 +2,7 @@
 
 :func:`run_chunk` runs many time steps inside one compiled function (no Python per step). Each
 parallel loop writes only its own rows, so results are bitwise identical for any thread count.
+Every launcher takes the state containers of :mod:`demcal.dem.containers`.
 """
 
 from __future__ import annotations
@@ -25,8 +26,20 @@ from demcal.dem.kernels import (
     wall_candidates,
 )
 
-#: elements per call of a kernel body (amortises the per-call cost of passing ~30 arrays)
+#: fewest elements per call of a kernel body
 BLOCK = 64
+
+
+@njit(cache=True)
+def block_size(n, threads):
+    """Elements per call of a kernel body: one block per thread (at least ``BLOCK``).
+
+    A call costs several microseconds when it passes the state containers (numba counts
+    references to each of their arrays), so a pass makes as few calls as it has threads;
+    ``prange`` schedules statically, so the load is shared as with small blocks. Each element
+    is independent of the others: the results do not depend on the blocks.
+    """
+    return max(BLOCK, (n + threads - 1) // threads)
 
 STATUS_OK = 0
 STATUS_NEIGHBOR_OVERFLOW = 1
@@ -34,35 +47,29 @@ STATUS_BUCKET_OVERFLOW = 2
 
 
 @njit(cache=True)
-def bin_spheres(
-    s_pos,
-    s_clump,
-    c_state,
-    c_world,
-    grid_lo,
-    inv_cell,
-    bucket_count,
-    bucket_members,
-    mask,
-    s_cellkey,
-    s_ref,
-):
-    """Bin active spheres into the hash grid in index order; return the fullest bucket."""
+def bin_spheres(sph, clu, grid, prm):
+    """Bin active spheres into the hash grid in index order (and remember each sphere's
+    position of the build in ``sph.ref``); return the fullest bucket's count."""
+    bucket_count = grid.bucket_count
+    bucket_members = grid.bucket_members
+    s_pos = sph.pos
+    s_ref = sph.ref
+    s_cellkey = sph.cellkey
     bucket_count[:] = 0
     bcap = bucket_members.shape[1]
     fullest = 0
     for i in range(s_pos.shape[0]):
-        c = s_clump[i]
+        c = sph.clump[i]
         s_ref[i, 0] = s_pos[i, 0]
         s_ref[i, 1] = s_pos[i, 1]
         s_ref[i, 2] = s_pos[i, 2]
-        if c_state[c] != ACTIVE:
+        if clu.state[c] != ACTIVE:
             s_cellkey[i] = -1
             continue
-        w = c_world[c]
-        ix, iy, iz = cell_coords(w, s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], grid_lo, inv_cell)
+        w = clu.world[c]
+        ix, iy, iz = cell_coords(w, s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], grid.lo, prm.inv_cell)
         s_cellkey[i] = cell_key(w, ix, iy, iz)
-        b = cell_bucket(w, ix, iy, iz, mask)
+        b = cell_bucket(w, ix, iy, iz, prm.mask)
         n = bucket_count[b]
         if n < bcap:
             bucket_members[b, n] = i
@@ -73,517 +80,101 @@ def bin_spheres(
 
 
 @njit(parallel=True, cache=True)
-def search_pass(
-    s_pos,
-    s_radius,
-    s_clump,
-    c_state,
-    c_world,
-    s_cellkey,
-    grid_lo,
-    inv_cell,
-    bucket_count,
-    bucket_members,
-    mask,
-    extra,
-    old_count,
-    old_index,
-    old_hist,
-    old_rhist,
-    new_count,
-    new_index,
-    new_hist,
-    new_rhist,
-    carry_rolling,
-):
-    """Neighbour search for every sphere; returns the largest neighbour count found."""
-    n = s_pos.shape[0]
-    n_blocks = (n + BLOCK - 1) // BLOCK
+def search_pass(sph, clu, grid, prm, old, new):
+    """Neighbour search for every sphere (list ``new``, history carried over from ``old``);
+    returns the largest neighbour count found."""
+    n = sph.pos.shape[0]
+    size = block_size(n, prm.threads)
+    n_blocks = (n + size - 1) // size
     for blk in prange(n_blocks):
-        neighbor_search(
-            blk * BLOCK,
-            min(blk * BLOCK + BLOCK, n),
-            s_pos,
-            s_radius,
-            s_clump,
-            c_state,
-            c_world,
-            s_cellkey,
-            grid_lo,
-            inv_cell,
-            bucket_count,
-            bucket_members,
-            mask,
-            extra,
-            old_count,
-            old_index,
-            old_hist,
-            old_rhist,
-            new_count,
-            new_index,
-            new_hist,
-            new_rhist,
-            carry_rolling,
-        )
+        neighbor_search(blk * size, min(blk * size + size, n), sph, clu, grid, prm, old, new)
     most = 0
     for i in range(n):
-        if new_count[i] > most:
-            most = new_count[i]
+        if new.count[i] > most:
+            most = new.count[i]
     return most
 
 
 @njit(parallel=True, cache=True)
-def candidates_pass(
-    s_pos,
-    s_radius,
-    s_clump,
-    c_state,
-    c_world,
-    wall_type,
-    wall_origin,
-    wall_geom,
-    extra,
-    s_wall_near,
-    w_hist,
-    w_rhist,
-    s_wall_force,
-    carry_rolling,
-):
+def candidates_pass(sph, clu, walls, prm):
     """Wall candidates of every sphere (:func:`~demcal.dem.kernels.wall_candidates`)."""
-    n = s_pos.shape[0]
-    n_blocks = (n + BLOCK - 1) // BLOCK
+    n = sph.pos.shape[0]
+    size = block_size(n, prm.threads)
+    n_blocks = (n + size - 1) // size
     for blk in prange(n_blocks):
-        wall_candidates(
-            blk * BLOCK,
-            min(blk * BLOCK + BLOCK, n),
-            s_pos,
-            s_radius,
-            s_clump,
-            c_state,
-            c_world,
-            wall_type,
-            wall_origin,
-            wall_geom,
-            extra,
-            s_wall_near,
-            w_hist,
-            w_rhist,
-            s_wall_force,
-            carry_rolling,
-        )
+        wall_candidates(blk * size, min(blk * size + size, n), sph, clu, walls, prm)
 
 
 @njit(parallel=True, cache=True)
-def force_pass(
-    s_pos,
-    s_radius,
-    s_clump,
-    s_material,
-    c_pos,
-    c_veval,
-    c_omega,
-    c_mass,
-    c_world,
-    c_state,
-    nb_count,
-    nb_index,
-    nb_hist,
-    nb_rhist,
-    wall_type,
-    wall_origin,
-    wall_geom,
-    wall_vel,
-    wall_material,
-    w_hist,
-    w_rhist,
-    s_wall_near,
-    pair_params,
-    world_dt,
-    world_active,
-    rolling_model,
-    contact_margin,
-    max_overlap_fraction,
-    s_force,
-    s_torque,
-    s_roll,
-    s_wall_force,
-    flag_overlap,
-):
-    n = s_pos.shape[0]
-    n_blocks = (n + BLOCK - 1) // BLOCK
+def force_pass(sph, clu, nb, walls, worlds, prm, flags):
+    """Contact forces on every sphere (:func:`~demcal.dem.kernels.sphere_forces`)."""
+    n = sph.pos.shape[0]
+    size = block_size(n, prm.threads)
+    n_blocks = (n + size - 1) // size
     for blk in prange(n_blocks):
-        sphere_forces(
-            blk * BLOCK,
-            min(blk * BLOCK + BLOCK, n),
-            s_pos,
-            s_radius,
-            s_clump,
-            s_material,
-            c_pos,
-            c_veval,
-            c_omega,
-            c_mass,
-            c_world,
-            c_state,
-            nb_count,
-            nb_index,
-            nb_hist,
-            nb_rhist,
-            wall_type,
-            wall_origin,
-            wall_geom,
-            wall_vel,
-            wall_material,
-            w_hist,
-            w_rhist,
-            s_wall_near,
-            pair_params,
-            world_dt,
-            world_active,
-            rolling_model,
-            contact_margin,
-            max_overlap_fraction,
-            s_force,
-            s_torque,
-            s_roll,
-            s_wall_force,
-            flag_overlap,
-        )
+        sphere_forces(blk * size, min(blk * size + size, n), sph, clu, nb, walls, worlds,
+                      prm, flags)
 
 
 @njit(parallel=True, cache=True)
-def clump_pass(
-    c_pos,
-    c_quat,
-    c_vel,
-    c_veval,
-    c_angmom,
-    c_omega,
-    c_mass,
-    c_inertia,
-    c_world,
-    c_state,
-    c_first,
-    c_count,
-    s_offset,
-    s_pos,
-    s_ref,
-    s_force,
-    s_torque,
-    s_roll,
-    world_dt,
-    world_gravity,
-    world_active,
-    world_lo,
-    world_hi,
-    half_skin,
-    flag_rebuild,
-    flag_nan,
-):
-    n = c_pos.shape[0]
-    n_blocks = (n + BLOCK - 1) // BLOCK
+def clump_pass(clu, sph, worlds, prm, flags):
+    """One step of every clump (:func:`~demcal.dem.kernels.clump_step`)."""
+    n = clu.pos.shape[0]
+    size = block_size(n, prm.threads)
+    n_blocks = (n + size - 1) // size
     for blk in prange(n_blocks):
-        clump_step(
-            blk * BLOCK,
-            min(blk * BLOCK + BLOCK, n),
-            c_pos,
-            c_quat,
-            c_vel,
-            c_veval,
-            c_angmom,
-            c_omega,
-            c_mass,
-            c_inertia,
-            c_world,
-            c_state,
-            c_first,
-            c_count,
-            s_offset,
-            s_pos,
-            s_ref,
-            s_force,
-            s_torque,
-            s_roll,
-            world_dt,
-            world_gravity,
-            world_active,
-            world_lo,
-            world_hi,
-            half_skin,
-            flag_rebuild,
-            flag_nan,
-        )
+        clump_step(blk * size, min(blk * size + size, n), clu, sph, worlds, prm, flags)
 
 
 @njit(cache=True)
-def run_chunk(
-    n_steps,
-    parity,
-    s_pos,
-    s_ref,
-    s_radius,
-    s_clump,
-    s_material,
-    s_offset,
-    s_cellkey,
-    s_force,
-    s_torque,
-    s_roll,
-    s_wall_force,
-    c_pos,
-    c_quat,
-    c_vel,
-    c_veval,
-    c_angmom,
-    c_omega,
-    c_mass,
-    c_inertia,
-    c_world,
-    c_state,
-    c_first,
-    c_count,
-    nb_count_a,
-    nb_index_a,
-    nb_hist_a,
-    nb_rhist_a,
-    nb_count_b,
-    nb_index_b,
-    nb_hist_b,
-    nb_rhist_b,
-    bucket_count,
-    bucket_members,
-    mask,
-    grid_lo,
-    inv_cell,
-    extra,
-    wall_extra,
-    half_skin,
-    wall_type,
-    wall_origin,
-    wall_geom,
-    wall_vel,
-    wall_material,
-    w_hist,
-    w_rhist,
-    s_wall_near,
-    wall_ref,
-    pair_params,
-    world_dt,
-    world_gravity,
-    world_active,
-    world_lo,
-    world_hi,
-    world_time,
-    world_steps,
-    rolling_model,
-    contact_margin,
-    max_overlap_fraction,
-    flag_rebuild,
-    flag_nan,
-    flag_overlap,
-    stats,
-):
-    """Run up to ``n_steps`` steps. Returns ``(steps_done, status, parity)``.
+def rebuild(parity, st):
+    """Build the neighbour list into the scratch buffer and renew the wall candidates.
 
-    ``parity`` says which neighbour buffer (a: 0, b: 1) is current. On a neighbour or bucket
-    overflow the function returns before the step's forces are computed, with the needed
-    size in ``stats`` (0: largest neighbour count, 1: fullest bucket); the host grows the
-    arrays and calls again, losing nothing. ``stats[2]`` counts neighbour rebuilds.
+    Returns ``(status, parity)``: on an overflow the buffers are left as they were (the
+    needed size is in ``stats``), else the scratch buffer becomes the current one.
     """
-    carry_rolling = rolling_model == 2
-    n_worlds = world_dt.shape[0]
+    sph = st.spheres
+    clu = st.clumps
+    prm = st.params
+    stats = st.flags.stats
+    fullest = bin_spheres(sph, clu, st.grid, prm)
+    if fullest > st.grid.bucket_members.shape[1]:
+        stats[1] = fullest
+        return STATUS_BUCKET_OVERFLOW, parity
+    # the two buffers swap roles at each build: a -> b when parity is 0, b -> a when 1
+    cur = st.nb_a if parity == 0 else st.nb_b
+    nxt = st.nb_b if parity == 0 else st.nb_a
+    most = search_pass(sph, clu, st.grid, prm, cur, nxt)
+    if most > nxt.index.shape[1]:
+        stats[0] = most
+        return STATUS_NEIGHBOR_OVERFLOW, parity
+    candidates_pass(sph, clu, st.walls, prm)
+    st.walls.ref[:] = st.walls.origin
+    st.flags.rebuild[0] = 0
+    stats[2] += 1
+    return STATUS_OK, 1 - parity
+
+
+@njit(cache=True)
+def run_chunk(n_steps, parity, st):
+    """Run up to ``n_steps`` steps of the state ``st`` (an
+    :class:`~demcal.dem.containers.EngineState`). Returns ``(steps_done, status, parity)``.
+
+    ``parity`` says which neighbour buffer (``st.nb_a``: 0, ``st.nb_b``: 1) is current. On a
+    neighbour or bucket overflow the function returns before the step's forces are
+    computed, with the needed size in ``stats`` (0: largest neighbour count, 1: fullest
+    bucket); the host grows the arrays and calls again, losing nothing. ``stats[2]`` counts
+    neighbour rebuilds.
+    """
+    n_worlds = st.worlds.dt.shape[0]
     for step in range(n_steps):
-        if flag_rebuild[0] != 0:
-            fullest = bin_spheres(
-                s_pos,
-                s_clump,
-                c_state,
-                c_world,
-                grid_lo,
-                inv_cell,
-                bucket_count,
-                bucket_members,
-                mask,
-                s_cellkey,
-                s_ref,
-            )
-            if fullest > bucket_members.shape[1]:
-                stats[1] = fullest
-                return step, STATUS_BUCKET_OVERFLOW, parity
-            if parity == 0:
-                most = search_pass(
-                    s_pos,
-                    s_radius,
-                    s_clump,
-                    c_state,
-                    c_world,
-                    s_cellkey,
-                    grid_lo,
-                    inv_cell,
-                    bucket_count,
-                    bucket_members,
-                    mask,
-                    extra,
-                    nb_count_a,
-                    nb_index_a,
-                    nb_hist_a,
-                    nb_rhist_a,
-                    nb_count_b,
-                    nb_index_b,
-                    nb_hist_b,
-                    nb_rhist_b,
-                    carry_rolling,
-                )
-                cap = nb_index_b.shape[1]
-            else:
-                most = search_pass(
-                    s_pos,
-                    s_radius,
-                    s_clump,
-                    c_state,
-                    c_world,
-                    s_cellkey,
-                    grid_lo,
-                    inv_cell,
-                    bucket_count,
-                    bucket_members,
-                    mask,
-                    extra,
-                    nb_count_b,
-                    nb_index_b,
-                    nb_hist_b,
-                    nb_rhist_b,
-                    nb_count_a,
-                    nb_index_a,
-                    nb_hist_a,
-                    nb_rhist_a,
-                    carry_rolling,
-                )
-                cap = nb_index_a.shape[1]
-            if most > cap:
-                stats[0] = most
-                return step, STATUS_NEIGHBOR_OVERFLOW, parity
-            parity = 1 - parity
-            candidates_pass(
-                s_pos,
-                s_radius,
-                s_clump,
-                c_state,
-                c_world,
-                wall_type,
-                wall_origin,
-                wall_geom,
-                wall_extra,
-                s_wall_near,
-                w_hist,
-                w_rhist,
-                s_wall_force,
-                carry_rolling,
-            )
-            wall_ref[:] = wall_origin
-            flag_rebuild[0] = 0
-            stats[2] += 1
-        if parity == 0:
-            force_pass(
-                s_pos,
-                s_radius,
-                s_clump,
-                s_material,
-                c_pos,
-                c_veval,
-                c_omega,
-                c_mass,
-                c_world,
-                c_state,
-                nb_count_a,
-                nb_index_a,
-                nb_hist_a,
-                nb_rhist_a,
-                wall_type,
-                wall_origin,
-                wall_geom,
-                wall_vel,
-                wall_material,
-                w_hist,
-                w_rhist,
-                s_wall_near,
-                pair_params,
-                world_dt,
-                world_active,
-                rolling_model,
-                contact_margin,
-                max_overlap_fraction,
-                s_force,
-                s_torque,
-                s_roll,
-                s_wall_force,
-                flag_overlap,
-            )
-        else:
-            force_pass(
-                s_pos,
-                s_radius,
-                s_clump,
-                s_material,
-                c_pos,
-                c_veval,
-                c_omega,
-                c_mass,
-                c_world,
-                c_state,
-                nb_count_b,
-                nb_index_b,
-                nb_hist_b,
-                nb_rhist_b,
-                wall_type,
-                wall_origin,
-                wall_geom,
-                wall_vel,
-                wall_material,
-                w_hist,
-                w_rhist,
-                s_wall_near,
-                pair_params,
-                world_dt,
-                world_active,
-                rolling_model,
-                contact_margin,
-                max_overlap_fraction,
-                s_force,
-                s_torque,
-                s_roll,
-                s_wall_force,
-                flag_overlap,
-            )
-        clump_pass(
-            c_pos,
-            c_quat,
-            c_vel,
-            c_veval,
-            c_angmom,
-            c_omega,
-            c_mass,
-            c_inertia,
-            c_world,
-            c_state,
-            c_first,
-            c_count,
-            s_offset,
-            s_pos,
-            s_ref,
-            s_force,
-            s_torque,
-            s_roll,
-            world_dt,
-            world_gravity,
-            world_active,
-            world_lo,
-            world_hi,
-            half_skin,
-            flag_rebuild,
-            flag_nan,
-        )
+        if st.flags.rebuild[0] != 0:
+            status, parity = rebuild(parity, st)
+            if status != STATUS_OK:
+                return step, status, parity
+        nb = st.nb_a if parity == 0 else st.nb_b
+        force_pass(st.spheres, st.clumps, nb, st.walls, st.worlds, st.params, st.flags)
+        clump_pass(st.clumps, st.spheres, st.worlds, st.params, st.flags)
         for w in range(n_worlds):
-            advance_world(w, world_dt, world_active, world_time, world_steps, wall_origin,
-                          wall_vel, wall_ref, half_skin, flag_rebuild)
+            advance_world(w, st.worlds, st.walls, st.params, st.flags)
     return n_steps, STATUS_OK, parity

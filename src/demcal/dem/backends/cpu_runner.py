@@ -7,13 +7,24 @@ import numpy as np
 
 from demcal.dem import _config
 from demcal.dem.backends import cpu
+from demcal.dem.containers import alloc_buckets, alloc_neighbors, pack
 
 
-class CpuRunner:
-    """Runs a :class:`~demcal.dem.simulation.Simulation` on the CPU (arrays stay on the host)."""
+class CpuBackend:
+    """Runs a :class:`~demcal.dem.simulation.Simulation` on the CPU (arrays stay on the host).
+
+    Implements :class:`~demcal.dem.backends.Backend`. The two neighbour buffers swap roles at
+    each build: :attr:`parity` says which one is current (0: "a", 1: "b").
+    """
 
     def __init__(self, sim):
         self.sim = sim
+        self.parity = 0
+
+    @property
+    def neighbor_side(self) -> str:
+        """The neighbour buffer holding the current list: "a" or "b"."""
+        return "a" if self.parity == 0 else "b"
 
     def pull(self, *names: str) -> None:
         """Host arrays are the truth on the CPU: nothing to copy."""
@@ -21,8 +32,9 @@ class CpuRunner:
     def push(self, *names: str) -> None:
         """Host arrays are the truth on the CPU: nothing to copy."""
 
-    def push_all(self) -> None:
-        """Host arrays are the truth on the CPU: nothing to copy."""
+    def push_all(self, parity: int = 0) -> None:
+        """The host replaced its arrays (a snapshot): take them, with the current buffer."""
+        self.parity = int(parity)
 
     def run_steps(self, n_steps: int) -> None:
         """Run ``n_steps`` steps; a small system runs on fewer threads (bitwise the same)."""
@@ -41,78 +53,28 @@ class CpuRunner:
     def _run_steps(self, n_steps: int) -> None:
         sim = self.sim
         done = 0
+        stats = sim.arrays["stats"]
         while done < n_steps:
-            a = sim.arrays
-            steps, status, parity = cpu.run_chunk(
-                n_steps - done,
-                sim.parity,
-                a["s_pos"],
-                a["s_ref"],
-                a["s_radius"],
-                a["s_clump"],
-                a["s_material"],
-                a["s_offset"],
-                a["s_cellkey"],
-                a["s_force"],
-                a["s_torque"],
-                a["s_roll"],
-                a["s_wall_force"],
-                a["c_pos"],
-                a["c_quat"],
-                a["c_vel"],
-                a["c_veval"],
-                a["c_angmom"],
-                a["c_omega"],
-                a["c_mass"],
-                a["c_inertia"],
-                a["c_world"],
-                a["c_state"],
-                a["c_first"],
-                a["c_count"],
-                a["nb_count_a"],
-                a["nb_index_a"],
-                a["nb_hist_a"],
-                a["nb_rhist_a"],
-                a["nb_count_b"],
-                a["nb_index_b"],
-                a["nb_hist_b"],
-                a["nb_rhist_b"],
-                a["bucket_count"],
-                a["bucket_members"],
-                np.int64(len(a["bucket_count"]) - 1),
-                a["grid_lo"],
-                1.0 / sim.cell_size,
-                sim.skin + sim.contact_margin,
-                sim.wall_reach_extra,
-                0.5 * sim.skin,
-                a["wall_type"],
-                a["wall_origin"],
-                a["wall_geom"],
-                a["wall_vel"],
-                a["wall_material"],
-                a["w_hist"],
-                a["w_rhist"],
-                a["s_wall_near"],
-                a["wall_ref"],
-                a["pair_params"],
-                a["world_dt"],
-                a["world_gravity"],
-                a["world_active"],
-                a["world_lo"],
-                a["world_hi"],
-                a["world_time"],
-                a["world_steps"],
-                sim.rolling_model,
-                sim.contact_margin,
-                float(_config.MAX_OVERLAP_FRACTION),
-                a["flag_rebuild"],
-                a["flag_nan"],
-                a["flag_overlap"],
-                a["stats"],
-            )
-            sim.parity = int(parity)
+            # packed again after a growth (new arrays)
+            state = pack(sim.arrays, sim.params()._replace(threads=numba.get_num_threads()))
+            steps, status, parity = cpu.run_chunk(n_steps - done, self.parity, state)
+            self.parity = int(parity)
             done += int(steps)
             if status == cpu.STATUS_NEIGHBOR_OVERFLOW:
-                sim._grow_neighbors(int(a["stats"][0]), "a" if sim.parity == 0 else "b")
+                self.grow(neighbors=int(stats[0]))
             elif status == cpu.STATUS_BUCKET_OVERFLOW:
-                sim._grow_buckets(int(a["stats"][1]))
+                self.grow(buckets=int(stats[1]))
+
+    def grow(self, neighbors: int = 0, buckets: int = 0) -> None:
+        """Make room for ``neighbors`` slots per sphere and ``buckets`` spheres per bucket.
+
+        Only the scratch neighbour buffer is reallocated (the next build fills it and carries
+        the history over from the current one); the bucket slots are refilled at every build.
+        """
+        sim = self.sim
+        if neighbors > 0:
+            scratch = "b" if self.parity == 0 else "a"
+            alloc_neighbors(sim.arrays, scratch, sim.n_spheres, int(neighbors * 1.25) + 4,
+                            sim.carry_rolling)
+        if buckets > 0:
+            alloc_buckets(sim.arrays, int(buckets * 1.25) + 4)

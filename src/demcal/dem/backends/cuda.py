@@ -38,7 +38,7 @@ if not hasattr(np, "row_stack"):  # numba-cuda 0.30 calls np.row_stack, gone in 
 
 from numba import cuda
 
-from demcal.dem import _config
+from demcal.dem.containers import alloc_buckets, alloc_neighbors, neighbor_keys, pack
 from demcal.dem.kernels import (
     ACTIVE,
     CELL_BITS,
@@ -68,8 +68,17 @@ def _unwrapping(fn):
     kernels' glue (indexing, flags, atomics, buffers) around them.
     """
 
+    def plain(a):
+        if hasattr(a, "_item"):  # an array inside a simulated kernel
+            return a._item._ary
+        if hasattr(a, "_ary"):  # a simulated device array (a container's field)
+            return a._ary
+        if isinstance(a, tuple) and hasattr(a, "_fields"):  # a state container
+            return type(a)(*[plain(x) for x in a])
+        return a
+
     def call(*args):
-        return fn(*[a._item._ary if hasattr(a, "_item") else a for a in args])
+        return fn(*[plain(a) for a in args])
 
     return call
 
@@ -100,141 +109,116 @@ def _build_kernels():
         return _KERNELS
 
     @cuda.jit
-    def k_bin(halt, flag_rebuild, s_pos, s_clump, c_state, c_world, grid_lo, inv_cell,
-              bucket_count, bucket_members, mask, s_cellkey, s_ref, stats):
-        if halt[0] != 0 or flag_rebuild[0] == 0:
+    def k_bin(halt, sph, clu, grid, prm, flags):
+        if halt[0] != 0 or flags.rebuild[0] == 0:
             return
         i = cuda.grid(1)
+        s_pos = sph.pos
         if i >= s_pos.shape[0]:
             return
-        s_ref[i, 0] = s_pos[i, 0]
-        s_ref[i, 1] = s_pos[i, 1]
-        s_ref[i, 2] = s_pos[i, 2]
-        c = s_clump[i]
-        if c_state[c] != ACTIVE:
-            s_cellkey[i] = -1
+        sph.ref[i, 0] = s_pos[i, 0]
+        sph.ref[i, 1] = s_pos[i, 1]
+        sph.ref[i, 2] = s_pos[i, 2]
+        c = sph.clump[i]
+        if clu.state[c] != ACTIVE:
+            sph.cellkey[i] = -1
             return
-        w = c_world[c]
-        ix, iy, iz = cell_coords(w, s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], grid_lo, inv_cell)
-        s_cellkey[i] = cell_key(w, ix, iy, iz)
-        b = cell_bucket(w, ix, iy, iz, mask)
-        n = cuda.atomic.add(bucket_count, b, 1)
-        if n < bucket_members.shape[1]:
-            bucket_members[b, n] = i
-        cuda.atomic.max(stats, 1, n + 1)
+        w = clu.world[c]
+        ix, iy, iz = cell_coords(w, s_pos[i, 0], s_pos[i, 1], s_pos[i, 2], grid.lo, prm.inv_cell)
+        sph.cellkey[i] = cell_key(w, ix, iy, iz)
+        b = cell_bucket(w, ix, iy, iz, prm.mask)
+        n = cuda.atomic.add(grid.bucket_count, b, 1)
+        if n < grid.bucket_members.shape[1]:
+            grid.bucket_members[b, n] = i
+        cuda.atomic.max(flags.stats, 1, n + 1)
 
     @cuda.jit
-    def k_search(halt, flag_rebuild, s_pos, s_radius, s_clump, c_state, c_world, s_cellkey,
-                 grid_lo, inv_cell, bucket_count, bucket_members, mask, extra, old_count,
-                 old_index, old_hist, old_rhist, new_count, new_index, new_hist, new_rhist,
-                 carry_rolling, stats, wall_type, wall_origin, wall_geom, wall_extra,
-                 s_wall_near, w_hist, w_rhist, s_wall_force):
-        if halt[0] != 0 or flag_rebuild[0] == 0:
+    def k_search(halt, sph, clu, grid, prm, old, new, walls, flags):
+        if halt[0] != 0 or flags.rebuild[0] == 0:
             return
-        if stats[1] > bucket_members.shape[1]:
+        if flags.stats[1] > grid.bucket_members.shape[1]:
             return
         i = cuda.grid(1)
-        if i >= s_pos.shape[0]:
+        if i >= sph.pos.shape[0]:
             return
-        neighbor_search(i, i + 1, s_pos, s_radius, s_clump, c_state, c_world, s_cellkey,
-                        grid_lo, inv_cell, bucket_count, bucket_members, mask, extra,
-                        old_count, old_index, old_hist, old_rhist, new_count, new_index,
-                        new_hist, new_rhist, carry_rolling)
-        cuda.atomic.max(stats, 0, new_count[i])
-        wall_candidates(i, i + 1, s_pos, s_radius, s_clump, c_state, c_world, wall_type,
-                        wall_origin, wall_geom, wall_extra, s_wall_near, w_hist, w_rhist,
-                        s_wall_force, carry_rolling)
+        neighbor_search(i, i + 1, sph, clu, grid, prm, old, new)
+        cuda.atomic.max(flags.stats, 0, new.count[i])
+        wall_candidates(i, i + 1, sph, clu, walls, prm)
 
     @cuda.jit
-    def k_commit(halt, flag_rebuild, stats, bucket_cap, src_count, src_index, src_hist,
-                 src_rhist, dst_count, dst_index, dst_hist, dst_rhist, carry_rolling,
-                 s_cellkey, bucket_count, mask):
-        if halt[0] != 0 or flag_rebuild[0] == 0:
+    def k_commit(halt, flags, bucket_cap, src, dst, sph, grid, prm):
+        if halt[0] != 0 or flags.rebuild[0] == 0:
             return
-        cap = dst_index.shape[1]
+        stats = flags.stats
+        cap = dst.index.shape[1]
         if stats[0] > cap or stats[1] > bucket_cap:
             return
         i = cuda.grid(1)
-        if i >= dst_count.shape[0]:
+        if i >= dst.count.shape[0]:
             return
         # empty this sphere's bucket for the next build (idempotent writes of 0)
-        key = s_cellkey[i]
+        key = sph.cellkey[i]
         if key >= 0:
             iz = key & CELL_MAX
             iy = (key >> CELL_BITS) & CELL_MAX
             ix = (key >> (2 * CELL_BITS)) & CELL_MAX
             w = key >> (3 * CELL_BITS)
-            bucket_count[cell_bucket(w, ix, iy, iz, mask)] = 0
-        n = src_count[i]
-        dst_count[i] = n
+            grid.bucket_count[cell_bucket(w, ix, iy, iz, prm.mask)] = 0
+        n = src.count[i]
+        dst.count[i] = n
         for k in range(min(n, cap)):
-            dst_index[i, k] = src_index[i, k]
-            dst_hist[i, k, 0] = src_hist[i, k, 0]
-            dst_hist[i, k, 1] = src_hist[i, k, 1]
-            dst_hist[i, k, 2] = src_hist[i, k, 2]
-            if carry_rolling:
-                dst_rhist[i, k, 0] = src_rhist[i, k, 0]
-                dst_rhist[i, k, 1] = src_rhist[i, k, 1]
-                dst_rhist[i, k, 2] = src_rhist[i, k, 2]
+            dst.index[i, k] = src.index[i, k]
+            dst.hist[i, k, 0] = src.hist[i, k, 0]
+            dst.hist[i, k, 1] = src.hist[i, k, 1]
+            dst.hist[i, k, 2] = src.hist[i, k, 2]
+            if prm.carry_rolling:
+                dst.rhist[i, k, 0] = src.rhist[i, k, 0]
+                dst.rhist[i, k, 1] = src.rhist[i, k, 1]
+                dst.rhist[i, k, 2] = src.rhist[i, k, 2]
 
     @cuda.jit
-    def k_finish(halt, flag_rebuild, stats, nb_cap, bucket_cap, wall_origin, wall_ref):
-        if halt[0] != 0 or flag_rebuild[0] == 0:
+    def k_finish(halt, flags, nb_cap, bucket_cap, walls):
+        if halt[0] != 0 or flags.rebuild[0] == 0:
             return
         if cuda.grid(1) != 0:
             return
+        stats = flags.stats
         if stats[0] > nb_cap or stats[1] > bucket_cap:
             halt[0] = 1
         else:
-            for w in range(wall_origin.shape[0]):
-                for k in range(wall_origin.shape[1]):
-                    wall_ref[w, k, 0] = wall_origin[w, k, 0]
-                    wall_ref[w, k, 1] = wall_origin[w, k, 1]
-                    wall_ref[w, k, 2] = wall_origin[w, k, 2]
-            flag_rebuild[0] = 0
+            origin = walls.origin
+            for w in range(origin.shape[0]):
+                for k in range(origin.shape[1]):
+                    walls.ref[w, k, 0] = origin[w, k, 0]
+                    walls.ref[w, k, 1] = origin[w, k, 1]
+                    walls.ref[w, k, 2] = origin[w, k, 2]
+            flags.rebuild[0] = 0
             stats[2] += 1
             stats[0] = 0
             stats[1] = 0
 
     @cuda.jit(**({"max_registers": _MAXREG} if _MAXREG else {}))
-    def k_forces(halt, s_pos, s_radius, s_clump, s_material, c_pos, c_veval, c_omega, c_mass,
-                 c_world, c_state, nb_count, nb_index, nb_hist, nb_rhist, wall_type,
-                 wall_origin, wall_geom, wall_vel, wall_material, w_hist, w_rhist, s_wall_near,
-                 pair_params, world_dt, world_active, rolling_model, contact_margin,
-                 max_overlap_fraction, s_force, s_torque, s_roll, s_wall_force, flag_overlap):
+    def k_forces(halt, sph, clu, nb, walls, worlds, prm, flags):
         if halt[0] != 0:
             return
         i = cuda.grid(1)
-        if i >= s_pos.shape[0]:
+        if i >= sph.pos.shape[0]:
             return
-        sphere_forces(i, i + 1, s_pos, s_radius, s_clump, s_material, c_pos, c_veval, c_omega,
-                      c_mass, c_world, c_state, nb_count, nb_index, nb_hist, nb_rhist,
-                      wall_type, wall_origin, wall_geom, wall_vel, wall_material, w_hist,
-                      w_rhist, s_wall_near, pair_params, world_dt, world_active, rolling_model,
-                      contact_margin, max_overlap_fraction, s_force, s_torque, s_roll,
-                      s_wall_force, flag_overlap)
+        sphere_forces(i, i + 1, sph, clu, nb, walls, worlds, prm, flags)
 
     @cuda.jit
-    def k_clumps(halt, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass, c_inertia,
-                 c_world, c_state, c_first, c_count, s_offset, s_pos, s_ref, s_force, s_torque,
-                 s_roll, world_dt, world_gravity, world_active, world_lo, world_hi, half_skin,
-                 flag_rebuild, flag_nan, wall_origin, wall_vel, world_time, world_steps, stats,
-                 wall_ref):
+    def k_clumps(halt, clu, sph, walls, worlds, prm, flags):
         if halt[0] != 0:
             return
         c = cuda.grid(1)
         # the first threads also move their world's walls and clock (read next step only)
         if c == 0:
-            stats[3] += 1
-        if c < world_dt.shape[0]:
-            advance_world(c, world_dt, world_active, world_time, world_steps, wall_origin,
-                          wall_vel, wall_ref, half_skin, flag_rebuild)
-        if c >= c_pos.shape[0]:
+            flags.stats[3] += 1
+        if c < worlds.dt.shape[0]:
+            advance_world(c, worlds, walls, prm, flags)
+        if c >= clu.pos.shape[0]:
             return
-        clump_step(c, c + 1, c_pos, c_quat, c_vel, c_veval, c_angmom, c_omega, c_mass,
-                   c_inertia, c_world, c_state, c_first, c_count, s_offset, s_pos, s_ref,
-                   s_force, s_torque, s_roll, world_dt, world_gravity, world_active, world_lo,
-                   world_hi, half_skin, flag_rebuild, flag_nan)
+        clump_step(c, c + 1, clu, sph, worlds, prm, flags)
 
     class K:
         pass
@@ -251,13 +235,18 @@ def _blocks(n: int) -> int:
     return max(1, (int(n) + THREADS - 1) // THREADS)
 
 
-class CudaRunner:
+class CudaBackend:
     """Runs a :class:`~demcal.dem.simulation.Simulation` on a CUDA GPU.
 
-    Device copies of every array live in :attr:`dev`; ``pull``/``push`` copy named arrays
-    between host and device in place (so captured graphs stay valid). Buffer "a" is always
-    the current neighbour list and "b" the scratch one.
+    Implements :class:`~demcal.dem.backends.Backend`. Device copies of every array live in
+    :attr:`dev`; ``pull``/``push`` copy named arrays between host and device in place (so
+    captured graphs stay valid). Buffer "a" is always the current neighbour list and "b" the
+    scratch one (:attr:`parity` is always 0): a build fills "b" and ``commit`` copies it back.
     """
+
+    #: the current neighbour list is always buffer "a" on the GPU
+    parity = 0
+    neighbor_side = "a"
 
     def __init__(self, sim):
         from demcal.errors import InputError
@@ -273,18 +262,29 @@ class CudaRunner:
         self._graph = None
         self.dev: dict = {}
         self._fresh: set[str] = set()  # arrays whose host copy equals the device copy
-        self.sim.parity = 0
-        # both neighbour buffers share one capacity on the GPU
         a = sim.arrays
-        cap = max(a["nb_index_a"].shape[1], a["nb_index_b"].shape[1])
-        if a["nb_index_a"].shape[1] != cap:
-            sim._alloc_neighbors("a", cap)
-        if a["nb_index_b"].shape[1] != cap:
-            sim._alloc_neighbors("b", cap)
+        self._same_capacity()
         a["halt"] = np.zeros(1, dtype=np.int32)
         self._to_device_layout()
         a["bucket_count"][:] = 0
         self.upload_all()
+
+    def _same_capacity(self, cap: int = 0) -> None:
+        """Give both neighbour buffers one capacity (at least ``cap``), keeping their slots."""
+        sim = self.sim
+        a = sim.arrays
+        old_caps = {side: a[f"nb_index_{side}"].shape[1] for side in ("a", "b")}
+        cap = max(cap, *old_caps.values())
+        for side, old_cap in old_caps.items():
+            if old_cap == cap:
+                continue
+            count, index, hist, rhist = (a[k] for k in neighbor_keys(side))
+            alloc_neighbors(a, side, sim.n_spheres, cap, sim.carry_rolling)
+            a[f"nb_count_{side}"][:] = count
+            a[f"nb_index_{side}"][:, :old_cap] = index
+            a[f"nb_hist_{side}"][:, :old_cap] = hist
+            if sim.carry_rolling:
+                a[f"nb_rhist_{side}"][:, :old_cap] = rhist
 
     def _to_device_layout(self) -> None:
         """Slot arrays (sphere x neighbour/wall slot) in Fortran order on the device.
@@ -308,8 +308,15 @@ class CudaRunner:
         self._graph = None
         self._fresh = set(self.dev)
 
-    def push_all(self) -> None:
-        self.sim.parity = 0
+    def push_all(self, parity: int = 0) -> None:
+        """The host replaced every array; a snapshot whose current list is "b" (``parity``
+        1, from the CPU) has its buffers swapped, as "a" is the current one here."""
+        a = self.sim.arrays
+        if parity == 1:
+            for ka, kb in zip(neighbor_keys("a"), neighbor_keys("b"), strict=True):
+                a[ka], a[kb] = a[kb], a[ka]
+        self._same_capacity()
+        a.setdefault("halt", np.zeros(1, dtype=np.int32))
         self.upload_all()
 
     def pull(self, *names: str) -> None:
@@ -346,48 +353,23 @@ class CudaRunner:
         sim = self.sim
         k = self.k
         s = self.stream
-        n_s = sim.n_spheres
-        n_c = sim.n_clumps
-        nb = _blocks(n_s)
-        mask = np.int64(len(sim.arrays["bucket_count"]) - 1)
-        inv_cell = 1.0 / sim.cell_size
-        extra = sim.skin + sim.contact_margin
-        carry = sim.rolling_model == 2
-        nb_cap = d["nb_index_a"].shape[1]
-        bcap = d["bucket_members"].shape[1]
-        k.k_bin[nb, THREADS, s](
-            d["halt"], d["flag_rebuild"], d["s_pos"], d["s_clump"], d["c_state"], d["c_world"],
-            d["grid_lo"], inv_cell, d["bucket_count"], d["bucket_members"], mask,
-            d["s_cellkey"], d["s_ref"], d["stats"])
-        k.k_search[nb, THREADS, s](
-            d["halt"], d["flag_rebuild"], d["s_pos"], d["s_radius"], d["s_clump"], d["c_state"],
-            d["c_world"], d["s_cellkey"], d["grid_lo"], inv_cell, d["bucket_count"],
-            d["bucket_members"], mask, extra, d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"],
-            d["nb_rhist_a"], d["nb_count_b"], d["nb_index_b"], d["nb_hist_b"], d["nb_rhist_b"],
-            carry, d["stats"], d["wall_type"], d["wall_origin"], d["wall_geom"],
-            sim.wall_reach_extra, d["s_wall_near"], d["w_hist"], d["w_rhist"], d["s_wall_force"])
-        k.k_commit[nb, THREADS, s](
-            d["halt"], d["flag_rebuild"], d["stats"], bcap, d["nb_count_b"], d["nb_index_b"],
-            d["nb_hist_b"], d["nb_rhist_b"], d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"],
-            d["nb_rhist_a"], carry, d["s_cellkey"], d["bucket_count"], mask)
-        k.k_finish[1, 32, s](d["halt"], d["flag_rebuild"], d["stats"], nb_cap, bcap,
-                             d["wall_origin"], d["wall_ref"])
-        k.k_forces[nb, THREADS, s](
-            d["halt"], d["s_pos"], d["s_radius"], d["s_clump"], d["s_material"], d["c_pos"],
-            d["c_veval"], d["c_omega"], d["c_mass"], d["c_world"], d["c_state"],
-            d["nb_count_a"], d["nb_index_a"], d["nb_hist_a"], d["nb_rhist_a"], d["wall_type"],
-            d["wall_origin"], d["wall_geom"], d["wall_vel"], d["wall_material"], d["w_hist"],
-            d["w_rhist"], d["s_wall_near"], d["pair_params"], d["world_dt"], d["world_active"],
-            sim.rolling_model, sim.contact_margin, float(_config.MAX_OVERLAP_FRACTION),
-            d["s_force"], d["s_torque"], d["s_roll"], d["s_wall_force"], d["flag_overlap"])
-        k.k_clumps[_blocks(max(n_c, sim.n_worlds)), THREADS, s](
-            d["halt"], d["c_pos"], d["c_quat"], d["c_vel"], d["c_veval"], d["c_angmom"],
-            d["c_omega"], d["c_mass"], d["c_inertia"], d["c_world"], d["c_state"],
-            d["c_first"], d["c_count"], d["s_offset"], d["s_pos"], d["s_ref"], d["s_force"],
-            d["s_torque"], d["s_roll"], d["world_dt"], d["world_gravity"], d["world_active"],
-            d["world_lo"], d["world_hi"], 0.5 * sim.skin, d["flag_rebuild"], d["flag_nan"],
-            d["wall_origin"], d["wall_vel"], d["world_time"], d["world_steps"], d["stats"],
-            d["wall_ref"])
+        st = pack(d, sim.params())
+        prm = st.params
+        halt = d["halt"]
+        nb = _blocks(sim.n_spheres)
+        nb_cap = st.nb_a.index.shape[1]
+        bcap = st.grid.bucket_members.shape[1]
+        # a: the current neighbour list, b: the scratch one the build fills
+        k.k_bin[nb, THREADS, s](halt, st.spheres, st.clumps, st.grid, prm, st.flags)
+        k.k_search[nb, THREADS, s](halt, st.spheres, st.clumps, st.grid, prm, st.nb_a, st.nb_b,
+                                   st.walls, st.flags)
+        k.k_commit[nb, THREADS, s](halt, st.flags, bcap, st.nb_b, st.nb_a, st.spheres, st.grid,
+                                   prm)
+        k.k_finish[1, 32, s](halt, st.flags, nb_cap, bcap, st.walls)
+        k.k_forces[nb, THREADS, s](halt, st.spheres, st.clumps, st.nb_a, st.walls, st.worlds,
+                                   prm, st.flags)
+        k.k_clumps[_blocks(max(sim.n_clumps, sim.n_worlds)), THREADS, s](
+            halt, st.clumps, st.spheres, st.walls, st.worlds, prm, st.flags)
 
     def _capture(self):
         """Capture GRAPH_STEPS steps into an executable CUDA graph (driver API)."""
@@ -442,31 +424,20 @@ class CudaRunner:
             executed = int(a["stats"][3])
             done += executed
             if a["halt"][0] != 0:
-                self._grow()
+                self.grow(neighbors=int(a["stats"][0]), buckets=int(a["stats"][1]))
             elif executed != launched:
                 raise RuntimeError(f"CUDA chunk ran {executed} of {launched} steps")
 
-    def _grow(self) -> None:
-        """Grow the neighbour or bucket arrays after an overflow and clear the halt flag."""
+    def grow(self, neighbors: int = 0, buckets: int = 0) -> None:
+        """Grow the neighbour or bucket arrays after an overflow (the needed sizes) and clear
+        the halt flag; the chunk's remaining steps then run (nothing is lost)."""
         sim = self.sim
         a = sim.arrays
         self.pull(*[n for n in a if n in self.dev])
-        need_nb = int(a["stats"][0])
-        need_b = int(a["stats"][1])
-        cap = a["nb_index_a"].shape[1]
-        if need_nb > cap:
-            new_cap = int(need_nb * 1.25) + 4
-            for side in ("a", "b"):
-                old = {k: a[f"{k}_{side}"] for k in ("nb_count", "nb_index", "nb_hist",
-                                                     "nb_rhist")}
-                sim._alloc_neighbors(side, new_cap)
-                a[f"nb_count_{side}"][:] = old["nb_count"]
-                a[f"nb_index_{side}"][:, :cap] = old["nb_index"]
-                a[f"nb_hist_{side}"][:, :cap] = old["nb_hist"]
-                if sim.rolling_model == 2:
-                    a[f"nb_rhist_{side}"][:, :cap] = old["nb_rhist"]
-        if need_b > a["bucket_members"].shape[1]:
-            sim._grow_buckets(need_b)
+        if neighbors > a["nb_index_a"].shape[1]:
+            self._same_capacity(int(neighbors * 1.25) + 4)
+        if buckets > a["bucket_members"].shape[1]:
+            alloc_buckets(a, int(buckets * 1.25) + 4)
         a["halt"][0] = 0
         a["flag_rebuild"][0] = 1
         a["bucket_count"][:] = 0
