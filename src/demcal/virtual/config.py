@@ -179,12 +179,12 @@ FIDELITIES: dict[str, dict] = {
     # Seed-to-seed scatter of the angle: 2-9 deg (std) near 45 deg: average replicates.
     "quick": {"geometry": {"cylinder_inner_diameter": 0.030},
               "fill": {"method": "packing", "count": 150}},
-    # 300 stalks dropped as a loose packing in a 35 mm tube: the cheapest pile whose
-    # seed-to-seed scatter is near the physical test's own (photos: 1.74 deg). Measured
-    # (benchmarks/precision.py, 6 seeds, no cohesion, mu_s 0.55, mu_r 0.15): seed std 1.53
-    # deg (150 stalks: 4.66); a pile ~30 mm high. With FIDELITY_REPLICATES["standard"] = 3
-    # seeds per design point the standard error of a point is <= 1 deg (1.53 / sqrt(3) =
-    # 0.88).
+    # 300 stalks dropped as a loose packing in a 35 mm tube; a pile ~30-35 mm high. Seed-to-
+    # seed scatter (benchmarks/precision.py): 1.53 deg at the reference point (6 seeds, no
+    # cohesion, mu_s 0.55, mu_r 0.15; 150 stalks: 4.66) but 4.16 deg at the corn stalk's
+    # calibrated point (10 seeds, 44.6 deg), so FIDELITY_REPLICATES["standard"] = 3 seeds give
+    # a design point a standard error of 0.9-2.4 deg depending on the parameters (the
+    # study's pure error says which; docs/precision.md).
     "standard": {"geometry": {"cylinder_inner_diameter": 0.035},
                  "fill": {"method": "packing", "count": 300}},
 }
