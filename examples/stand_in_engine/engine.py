@@ -74,14 +74,10 @@ def cone(angle_deg: float, base_radius: float, r: float, rng: random.Random) -> 
     return [(x, y, z, r) for x, y, z in spheres]
 
 
-def main(argv: list[str]) -> int:
-    if len(argv) != 2:
-        print("usage: engine.py INPUT", file=sys.stderr)
-        return 2
-    cfg = read_input(argv[1])
+def effective_mode(cfg: dict[str, str]) -> str:
+    """The input's ``mode``, turned into ``crash`` by an existing ``fail_flag`` file and into
+    ``hang`` by a ``hang_if`` (``VALUE > LIMIT``) that holds."""
     mode = cfg.get("mode", "ok")
-    print(f"stand-in engine: input {argv[1]}, mode {mode}, seed {cfg.get('seed')}")
-    time.sleep(float(cfg.get("sleep_s", "0")))
     flag = cfg.get("fail_flag")
     if flag and os.path.exists(flag):
         mode = "crash"
@@ -89,19 +85,11 @@ def main(argv: list[str]) -> int:
         value, _, limit = cfg["hang_if"].partition(">")
         if float(value) > float(limit):
             mode = "hang"
-    if mode == "crash":
-        print("ERROR: the stand-in engine crashed on purpose", file=sys.stderr)
-        return 3
-    if mode == "hang":
-        while True:
-            time.sleep(1)
-    if mode == "silent":
-        return 0
-    output = cfg.get("output", "pile.csv")
-    if mode == "garbage":
-        with open(output, "w") as f:
-            f.write("x,y,z,radius\n1,2,three,4\n")
-        return 0
+    return mode
+
+
+def write_pile(cfg: dict[str, str], output: str) -> None:
+    """Write the cone of the planted angle (plus seeded noise) as ``x,y,z,radius`` CSV, m."""
     rng = random.Random(int(cfg["seed"]))
     mu = float(cfg["pp.static_friction"])
     mur = float(cfg["pp.rolling_friction"])
@@ -115,8 +103,32 @@ def main(argv: list[str]) -> int:
         for s in spheres:
             f.write(",".join(repr(v) for v in s) + "\n")
     print(f"planted angle {aor:.3f} deg; wrote {len(spheres)} spheres to {output}")
-    return 0
 
+
+def main(argv: list[str]) -> int:
+    if len(argv) != 2:
+        print("usage: engine.py INPUT", file=sys.stderr)
+        return 2
+    cfg = read_input(argv[1])
+    print(f"stand-in engine: input {argv[1]}, mode {cfg.get('mode', 'ok')}, "
+          f"seed {cfg.get('seed')}")
+    time.sleep(float(cfg.get("sleep_s", "0")))
+    mode = effective_mode(cfg)
+    if mode == "crash":
+        print("ERROR: the stand-in engine crashed on purpose", file=sys.stderr)
+        return 3
+    if mode == "hang":
+        while True:
+            time.sleep(1)
+    if mode == "silent":
+        return 0
+    output = cfg.get("output", "pile.csv")
+    if mode == "garbage":
+        with open(output, "w") as f:
+            f.write("x,y,z,radius\n1,2,three,4\n")
+        return 0
+    write_pile(cfg, output)
+    return 0
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv))

@@ -238,14 +238,16 @@ def simulate_aor(
         plots = None if plot is None else [plot] + [None] * (seeds - 1)
         if engine == "lammps":
             from demcal.virtual.lammps_options import LammpsOptions
-            from demcal.virtual.lammps_run import run_aor_lammps
+            from demcal.virtual.lammps_run import RunReporting, run_aor_lammps
 
             if vtk is not None:
                 raise InputError("--vtk is for demcal's engine; LAMMPS writes no VTK here")
             options = LammpsOptions(np=lammps_np, launcher=launcher,
                                     hostfile=None if hostfile is None else str(hostfile))
             results = run_aor_lammps([params] * seeds, config=config, seeds=seed_list,
-                                     options=options, progress=on_progress, plot_paths=plots)
+                                     options=options,
+                                     reporting=RunReporting(plot_paths=plots,
+                                                            progress=on_progress))
         else:
             results = run_aor([params] * seeds, config=config, seeds=seed_list,
                               backend=backend, progress=on_progress, vtk_dir=vtk,

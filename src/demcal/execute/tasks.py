@@ -77,7 +77,7 @@ def _lammps_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) 
     """The runs on LAMMPS, one after another (each on ``test.lammps["np"]`` MPI ranks)."""
     from demcal.virtual import fidelity_config
     from demcal.virtual.lammps_options import LammpsOptions
-    from demcal.virtual.lammps_run import run_aor_lammps
+    from demcal.virtual.lammps_run import RunReporting, run_aor_lammps
 
     test = tasks[0].test
     options = LammpsOptions.model_validate(test.lammps)
@@ -91,7 +91,7 @@ def _lammps_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) 
                   "reason": r.reason, "wall_time_s": r.wall_time_s, "result": r.to_dict()})
 
         run_aor_lammps([t.params], config=config, seeds=[t.seed], options=options,
-                       plot_paths=[t.plot_path], on_result=done)
+                       reporting=RunReporting(plot_paths=[t.plot_path], on_result=done))
 
 
 def _aor_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> None:

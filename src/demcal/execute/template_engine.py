@@ -50,6 +50,9 @@ KILL_GRACE_S = 5.0
 LOG_NAME = "engine.log"
 #: lines of the log's end quoted in a failure's reason
 TAIL_LINES = 3
+#: measured pile values (angles in deg, lengths in m) copied to the top of a run's result
+MEASURED_KEYS = ("aor_deg", "aor_left_deg", "aor_right_deg", "aor_std_deg", "pile_height_m",
+                 "base_diameter_m")
 
 
 def run_dir_name(key: str) -> str:
@@ -198,15 +201,9 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
     """
     engine = task.test.external
     t0 = time.perf_counter()
-    run_dir = Path(engine["runs_dir"]) / run_dir_name(task.key)
-    if run_dir.exists():
-        shutil.rmtree(run_dir)
-    run_dir.mkdir(parents=True)
+    run_dir = _fresh_run_dir(engine, task.key)
     log = run_dir / LOG_NAME
-    values = _values(task, engine, run_dir)
-    (run_dir / engine["input"]).write_text(fill(engine["template_text"], values,
-                                                f"engine.template {engine['input']}"))
-    cmd = [fill(a, values, "engine.command") for a in engine["command"]]
+    cmd = _write_input(task, engine, run_dir)
     failure, what = _execute(cmd, run_dir, log, float(engine["timeout_s"]))
     info: dict[str, Any] = {"command": cmd, "status": what, "run_dir": str(run_dir),
                             "log": str(log), "engine_wall_time_s": time.perf_counter() - t0}
@@ -215,36 +212,70 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
                               "params": dict(task.params)}
     out = {"key": task.key, "outcome": failure, "aor_deg": None, "reason": None,
            "result": result}
-    spec = engine["result"]
     if failure is None:
         try:
-            if spec["kind"] == "positions":
-                failure_or_pile = _measure(run_dir, spec, plot_path)
-            else:
-                failure_or_pile = read_value(run_dir, spec)
+            read = _read_result(run_dir, engine["result"], plot_path)
         except ResultUnreadable as exc:
             failure, what = "no_result", str(exc)
         else:
-            measured = failure_or_pile.pop("measured", None)
-            if measured is not None:
-                result["measured"] = measured
-                if measured.get("figure"):
-                    artefacts["pile_png"] = measured["figure"]
-            if failure_or_pile.get("engine_values"):
-                result["engine_values"] = failure_or_pile["engine_values"]
-            out.update(outcome=failure_or_pile["outcome"], aor_deg=failure_or_pile["aor_deg"],
-                       reason=failure_or_pile["reason"])
+            _keep_measurement(read, result)
+            out.update(outcome=read["outcome"], aor_deg=read["aor_deg"], reason=read["reason"])
     if failure is not None:
-        tail = _tail(log)
-        out.update(outcome=failure, reason=f"{what} (log: {log}"
-                   + (f"; it ends: {tail}" if tail else "") + ")")
-    for k in ("aor_deg", "aor_left_deg", "aor_right_deg", "aor_std_deg", "pile_height_m",
-              "base_diameter_m"):
-        if k in (result.get("measured") or {}):
-            result[k] = result["measured"][k]
+        out.update(outcome=failure, reason=_failure_reason(what, log))
+    measured = result.get("measured") or {}
+    result.update({k: measured[k] for k in MEASURED_KEYS if k in measured})
     result.update(outcome=out["outcome"], aor_deg=out["aor_deg"], reason=out["reason"])
     out["wall_time_s"] = time.perf_counter() - t0
     return out
+
+
+def _fresh_run_dir(engine: dict[str, Any], key: str) -> Path:
+    """The run's own folder under ``engine["runs_dir"]``, emptied (a re-run replaces it)."""
+    run_dir = Path(engine["runs_dir"]) / run_dir_name(key)
+    if run_dir.exists():
+        shutil.rmtree(run_dir)
+    run_dir.mkdir(parents=True)
+    return run_dir
+
+
+def _write_input(task: Any, engine: dict[str, Any], run_dir: Path) -> list[str]:
+    """Fill the template into the run's input file; return the filled command line."""
+    values = _values(task, engine, run_dir)
+    (run_dir / engine["input"]).write_text(fill(engine["template_text"], values,
+                                                f"engine.template {engine['input']}"))
+    return [fill(a, values, "engine.command") for a in engine["command"]]
+
+
+def _read_result(run_dir: Path, spec: dict[str, Any], plot_path: str | None) -> dict[str, Any]:
+    """The finished run's ``outcome``, ``aor_deg``, ``reason`` (and ``measured`` or
+    ``engine_values``), read as ``spec["kind"]`` says.
+
+    Raises
+    ------
+    ResultUnreadable
+        The result file is missing or cannot be read.
+    """
+    if spec["kind"] == "positions":
+        return _measure(run_dir, spec, plot_path)
+    return read_value(run_dir, spec)
+
+
+def _keep_measurement(read: dict[str, Any], result: dict[str, Any]) -> None:
+    """Move a read result's measurement (its figure among the artefacts) and engine values
+    into the run's ``result``."""
+    measured = read.pop("measured", None)
+    if measured is not None:
+        result["measured"] = measured
+        if measured.get("figure"):
+            result["artefacts"]["pile_png"] = measured["figure"]
+    if read.get("engine_values"):
+        result["engine_values"] = read["engine_values"]
+
+
+def _failure_reason(what: str, log: Path) -> str:
+    """A failed run's reason: what happened, the log's path and the end of the log."""
+    tail = _tail(log)
+    return f"{what} (log: {log}" + (f"; it ends: {tail}" if tail else "") + ")"
 
 
 def _measure(run_dir: Path, spec: dict[str, Any], plot_path: str | None) -> dict[str, Any]:

@@ -27,6 +27,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -35,12 +36,21 @@ from demcal.dem.state import rotate
 from demcal.errors import InputError
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.factory import draw_scales, make_template, pack_cylinder
-from demcal.virtual.lammps_laws import contact_laws, model_string
+from demcal.virtual.lammps_laws import ContactLaw, contact_laws, model_string
 
 __all__ = ["LammpsCase", "write_case"]
 
 #: files of a case
 DATA, BODIES, INPUT, LIFTED, FINAL = "aor.data", "bodies.txt", "in.aor", "lifted.dump", "final.dump"
+
+
+class DataSpheres(NamedTuple):
+    """The spheres of a data file, one row each (SI units)."""
+
+    centres: np.ndarray  #: (n, 3) positions, m
+    radii: np.ndarray  #: (n,) radii, m
+    density: np.ndarray  #: (n,) densities that give each clump demcal's mass, kg/m^3
+    clump: np.ndarray  #: (n,) the clump (molecule ID, from 1) a sphere belongs to
 
 
 @dataclass(frozen=True)
@@ -104,8 +114,10 @@ def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
     # LAMMPS checks the given centre of mass against its own (sphere-mass weighted)
     w = radii**3
     com = np.sum(centres * w[..., None], axis=1) / np.sum(w, axis=1)[:, None]
-    _write_data(folder / DATA, centres.reshape(-1, 3), radii.reshape(-1),
-                np.repeat(atom_density, ns), np.repeat(np.arange(1, n + 1), ns), config)
+    spheres = DataSpheres(centres=centres.reshape(-1, 3), radii=radii.reshape(-1),
+                          density=np.repeat(atom_density, ns),
+                          clump=np.repeat(np.arange(1, n + 1), ns))
+    _write_data(folder / DATA, spheres, config)
     _write_bodies(folder / BODIES, mass, com, tensor)
     r_min = float(radii.min())
     dt = config.dt_fraction * rayleigh_time_step(r_min, rho, params["particle.shear_modulus"],
@@ -114,8 +126,7 @@ def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
                         clump_mass=float(np.mean(mass)),
                         rolling=config.rolling_model != "none")
     reach = float(template.bounding_radius * scales.max())
-    (folder / INPUT).write_text(_script(config, dt, model_string(laws["pp"]),
-                                        model_string(laws["pw"]), reach, r_min))
+    (folder / INPUT).write_text(_script(config, dt, laws, reach, r_min))
     return LammpsCase(folder, n, n * ns, float(dt), int(seed), dict(params))
 
 
@@ -126,19 +137,20 @@ def _box(config: AoRTestConfig) -> tuple[float, float, float]:
     return half, -0.05, z_top
 
 
-def _write_data(path: Path, centres: np.ndarray, radii: np.ndarray, density: np.ndarray,
-                mol: np.ndarray, config: AoRTestConfig) -> None:
-    n = len(radii)
+def _write_data(path: Path, spheres: DataSpheres, config: AoRTestConfig) -> None:
+    """Write the spheres as a LAMMPS data file (``atom_style sphere``, clumps as molecules)."""
+    n = len(spheres.radii)
     half, zlo, zhi = _box(config)
     ids = np.arange(1, n + 1)
     with path.open("w") as fh:
         fh.write(f"demcal AoR test\n\n{n} atoms\n1 atom types\n\n")
         fh.write(f"{-half!r} {half!r} xlo xhi\n{-half!r} {half!r} ylo yhi\n")
         fh.write(f"{zlo!r} {zhi!r} zlo zhi\n\nAtoms # sphere\n\n")
-        np.savetxt(fh, np.column_stack([ids, np.ones(n), 2 * radii, density, centres]),
+        np.savetxt(fh, np.column_stack([ids, np.ones(n), 2 * spheres.radii, spheres.density,
+                                        spheres.centres]),
                    fmt=["%d", "%d", "%.17g", "%.17g", "%.17g", "%.17g", "%.17g"])
         fh.write("\nMolecules\n\n")
-        np.savetxt(fh, np.column_stack([ids, mol]), fmt="%d")
+        np.savetxt(fh, np.column_stack([ids, spheres.clump]), fmt="%d")
 
 
 def _write_bodies(path: Path, mass: np.ndarray, com: np.ndarray, tensor: np.ndarray) -> None:
@@ -154,8 +166,25 @@ def _write_bodies(path: Path, mass: np.ndarray, com: np.ndarray, tensor: np.ndar
         np.savetxt(fh, rows, fmt=["%d"] + ["%.17g"] * 10 + ["%d"] * 9)
 
 
-def _script(config: AoRTestConfig, dt: float, pp: str, pw: str, reach: float,
+def _script(config: AoRTestConfig, dt: float, laws: Mapping[str, ContactLaw], reach: float,
             r_min: float) -> str:
+    """The phase script ``in.aor``.
+
+    Parameters
+    ----------
+    config : AoRTestConfig
+        The test.
+    dt : float
+        Time step, s.
+    laws : mapping
+        The contact laws by kind, ``pp`` (particle-particle) and ``pw`` (particle-wall), as
+        :func:`demcal.virtual.lammps_laws.contact_laws` gives them.
+    reach : float
+        The largest clump's bounding radius, m (sets the ghost cutoff).
+    r_min : float
+        The smallest sphere radius, m (the neighbour skin is half of it).
+    """
+    pp, pw = model_string(laws["pp"]), model_string(laws["pw"])
     g, ph, p = config.geometry, config.phases, config.particle
     n_check = max(1, round(ph.check_interval / dt))
     r_in = 0.5 * g.cylinder_inner_diameter

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import NamedTuple
 
 __all__ = [
     "LAWS_VERSION",
@@ -63,10 +64,19 @@ class ContactLaw:
     eta0: float  #: viscoelastic damping for jkr, 1/(m s)
 
 
-def _pair_moduli(e1: float, nu1: float, g1: float, e2: float, nu2: float,
-                 g2: float) -> tuple[float, float]:
-    estar = 1.0 / ((1.0 - nu1 * nu1) / e1 + (1.0 - nu2 * nu2) / e2)
-    gstar = 1.0 / ((2.0 - nu1) / g1 + (2.0 - nu2) / g2)
+class Elastic(NamedTuple):
+    """A material's elastic constants."""
+
+    young: float  #: Young's modulus E, Pa
+    poisson: float  #: Poisson's ratio nu
+    shear: float  #: shear modulus G, Pa
+
+
+def _pair_moduli(one: Elastic, other: Elastic) -> tuple[float, float]:
+    """demcal's equivalent moduli (E*, G*) of a contact between two materials, Pa."""
+    estar = 1.0 / ((1.0 - one.poisson * one.poisson) / one.young
+                   + (1.0 - other.poisson * other.poisson) / other.young)
+    gstar = 1.0 / ((2.0 - one.poisson) / one.shear + (2.0 - other.poisson) / other.shear)
     return estar, gstar
 
 
@@ -125,12 +135,13 @@ def contact_laws(params: Mapping[str, float], *, sphere_radius: float, clump_mas
     p = params
     gp, nup = p["particle.shear_modulus"], p["particle.poisson"]
     gw, nuw = p["wall.shear_modulus"], p["wall.poisson"]
-    ep, ew = 2.0 * gp * (1.0 + nup), 2.0 * gw * (1.0 + nuw)
+    particle = Elastic(2.0 * gp * (1.0 + nup), nup, gp)
+    wall = Elastic(2.0 * gw * (1.0 + nuw), nuw, gw)
     out = {}
     for kind, other, reff, meff in (
-            ("pp", (ep, nup, gp), 0.5 * sphere_radius, 0.5 * clump_mass),
-            ("pw", (ew, nuw, gw), sphere_radius, clump_mass)):
-        estar, gstar = _pair_moduli(ep, nup, gp, *other)
+            ("pp", particle, 0.5 * sphere_radius, 0.5 * clump_mass),
+            ("pw", wall, sphere_radius, clump_mass)):
+        estar, gstar = _pair_moduli(particle, other)
         young, nu = equivalent_moduli(estar, gstar)
         mu_r = p[f"{kind}.rolling_friction"] if rolling else 0.0
         a = typical_contact(estar, reff, 9.81 * clump_mass)

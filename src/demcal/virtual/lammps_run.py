@@ -24,8 +24,9 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -38,8 +39,8 @@ from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settle
 from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 
-__all__ = ["MISSING", "LammpsMissing", "LammpsOptions", "lammps_command", "read_dump",
-           "run_aor_lammps"]
+__all__ = ["MISSING", "LammpsMissing", "LammpsOptions", "RunReporting", "lammps_command",
+           "read_dump", "run_aor_lammps"]
 
 log = logging.getLogger("demcal.virtual")
 
@@ -117,10 +118,25 @@ def _events(text: str) -> dict[str, list[float]]:
     return out
 
 
-def _result(case: LammpsCase, config: AoRTestConfig, folder: Path, wall: float,
+def _result(case: LammpsCase, config: AoRTestConfig, wall: float,
             plot_path: str | Path | None, failure: str | None) -> AoRResult:
-    """Type the outcome and measure the pile of a finished LAMMPS run."""
+    """Type the outcome and measure the pile of a finished LAMMPS run.
+
+    Parameters
+    ----------
+    case : LammpsCase
+        The run's written case (its folder holds LAMMPS' log and dumps).
+    config : AoRTestConfig
+        The test.
+    wall : float
+        The run's wall time, s.
+    plot_path : path or None
+        Where to save a side view of the pile (PNG).
+    failure : str or None
+        Why LAMMPS failed (exit status, time limit), or None when it ended normally.
+    """
     g = config.geometry
+    folder = case.folder
     text = (folder / "log.lammps").read_text() if (folder / "log.lammps").exists() else ""
     ev = _events(text)
     t_end = ev.get("end", [0.0])[0]
@@ -191,11 +207,40 @@ def _result(case: LammpsCase, config: AoRTestConfig, folder: Path, wall: float,
                      views_deg=measured.get("views", []), artefacts=artefacts, **base)
 
 
-def _run_one(params: Mapping[str, float], config: AoRTestConfig, seed: int,
-             options: LammpsOptions, folder: Path, plot_path: str | Path | None) -> AoRResult:
+class RunSpec(NamedTuple):
+    """What differs between the runs of a batch."""
+
+    params: Mapping[str, float]  #: the complete parameter set (SI units)
+    seed: int  #: the run's seed
+    plot_path: str | Path | None  #: where to save a side view of its pile (PNG)
+
+
+@dataclass(frozen=True)
+class RunReporting:
+    """What a caller of :func:`run_aor_lammps` gets besides the results (none of it changes
+    a run).
+
+    Attributes
+    ----------
+    plot_paths : sequence of path or None, optional
+        Per run: where to save a side view of its pile (PNG).
+    on_result : callable, optional
+        ``on_result(index, result)`` as each run ends.
+    progress : callable, optional
+        ``progress(run, phase, sim_time_s, wall_time_s)`` when a run starts and ends.
+    """
+
+    plot_paths: Sequence[str | Path | None] | None = None
+    on_result: Callable[[int, AoRResult], None] | None = None
+    progress: Callable[[int, str, float, float], None] | None = None
+
+
+def _run_one(run: RunSpec, config: AoRTestConfig, options: LammpsOptions,
+             folder: Path) -> AoRResult:
+    """Write the run's case into ``folder``, run LAMMPS there and read its result."""
     cmd = lammps_command(options)
     t0 = time.perf_counter()
-    case = write_case(params, config, seed, folder)
+    case = write_case(run.params, config, run.seed, folder)
     env = dict(os.environ, OMP_NUM_THREADS="1")
     failure = None
     try:
@@ -207,15 +252,12 @@ def _run_one(params: Mapping[str, float], config: AoRTestConfig, seed: int,
         failure = f"no end within the time limit of {options.timeout_s:g} s"
     except OSError as exc:
         raise LammpsMissing(f"{MISSING} ({cmd[0]}: {exc.strerror})") from None
-    return _result(case, config, folder, time.perf_counter() - t0, plot_path, failure)
+    return _result(case, config, time.perf_counter() - t0, run.plot_path, failure)
 
 
 def run_aor_lammps(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestConfig,
                    seeds: Sequence[int], options: LammpsOptions | None = None,
-                   plot_paths: Sequence[str | Path | None] | None = None,
-                   on_result: Callable[[int, AoRResult], None] | None = None,
-                   progress: Callable[[int, str, float, float], None] | None = None,
-                   ) -> list[AoRResult]:
+                   reporting: RunReporting | None = None) -> list[AoRResult]:
     """Run the AoR test in LAMMPS, one run after another (each on ``options.np`` ranks).
 
     Parameters
@@ -228,12 +270,9 @@ def run_aor_lammps(parameter_sets: Sequence[Mapping[str, float]], *, config: AoR
         One seed per run.
     options : LammpsOptions, optional
         How LAMMPS is started.
-    plot_paths : sequence of path or None, optional
-        Per run: where to save a side view of its pile (PNG).
-    on_result : callable, optional
-        ``on_result(index, result)`` as each run ends.
-    progress : callable, optional
-        ``progress(run, phase, sim_time_s, wall_time_s)`` when a run starts and ends.
+    reporting : RunReporting, optional
+        Pile pictures (``plot_paths``, one per run) and the calls ``on_result`` (as each
+        run ends) and ``progress`` (as each run starts and ends).
 
     Returns
     -------
@@ -241,24 +280,26 @@ def run_aor_lammps(parameter_sets: Sequence[Mapping[str, float]], *, config: AoR
         One per run, in order; ``unstable`` when LAMMPS failed (with its log's tail).
     """
     options = options or LammpsOptions()
+    reporting = reporting or RunReporting()
     lammps_command(options)  # fail before any work when LAMMPS is missing
     results: list[AoRResult] = []
     for i, (pset, seed) in enumerate(zip(parameter_sets, seeds, strict=True)):
-        params = check_parameters(dict(pset))
-        plot = None if plot_paths is None else plot_paths[i]
-        if progress is not None:
-            progress(i, "lammps", 0.0, 0.0)
+        run = RunSpec(params=check_parameters(dict(pset)), seed=int(seed),
+                      plot_path=None if reporting.plot_paths is None
+                      else reporting.plot_paths[i])
+        if reporting.progress is not None:
+            reporting.progress(i, "lammps", 0.0, 0.0)
         if options.work_dir is not None:
             Path(options.work_dir).mkdir(parents=True, exist_ok=True)
             folder = Path(tempfile.mkdtemp(prefix=f"seed{seed}-", dir=options.work_dir))
-            res = _run_one(params, config, int(seed), options, folder, plot)
+            res = _run_one(run, config, options, folder)
         else:
             with tempfile.TemporaryDirectory(prefix="demcal-lammps-") as tmp:
-                res = _run_one(params, config, int(seed), options, Path(tmp), plot)
+                res = _run_one(run, config, options, Path(tmp))
         res.engine = "lammps"
         results.append(res)
-        if progress is not None:
-            progress(i, res.outcome, res.sim_time_s, res.wall_time_s)
-        if on_result is not None:
-            on_result(i, res)
+        if reporting.progress is not None:
+            reporting.progress(i, res.outcome, res.sim_time_s, res.wall_time_s)
+        if reporting.on_result is not None:
+            reporting.on_result(i, res)
     return results
