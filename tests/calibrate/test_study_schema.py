@@ -89,3 +89,14 @@ def test_cli_reports_schema_error_in_one_line(tmp_path):
     assert res.exit_code == 2
     assert "stages.rsm.design" in res.output
     assert "Traceback" not in res.output
+
+
+def test_the_result_json_leaves_out_a_disabled_steepest_stage():
+    """With stages.steepest.enabled = false the stage holds only the RSM's levels (no path)."""
+    from types import SimpleNamespace
+
+    from demcal.calibrate.pipeline import _stage_json
+
+    ctx = SimpleNamespace(results={"steepest": {"levels": {"pp.static_friction": [0.3, 0.6,
+                                                                                     0.9]}}})
+    assert "steepest" not in _stage_json(ctx)  # type: ignore[arg-type]

@@ -185,7 +185,7 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
                                  equation_actual=s["equation_actual"],
                                  adequacy=s.get("adequacy"), replicates=s.get("replicates"),
                                  rounds=s.get("rounds"))
-        elif name == "steepest":
+        elif name == "steepest" and "steps" in s:  # a disabled stage keeps only its levels
             out[name] = {"design": "steepest path", "factors": s["factors"],
                          "responses": s["steps"], "best_step": s["best_step"],
                          "levels": s["levels"]}
