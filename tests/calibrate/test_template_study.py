@@ -175,6 +175,15 @@ def test_engine_with_the_analytic_test_is_refused():
         parse_study(data, base=EXAMPLE)
 
 
+def test_an_engine_table_and_the_lammps_engine_exclude_each_other():
+    import tomllib
+
+    data = tomllib.loads((EXAMPLE / "study.toml").read_text())
+    data["executor"]["engine"] = "lammps"
+    with pytest.raises(InputError, match="an \\[engine\\] table exclude each other"):
+        parse_study(data, base=EXAMPLE)
+
+
 def test_cli_bad_engine_exits_2_with_one_line(tmp_path):
     from typer.testing import CliRunner
 
