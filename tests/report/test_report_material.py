@@ -90,6 +90,7 @@ def test_a_lammps_study_gives_a_lammps_card_with_model_c(tmp_path):
     study = build_paper_store(tmp_path / "study")
     with RunStore(study) as store:
         store.set_meta("versions", {**store.meta("versions"), "engine": "lammps"})
+        store.set_meta("engine", {"kind": "lammps", "name": "lammps", "backend": "auto"})
     path = build_report(study)
     card = read_material_card(path.parent / "material.toml")
     assert card.engine_name == "lammps" and card.rolling_model == "C"

@@ -61,7 +61,7 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
     test = study.get("test") or {}
     versions = data.meta.get("versions") or {}
     external = data.meta.get("engine") or {}
-    if external.get("kind") not in (None, "demcal"):  # an external DEM code made the runs
+    if external.get("kind") not in (None, "demcal", "lammps"):  # a template engine made the runs
         engine = {"name": str(external["kind"]), "version": str(versions.get("demcal") or ""),
                   "command": " ".join(external.get("command") or []),
                   "template": str(external.get("template") or ""),
