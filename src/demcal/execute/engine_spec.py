@@ -36,6 +36,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 from demcal.errors import InputError
 from demcal.limits import MAX_INPUT_FILE_BYTES
+from demcal.virtual.config import MeasurementOptions
 
 __all__ = ["ENGINE_KINDS", "EngineSpec", "PositionsResult", "TemplateEngine", "ValueResult",
            "engine_identity", "load_engine"]
@@ -50,13 +51,11 @@ class _M(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
-class Measurement(_M):
-    """How demcal measures the spheres (as :class:`demcal.virtual.config.MeasurementOptions`)."""
+class Measurement(MeasurementOptions):
+    """How demcal measures the spheres: :class:`demcal.virtual.config.MeasurementOptions`'s
+    fields, with NaN and infinity refused like every number of the ``[engine]`` table."""
 
-    n_views: int = Field(8, ge=1, le=360, description="silhouette views around the axis")
-    method: Literal["silhouette", "profile"] = "silhouette"
-    fit_window: tuple[float, float] | None = Field(
-        None, description="flank fit window, fractions of the pile height")
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class PositionsResult(_M):
