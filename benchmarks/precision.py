@@ -48,13 +48,34 @@ BASE = {"pp.surface_energy": 0.0, "pp.rolling_friction": 0.15}
 DEFAULT_CASES = ["150:0.030", "300:0.035", "450:0.040", "600:0.045"]
 
 
-def case_config(case: str):
-    """``N:D`` (packing fill of N stalks in a tube of D m) or ``paper`` -> test config."""
+def test_overrides(items: list[str]) -> dict:
+    """``--test`` items (``rolling_model=C``, ``phases.lift_speed=0.05``) -> nested overrides."""
+    out: dict = {}
+    for item in items:
+        key, _, text = item.partition("=")
+        try:
+            value: object = float(text)
+        except ValueError:
+            value = text
+        *path, leaf = key.split(".")
+        node = out
+        for part in path:
+            node = node.setdefault(part, {})
+        node[leaf] = value
+    return out
+
+
+def case_config(case: str, test: dict | None = None):
+    """``N:D`` (packing fill of N stalks in a tube of D m) or ``paper`` -> test config, with
+    ``test`` (nested overrides of the test configuration) on top."""
+    test = test or {}
     if case == "paper":
-        return fidelity_config("paper")
+        return fidelity_config("paper", **test)
     count, _, diam = case.partition(":")
-    return fidelity_config("quick", fill={"count": int(count)},
-                           geometry={"cylinder_inner_diameter": float(diam or 0.030)})
+    fill = {"count": int(count), **test.get("fill", {})}
+    geometry = {"cylinder_inner_diameter": float(diam or 0.030), **test.get("geometry", {})}
+    rest = {k: v for k, v in test.items() if k not in ("fill", "geometry")}
+    return fidelity_config("quick", fill=fill, geometry=geometry, **rest)
 
 
 def measure_saved(path: Path, config) -> dict:
@@ -122,9 +143,9 @@ def summarise(name: str, measured: list[dict], wall_per_test: float | None,
 
 
 def run_case(case: str, seeds: list[int], out_dir: Path, backend: str, se: float,
-             sets: dict[str, float] | None = None) -> dict:
+             sets: dict[str, float] | None = None, test: dict | None = None) -> dict:
     """Simulate one case's replicates as one batch, save the piles, measure them."""
-    config = case_config(case)
+    config = case_config(case, test)
     params = preset_parameters("corn_stalk", {**BASE, **(sets or {})})
     folder = out_dir / case.replace(":", "_")
     paths = [folder / f"seed{s}.npz" for s in seeds]
@@ -165,12 +186,12 @@ def run_case(case: str, seeds: list[int], out_dir: Path, backend: str, se: float
     return row
 
 
-def remeasure(folder: Path, se: float) -> list[dict]:
+def remeasure(folder: Path, se: float, test: dict | None = None) -> list[dict]:
     """Measure saved piles again (one sub-folder per case, as written by a run)."""
     rows = []
     for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
         case = sub.name.replace("_", ":")
-        config = case_config(case)
+        config = case_config(case, test)
         measured = [measure_saved(p, config) for p in sorted(sub.glob("seed*.npz"))]
         tfile = sub / "timing.json"
         t = json.loads(tfile.read_text()) if tfile.exists() else {}
@@ -216,7 +237,11 @@ def main() -> None:
     ap.add_argument("--json", help="write the numbers to this file")
     ap.add_argument("--set", dest="sets", nargs="*", default=[],
                     help="parameter overrides NAME=VALUE (SI) on top of the reference point")
+    ap.add_argument("--test", dest="tests", nargs="*", default=[],
+                    help="test configuration overrides KEY=VALUE, dotted for nested fields "
+                         "(rolling_model=C, dt_fraction=0.1, phases.lift_speed=0.05)")
     args = ap.parse_args()
+    test = test_overrides(args.tests)
     sets = {k: float(v) for k, _, v in (a.partition("=") for a in args.sets)}
     machine = {"platform": platform.platform(), "cpus": os.cpu_count(),
                "backend": args.backend}
@@ -225,19 +250,20 @@ def main() -> None:
     def dump() -> None:
         if args.json:
             Path(args.json).write_text(json.dumps(
-                {"machine": machine, "params": {**BASE, **sets}, "se_target_deg": args.se,
+                {"machine": machine, "params": {**BASE, **sets}, "test": test,
+                 "se_target_deg": args.se,
                  "cases": rows},
                 indent=1, default=float))
 
     if args.remeasure:
-        rows = remeasure(Path(args.remeasure), args.se)
+        rows = remeasure(Path(args.remeasure), args.se, test)
         print_table(rows)
         dump()
         return
     seeds = list(range(args.seed0, args.seed0 + args.seeds))
     for case in args.cases:
         t0 = time.perf_counter()
-        rows.append(run_case(case, seeds, Path(args.out), args.backend, args.se, sets))
+        rows.append(run_case(case, seeds, Path(args.out), args.backend, args.se, sets, test))
         print(f"# {case}: {time.perf_counter() - t0:.0f} s for {len(seeds)} seeds", flush=True)
         print_table(rows[-1:])
         dump()

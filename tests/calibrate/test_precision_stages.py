@@ -12,7 +12,7 @@ import pytest
 
 from demcal import doe
 from demcal.calibrate import calibrate
-from demcal.calibrate.stages import adequacy, verification_size
+from demcal.calibrate.stages import adequacy, choose_model, verification_size
 from demcal.store import RunStore
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "analytic" / "study.toml"
@@ -112,3 +112,77 @@ def test_common_seeds_share_the_seed_set_but_not_between_centre_points(tmp_path)
         assert frozenset({1, 1001}) in seed_sets and len(seed_sets) == 3
         ver = store.runs(stage="verification")
         assert all(r.seed >= 10_000 for r in ver)  # verification keeps fresh seeds
+
+
+def _replicated_bbd(truth, noise: float, reps: int, seed: int):
+    """A 3-factor Box-Behnken run ``reps`` times: (rows fit, means fit) of the full model."""
+    d = doe.box_behnken(3, center_points=3, randomize=False)
+    rng = np.random.default_rng(seed)
+    y = np.array([[truth(x) for x in d.coded]] * reps)
+    y = y + noise * rng.standard_normal(y.shape)
+    rows = doe.fit(np.vstack([d.coded] * reps), y.ravel(), names=d.names, units="coded")
+    return rows, doe.fit(d, y.mean(axis=0))
+
+
+def _linear(x):
+    return 40 + 4 * x[0] - 2 * x[1]
+
+
+def test_auto_model_reduces_a_full_model_that_does_not_predict():
+    rows, means = _replicated_bbd(_linear, noise=3.0, reps=3, seed=5)
+    full = choose_model("quadratic", 0.1, rows, means)
+    assert full["model"] == "quadratic" and not full["adequate"]
+    assert any("predicted R^2" in f for f in full["failed"])
+    auto = choose_model("auto", 0.1, rows, means)
+    assert auto["model"] == "reduced" and auto["adequate"]
+    assert auto["adequacy"]["pred_r2"] > 0.5
+    # every square and interaction of a linear truth leaves; the true main effects stay
+    assert {"x1^2", "x2^2", "x3^2", "x1*x2", "x1*x3", "x2*x3"} <= set(auto["removed_terms"])
+    assert {"x1", "x2"} <= set(auto["rows"].term_names)
+    assert auto["full"]["adequacy"] == full["adequacy"]
+
+
+def test_auto_model_keeps_an_adequate_full_model():
+    rows, means = _replicated_bbd(
+        lambda x: 40 + 5 * x[0] - 3 * x[1] + 2 * x[0] ** 2 + 2 * x[0] * x[2], 0.3, 2, 0)
+    auto = choose_model("auto", 0.1, rows, means)
+    assert auto["adequate"] and auto["model"] == "quadratic" and auto["removed_terms"] == []
+    assert choose_model("reduced", 0.1, rows, means)["model"] == "reduced"
+
+
+def test_the_reduced_model_predicts_new_runs_better():
+    """Over 12 noisy replicated designs of a linear truth, the model 'auto' chooses predicts
+    the truth on a grid with a smaller mean squared error than the full quadratic (measured:
+    0.84 of it; 0.78 over 40 designs) and does so for most designs."""
+    grid = np.array(np.meshgrid(*[np.linspace(-1, 1, 5)] * 3)).reshape(3, -1).T
+    truth = np.array([_linear(x) for x in grid])
+    err_full, err_auto = [], []
+    for seed in range(12):
+        rows, means = _replicated_bbd(_linear, noise=3.0, reps=3, seed=seed)
+        auto = choose_model("auto", 0.1, rows, means)["rows"]
+        err_full.append(np.mean((rows.predict(grid, units="coded") - truth) ** 2))
+        err_auto.append(np.mean((auto.predict(grid, units="coded") - truth) ** 2))
+    assert np.mean(err_auto) < 0.9 * np.mean(err_full)
+    assert np.mean(np.array(err_auto) < np.array(err_full)) > 0.5
+
+
+def test_a_study_reads_its_optimum_from_the_reduced_model_and_reports_both(tmp_path):
+    from demcal.report import build_report
+
+    def edit(text: str) -> str:
+        return text.replace("center_points = 3",
+                            'center_points = 3\nmodel = "reduced"\nalpha_out = 0.05')
+    path = _write(tmp_path, edit)
+    res = calibrate(path)
+    with RunStore(path.parent) as store:
+        rsm = store.stage("rsm").summary
+    assert rsm["model"] == res["rsm_model"] == "reduced"
+    assert rsm["removed_terms"] and rsm["removed_terms"] == res["rsm_removed_terms"]
+    kept = set(rsm["coefficients_coded"])
+    assert not kept & set(rsm["removed_terms"])
+    full_terms = {r["term"] for r in rsm["anova_full"]}
+    assert set(rsm["removed_terms"]) <= full_terms
+    assert any("reduced model" in w for w in rsm["warnings"])
+    html = Path(build_report(path.parent)).read_text()
+    assert "ANOVA of the full quadratic model" in html
+    assert "ANOVA of the reduced response surface" in html

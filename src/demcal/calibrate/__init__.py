@@ -60,7 +60,10 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       "adequacy": {"p_model", "lack_of_fit_p", "r2", "adj_r2", "pred_r2", "adeq_precision"}
       (of the design-point means; Design-Expert's rules, see stages.adequacy),
       "replicates": int (replicates used, extra ones added while not adequate within
-      stages.rsm.max_runs), "rounds": [{"replicates", "runs", "adequate", "failed", ...}],
+      stages.rsm.max_runs), "rounds": [{"replicates", "runs", "model", "removed_terms",
+      "adequate", "failed", ...}], "model": "quadratic"|"reduced" (the one anova,
+      coefficients and the optimum are of; stages.rsm.model), "removed_terms": [str],
+      "anova_full": [records], "adequacy_full": {...} (the full quadratic model's),
       "warnings": [str], "excluded_points": [int]}
 - "optimize": {"target_aor_deg": float,
       "candidates": [{"params": {name: value}, "predicted_aor_deg": float,

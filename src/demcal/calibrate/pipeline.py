@@ -249,6 +249,8 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
         "rsm_adequate": ctx.results["rsm"]["adequate"],
         "rsm_adequacy": ctx.results["rsm"].get("adequacy"),
+        "rsm_model": ctx.results["rsm"].get("model", "quadratic"),
+        "rsm_removed_terms": ctx.results["rsm"].get("removed_terms", []),
         "stages": _stage_json(ctx),
     }
     ctx.store.set_meta("result", result)

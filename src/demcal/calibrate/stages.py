@@ -23,8 +23,8 @@ from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord, RunStore, params_hash
 from demcal.virtual import PARAMETERS
 
-__all__ = ["Context", "adequacy", "optimize", "rangefind", "rsm", "screening", "steepest",
-           "verification"]
+__all__ = ["Context", "adequacy", "choose_model", "optimize", "rangefind", "rsm", "screening",
+           "steepest", "verification"]
 
 
 @dataclass
@@ -498,6 +498,48 @@ def _lof_p(table: Any) -> float | None:
     return None
 
 
+def _judged(rows: Any, means: Any) -> dict[str, Any]:
+    """A model's ANOVA (rows: every replicate), lack of fit and adequacy (of the means)."""
+    table = rows.anova()
+    lof_p = _lof_p(table)
+    adequate, fails, stats_ = adequacy(means, lof_p)
+    return {"rows": rows, "table": table, "lof_p": lof_p, "adequate": adequate,
+            "failed": fails, "adequacy": stats_}
+
+
+def choose_model(kind: str, alpha_out: float, rows: Any, means: Any) -> dict[str, Any]:
+    """The response-surface model the optimum is read from, judged as Design-Expert would.
+
+    ``rows`` is the full quadratic fitted to every replicate, ``means`` the same model fitted
+    to the design-point means (the same coefficients: the replication is balanced). R^2,
+    predicted R^2 and Adeq Precision are the means' (the rows' R^2 is capped by the run-to-run
+    noise however many replicates are run); the ANOVA and its lack of fit are the rows'.
+
+    ``kind``: ``"quadratic"`` keeps the full model; ``"reduced"`` removes terms by
+    hierarchical backward elimination (p > ``alpha_out`` in the rows' ANOVA, as
+    Design-Expert's "backward" model reduction) and judges the reduced model; ``"auto"`` keeps
+    the full model when it is adequate and reduces it otherwise. A reduction that would leave
+    no factor term keeps the full model. Returns :func:`_judged`'s keys for the chosen model
+    plus ``model`` ("quadratic" or "reduced"), ``removed_terms``, ``full`` (the full
+    model's judgement) and ``notes`` (what to tell the user).
+    """
+    full = _judged(rows, means)
+    out = {**full, "model": "quadratic", "removed_terms": [], "full": full, "notes": []}
+    if kind == "quadratic" or (kind == "auto" and full["adequate"]):
+        return out
+    reduced = rows.reduce(alpha_out=alpha_out, hierarchical=True)
+    if reduced is rows or len(reduced.terms) < 2:
+        return out
+    removed = [t for t in rows.term_names if t not in set(reduced.term_names)]
+    means_r = reduced if rows is means else means.with_terms(list(reduced.terms))
+    why = ("the full quadratic model is not adequate: " + "; ".join(full["failed"])
+           if not full["adequate"] else "the full quadratic model is in 'anova_full'")
+    note = (f"the optimum is read from the reduced model (backward elimination, alpha out "
+            f"{alpha_out:g}; removed: {', '.join(removed)}); {why}")
+    return {**_judged(reduced, means_r), "model": "reduced", "removed_terms": removed,
+            "full": full, "notes": [note]}
+
+
 def rsm(ctx: Context) -> dict[str, Any]:
     """Box-Behnken (or face-centred CCD) around the centre, quadratic model, full ANOVA.
 
@@ -544,14 +586,12 @@ def rsm(ctx: Context) -> dict[str, Any]:
                 excluded, outcomes)
             ctx.store.set_stage("rsm", "failed", {**base, "error": err}, inputs_hash=h)
             raise StudyError(err) from None
-        table = model.anova()
-        lof_p = _lof_p(table)
-        # R^2, predicted R^2 and Adeq Precision of the design-point means: the rows' R^2 is
-        # capped by the run-to-run noise however many replicates, the means' grows with them
-        # (same coefficients: the replication is balanced)
-        means = model if n_reps == 1 else doe.fit(design, y, model="quadratic")
-        adequate, fails, stats_ = adequacy(means, lof_p)
+        full = doe.fit(design, y, model="quadratic") if n_reps > 1 else model
+        choice = choose_model(opts.model, opts.alpha_out, model, full)
+        model, table, lof_p = choice["rows"], choice["table"], choice["lof_p"]
+        adequate, fails, stats_ = choice["adequate"], choice["failed"], choice["adequacy"]
         rounds.append({"replicates": n_reps, "runs": design.n_runs * n_reps,
+                       "model": choice["model"], "removed_terms": choice["removed_terms"],
                        "adequate": adequate, "failed": fails, **stats_})
         more = design.n_runs * (n_reps + 1)
         if adequate or not opts.add_replicates or more > budget:
@@ -569,8 +609,12 @@ def rsm(ctx: Context) -> dict[str, Any]:
             f"the model is not adequate after {n_reps} replicate(s) of each design point "
             f"({spent} runs; budget stages.rsm.max_runs = {budget}): its optimum is a guess "
             "within the noise; raise the budget or the fidelity, or narrow the ranges")
+    warnings += choice["notes"]
     summary = {**base, "anova": table.to_records(), "fit": table.fit.to_dict(),
                "lack_of_fit_p": lof_p, "adequacy": stats_, "rounds": rounds,
+               "model": choice["model"], "removed_terms": choice["removed_terms"],
+               "anova_full": choice["full"]["table"].to_records(),
+               "adequacy_full": choice["full"]["adequacy"],
                "coefficients_coded": {k: float(v) for k, v in model.coefficients_coded.items()},
                "coefficients_actual": {k: float(v) for k, v in
                                        model.coefficients_actual.items()},

@@ -217,6 +217,13 @@ class RsmOptions(_M):
     max_runs: int | None = Field(None, ge=1, le=10_000, description="run budget of the stage "
                                  "(all replicates); default: the design once per replicate, "
                                  "so no extra replicates")
+    model: Literal["auto", "quadratic", "reduced"] = Field(
+        "auto", description="the model the optimum is read from: 'quadratic' (the full model, "
+        "as the paper's Table 8), 'reduced' (Design-Expert's hierarchical backward elimination "
+        "of the terms with p > alpha_out) or 'auto' (the full model when it is adequate, "
+        "else the reduced one)")
+    alpha_out: float = Field(0.1, gt=0, lt=1, description="backward elimination: a term "
+                             "with p above this leaves the model")
 
 
 class OptimizeOptions(_M):

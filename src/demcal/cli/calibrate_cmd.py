@@ -56,7 +56,12 @@ def _print_result(result: dict) -> None:
     if a:
         def f(key: str, fmt: str) -> str:
             return "n/a" if a.get(key) is None else format(a[key], fmt)
-        console.print(f"response surface: adjusted R^2 {f('adj_r2', '.3f')}, predicted R^2 "
+        model = result.get("rsm_model", "quadratic")
+        which = "full quadratic" if model == "quadratic" else (
+            "reduced (removed " + (", ".join(result.get("rsm_removed_terms") or []) or "none")
+            + ")")
+        console.print(f"response surface ({which}): adjusted R^2 {f('adj_r2', '.3f')}, "
+                      f"predicted R^2 "
                       f"{f('pred_r2', '.3f')}, Adeq Precision {f('adeq_precision', '.2f')}, "
                       f"model p {f('p_model', '.3g')}, lack of fit p {f('lack_of_fit_p', '.3g')}",
                       highlight=False)

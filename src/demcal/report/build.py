@@ -417,22 +417,40 @@ def _steepest(b: _Builder) -> str:
     return _section("steepest", "Path of steepest ascent", view.status, _guard(b, view, render))
 
 
+def _rsm_anova_tables(b: _Builder, s: dict) -> list[str]:
+    """The response surface's ANOVA and fit statistics; with a reduced model, the full
+    quadratic model's ANOVA (the paper's Table 8) below them."""
+    d = b.data
+    reduced = s.get("model") == "reduced"
+    row = []
+    if s.get("anova"):
+        title = ("ANOVA of the reduced response surface (backward elimination; the "
+                 "optimum is read from it)" if reduced else
+                 "ANOVA of the response surface with lack of fit (cf. Table 8)")
+        row.append(b.table(T.Table(
+            "rsm_anova", title, T.anova_frame(s["anova"], d.symbols),
+            note="Partial sum of squares (Type III). ** p < 0.01, * p < 0.05.")))
+    if s.get("fit"):
+        row.append(b.table(T.fit_table("rsm_fit", "Fit statistics", s["fit"],
+                                       s.get("lack_of_fit_p"))))
+    parts = [f'<div class="row">{"".join(row)}</div>']
+    if reduced and s.get("anova_full"):
+        parts.append(b.table(T.Table(
+            "rsm_anova_full", "ANOVA of the full quadratic model (cf. Table 8)",
+            T.anova_frame(s["anova_full"], d.symbols),
+            note="Not adequate by Design-Expert's rules or not chosen (stages.rsm.model); "
+                 "removed from it: " + (", ".join(s.get("removed_terms") or []) or "none")
+                 + ".")))
+    return parts
+
+
 def _rsm(b: _Builder) -> str:
     d, view = b.data, b.data.stage("rsm")
 
     def render() -> str:
         s = view.summary
         parts = [b.table(T.rsm_design_table(s, d.symbols))]
-        row = []
-        if s.get("anova"):
-            row.append(b.table(T.Table(
-                "rsm_anova", "ANOVA of the response surface with lack of fit (cf. Table 8)",
-                T.anova_frame(s["anova"], d.symbols),
-                note="Partial sum of squares (Type III). ** p < 0.01, * p < 0.05.")))
-        if s.get("fit"):
-            row.append(b.table(T.fit_table("rsm_fit", "Fit statistics", s["fit"],
-                                           s.get("lack_of_fit_p"))))
-        parts.append(f'<div class="row">{"".join(row)}</div>')
+        parts += _rsm_anova_tables(b, s)
         for w in s.get("warnings") or []:
             parts.append(f'<p class="warn">Warning: {escape(str(w))}</p>')
         if s.get("coefficients_coded"):
