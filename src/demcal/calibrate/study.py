@@ -502,6 +502,9 @@ step = "auto"             # or a coded step, e.g. 0.5
 design = "bbd"            # bbd | ccd
 center_points = 3
 # max_runs = 45           # run budget: replicates are added while the model is not adequate
+model = "auto"            # auto: the full quadratic if adequate, else backward elimination;
+                          # quadratic | reduced
+alpha_out = 0.1           # backward elimination: terms with p above this leave
 
 [stages.optimize]
 n_solutions = 5

@@ -180,11 +180,12 @@ FIDELITIES: dict[str, dict] = {
     "quick": {"geometry": {"cylinder_inner_diameter": 0.030},
               "fill": {"method": "packing", "count": 150}},
     # 300 stalks dropped as a loose packing in a 35 mm tube; a pile ~30-35 mm high. Seed-to-
-    # seed scatter (benchmarks/precision.py): 1.53 deg at the reference point (6 seeds, no
-    # cohesion, mu_s 0.55, mu_r 0.15; 150 stalks: 4.66) but 4.16 deg at the corn stalk's
-    # calibrated point (10 seeds, 44.6 deg), so FIDELITY_REPLICATES["standard"] = 3 seeds give
-    # a design point a standard error of 0.9-2.4 deg depending on the parameters (the
-    # study's pure error says which; docs/precision.md).
+    # seed scatter (benchmarks/precision.py): 1.5-2.5 deg without cohesion (mu_s 0.55, mu_r
+    # 0.15; 150 stalks: 4.66) but 4.16 deg at the corn stalk's calibrated point (10 seeds,
+    # 44.6 deg): its weak JKR cohesion makes the piles vary (600 stalks: 3.0 deg for 2.4x the
+    # CPU, so replicates are the cheaper precision). FIDELITY_REPLICATES["standard"] = 3
+    # seeds give a design point a standard error of 0.9-2.4 deg depending on the parameters
+    # (the study's pure error says which; docs/precision.md).
     "standard": {"geometry": {"cylinder_inner_diameter": 0.035},
                  "fill": {"method": "packing", "count": 300}},
 }
