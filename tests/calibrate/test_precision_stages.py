@@ -50,6 +50,11 @@ def test_verification_size_reaches_the_half_width():
     assert verification_size(v, 1.5, 50) == 10
     assert verification_size(v, 1.5, 6) == 6
     assert verification_size(np.array([40.0, 40.1, 39.9]), 1.5, 12) == 3
+    # three runs that happen to agree do not stop a test known to scatter 4 deg (the
+    # response surface's pure error): t(n-1) 4 / sqrt(n) <= 1.5 first at n = 30
+    assert verification_size(np.array([40.0, 40.1, 39.9]), 1.5, 50, sigma=4.0) == 30
+    assert verification_size(np.array([40.0, 40.1, 39.9]), 1.5, 20, sigma=4.0) == 20
+    assert verification_size(v, 1.5, 50, sigma=1.0) == 10  # the runs' own 2 deg rules
 
 
 @pytest.fixture(scope="module")

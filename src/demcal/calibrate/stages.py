@@ -714,33 +714,53 @@ def _half_width(values: np.ndarray, alpha: float = 0.05) -> float:
                  / math.sqrt(values.size))
 
 
-def verification_size(values: np.ndarray, half_width: float, max_n: int) -> int:
+def verification_size(values: np.ndarray, half_width: float, max_n: int,
+                      sigma: float | None = None) -> int:
     """Replicates whose 95 % interval half-width should reach ``half_width`` deg (<= max_n).
 
-    From the spread of the runs so far: the smallest n with t(n-1) s / sqrt(n) <= half_width,
-    at least one more than now while the interval is still too wide.
+    The smallest n with t(n-1) s / sqrt(n) <= half_width, at least one more than now while the
+    interval is still too wide. ``s`` is the larger of the runs' own spread and ``sigma``, the
+    test's scatter known from elsewhere (the response surface's pure error, with far more
+    degrees of freedom than a few verification runs): a verification whose first runs happen
+    to agree closely does not stop before the test's known scatter allows the goal.
     """
     from scipy import stats
 
     n = values.size
-    if n >= max_n or _half_width(values) <= half_width:
-        return n
     s = float(values.std(ddof=1)) if n > 1 else math.inf
+    if sigma is not None and math.isfinite(sigma):
+        s = max(s, float(sigma))
+
+    def wide(k: int) -> bool:
+        return bool(stats.t.ppf(0.975, k - 1) * s / math.sqrt(k) > half_width)
+
+    if n >= max_n or (_half_width(values) <= half_width and not wide(n)):
+        return n
     want = n + 1
-    while want < max_n and stats.t.ppf(0.975, want - 1) * s / math.sqrt(want) > half_width:
+    while want < max_n and wide(want):
         want += 1
     return min(max_n, want)
+
+
+def _pure_error_std(rsm: dict[str, Any] | None) -> tuple[float | None, int]:
+    """Standard deviation (deg) and df of the response surface's pure error, if it has one."""
+    for rec in (rsm or {}).get("anova") or []:
+        if rec.get("term") == "Pure Error" and rec.get("ms") is not None and rec.get("df"):
+            return math.sqrt(float(rec["ms"])), int(rec["df"])
+    return None, 0
 
 
 def verification(ctx: Context) -> dict[str, Any]:
     """Replicate runs at the chosen optimum, on fresh seeds: mean, spread, error to the target.
 
     Starts with ``stages.verification.n`` runs; while the 95 % interval of the mean is wider
-    than ``half_width_deg`` either side, adds the runs its spread says are needed, up to
-    ``max_n``.
+    than ``half_width_deg`` either side, or would be at the response surface's pure error
+    (the test's scatter measured with many degrees of freedom), adds the runs needed, up to
+    ``max_n`` (:func:`verification_size`).
     """
     opts = ctx.study.stages.verification
     params = ctx.full(ctx.results["optimize"]["chosen"])
+    sigma, sigma_df = _pure_error_std(ctx.results.get("rsm"))
     h = ctx.begin("verification", {"params": params, "n": opts.n})
     n = opts.n
     while True:
@@ -750,7 +770,7 @@ def verification(ctx: Context) -> dict[str, Any]:
         vals = np.array([a for a in aors if a is not None])
         if opts.half_width_deg is None or vals.size < 2 or vals.size < len(recs):
             break
-        want = verification_size(vals, opts.half_width_deg, max(opts.max_n, opts.n))
+        want = verification_size(vals, opts.half_width_deg, max(opts.max_n, opts.n), sigma)
         if want <= n:
             break
         n = want
@@ -766,6 +786,7 @@ def verification(ctx: Context) -> dict[str, Any]:
                "half_width_goal_deg": opts.half_width_deg,
                "half_width_reached": bool(opts.half_width_deg is not None
                                           and hw <= opts.half_width_deg),
+               "sized_with_std_deg": sigma, "sized_with_df": sigma_df,
                **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)}
     ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
     ctx.results["verification"] = summary
