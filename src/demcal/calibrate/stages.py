@@ -742,12 +742,10 @@ def verification_size(values: np.ndarray, half_width: float, max_n: int,
     return min(max_n, want)
 
 
-def _pure_error_std(rsm: dict[str, Any] | None) -> tuple[float | None, int]:
-    """Standard deviation (deg) and df of the response surface's pure error, if it has one."""
-    for rec in (rsm or {}).get("anova") or []:
-        if rec.get("term") == "Pure Error" and rec.get("ms") is not None and rec.get("df"):
-            return math.sqrt(float(rec["ms"])), int(rec["df"])
-    return None, 0
+def _pure_error_std(model: Any) -> tuple[float | None, int]:
+    """Standard deviation (deg) and df of a fitted model's pure error (None without one)."""
+    ss, df = model.pure_error if model is not None else (0.0, 0)
+    return (math.sqrt(ss / df), df) if df > 0 else (None, 0)
 
 
 def verification(ctx: Context) -> dict[str, Any]:
@@ -760,7 +758,7 @@ def verification(ctx: Context) -> dict[str, Any]:
     """
     opts = ctx.study.stages.verification
     params = ctx.full(ctx.results["optimize"]["chosen"])
-    sigma, sigma_df = _pure_error_std(ctx.results.get("rsm"))
+    sigma, sigma_df = _pure_error_std(ctx.results.get("_rsm_model"))
     h = ctx.begin("verification", {"params": params, "n": opts.n})
     n = opts.n
     while True:
