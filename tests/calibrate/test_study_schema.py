@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import re
 
 import pytest
 from typer.testing import CliRunner
@@ -89,6 +90,18 @@ def test_cli_reports_schema_error_in_one_line(tmp_path):
     assert res.exit_code == 2
     assert "stages.rsm.design" in res.output
     assert "Traceback" not in res.output
+
+
+@pytest.mark.parametrize(("line", "field"), [('model = "cubic"', "stages.rsm.model"),
+                                             ("alpha_out = 1.5", "stages.rsm.alpha_out")])
+def test_cli_names_a_bad_rsm_model_option(tmp_path, line, field):
+    p = tmp_path / "s.toml"
+    key = line.split(" = ")[0]
+    text = re.sub(rf"^{key} = .*$", line, EXAMPLE_STUDY, count=1, flags=re.MULTILINE)
+    assert line in text
+    p.write_text(text)
+    res = CliRunner().invoke(app, ["calibrate", str(p)])
+    assert res.exit_code == 2 and field in res.output and "Traceback" not in res.output
 
 
 def test_the_result_json_leaves_out_a_disabled_steepest_stage():
