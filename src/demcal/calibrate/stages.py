@@ -530,7 +530,8 @@ def choose_model(kind: str, alpha_out: float, rows: Any, means: Any) -> dict[str
     reduced = rows.reduce(alpha_out=alpha_out, hierarchical=True)
     if reduced is rows or len(reduced.terms) < 2:
         return out
-    removed = [t for t in rows.term_names if t not in set(reduced.term_names)]
+    kept = set(reduced.term_names)
+    removed = [t for t in rows.term_names if t not in kept]
     means_r = reduced if rows is means else means.with_terms(list(reduced.terms))
     why = ("the full quadratic model is not adequate: " + "; ".join(full["failed"])
            if not full["adequate"] else "the full quadratic model is in 'anova_full'")
