@@ -15,7 +15,7 @@ import pytest
 from scipy.optimize import minimize_scalar
 from worlds import PARTICLE, STEEL, estar_of, spheres_world, table
 
-from demcal.dem.contact import normal_contact
+from demcal.dem.contact import jkr_contact_radius, normal_contact
 from demcal.dem.materials import Interaction
 from demcal.dem.simulation import Simulation
 from demcal.dem.walls import PlaneWall
@@ -123,3 +123,16 @@ def test_jkr_law_matches_the_reference_radius_and_force():
     best = minimize_scalar(lambda d: normal_contact(d, 0.0, rstar, estar, 1e-5, 0.0, gamma)[0],
                            bounds=(d_c, 0.0), method="bounded", options={"xatol": 1e-16})
     assert -best.fun == pytest.approx(3 * math.pi * gamma * rstar, rel=1e-9)
+
+
+@pytest.mark.parametrize("gamma", [2.45e-4, 0.01, 0.12])
+def test_closed_form_contact_radius_matches_a_bracketing_root_finder(gamma):
+    """The closed-form (Ferrari) radius against brentq from break-off to deep Hertz overlaps,
+    for the weak cohesion of the corn-stalk calibration up to the paper's range."""
+    estar, rstar = 3.57e6, 1.0e-3
+    d_c = naive.jkr_break_overlap(rstar, estar, gamma)
+    near_break = d_c * (1.0 - np.logspace(-10, -1, 40))
+    compressive = np.logspace(-10, -4, 60)
+    for d in np.concatenate([near_break, [0.0], compressive]):
+        got = jkr_contact_radius(d, rstar, estar, gamma)
+        assert got == pytest.approx(naive.jkr_radius(d, rstar, estar, gamma), rel=1e-12), d

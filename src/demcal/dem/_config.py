@@ -25,9 +25,6 @@ BUCKETS_PER_SPHERE: float = 2.0
 #: Steps per compiled chunk between host checks (health, settle detection, insertion).
 CHUNK_STEPS: int = 500
 
-#: Newton iterations cap for the JKR contact radius (converges in ~5 from above).
-JKR_MAX_ITER: int = 50
-
 #: Largest overlap accepted, as a fraction of the smaller radius of the pair; beyond it the
 #: world is flagged and the run stops with :class:`~demcal.errors.SimulationUnstable`.
 MAX_OVERLAP_FRACTION: float = 0.5

@@ -28,8 +28,6 @@ import math
 
 from numba import njit
 
-from demcal.dem._config import JKR_MAX_ITER
-
 __all__ = [
     "DAMPING_FACTOR",
     "N_PAIR_FIELDS",
@@ -182,23 +180,31 @@ def jkr_critical_overlap(eff_radius: float, eff_modulus: float, gamma: float) ->
 def jkr_contact_radius(delta: float, eff_radius: float, eff_modulus: float, gamma: float):
     """Contact radius ``a`` of the JKR law for an overlap ``delta`` (largest root), m.
 
-    Solves ``delta = a^2/R* - sqrt(4 pi gamma a / E*)`` by Newton's method on ``s = sqrt(a)``
-    from a starting point above the largest root (the function is convex there, so the
-    iteration decreases monotonically onto it). Valid for ``delta >= jkr_critical_overlap``.
+    ``delta = a^2/R* - sqrt(4 pi gamma a / E*)`` is, in ``s = sqrt(a)``, the quartic
+    ``s^4 - c R* s - R* delta = 0`` with ``c = sqrt(4 pi gamma / E*)``. It is solved in closed
+    form (Ferrari): the resolvent cubic ``m^3 + R* delta m - (c R*)^2 / 8 = 0`` has exactly one
+    positive root ``m``, and with ``w = sqrt(2 m)`` the largest root is
+    ``s = (w + sqrt(2 c R* / w - w^2)) / 2``. Cardano's root is written without the
+    difference of two cube roots, so it keeps full precision when Hertz dominates (large
+    ``delta``); a negative discriminant (three real roots: trigonometric form) lies below the
+    curve's minimum, i.e. beyond break-off. Agrees with a bracketing root finder to ~1e-14
+    (tests/dem/test_dem_jkr.py) at a quarter of the cost of Newton's method. Valid for
+    ``delta >= jkr_critical_overlap``.
     """
-    c = math.sqrt(4.0 * math.pi * gamma / eff_modulus)
-    dpos = delta if delta > 0.0 else 0.0
-    s = (eff_radius * dpos) ** 0.25 + (c * eff_radius) ** (1.0 / 3.0)
-    for _ in range(JKR_MAX_ITER):
-        s2 = s * s
-        f = s2 * s2 / eff_radius - c * s - delta
-        fp = 4.0 * s2 * s / eff_radius - c
-        if fp <= 0.0:
-            break
-        step = f / fp
-        s -= step
-        if step <= 1e-15 * s:
-            break
+    cr = math.sqrt(4.0 * math.pi * gamma / eff_modulus) * eff_radius
+    p = eff_radius * delta
+    q = -0.125 * cr * cr
+    disc = 0.25 * q * q + p * p * p / 27.0
+    if disc >= 0.0:
+        u = (-0.5 * q + math.sqrt(disc)) ** (1.0 / 3.0)
+        v = p / (3.0 * u)
+        m = -q / (u * u + p / 3.0 + v * v)
+    else:
+        r = math.sqrt(-p / 3.0)
+        m = 2.0 * r * math.cos(math.acos(min(1.0, -0.5 * q / (r * r * r))) / 3.0)
+    w = math.sqrt(2.0 * m)
+    arg = 2.0 * cr / w - w * w
+    s = 0.5 * (w + math.sqrt(arg if arg > 0.0 else 0.0))
     return s * s
 
 
