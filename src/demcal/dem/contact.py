@@ -242,7 +242,8 @@ def jkr_normal(delta: float, v_n: float, eff_radius: float, eff_modulus: float,
     """
     if gamma <= 0.0:
         return hertz_normal(delta, v_n, eff_radius, eff_modulus, eff_mass, beta)
-    if delta <= jkr_critical_overlap(eff_radius, eff_modulus, gamma):
+    # d_c <= 0: an overlapping pair is always in contact (skips d_c's cube root)
+    if delta <= 0.0 and delta <= jkr_critical_overlap(eff_radius, eff_modulus, gamma):
         return 0.0, 0.0, 0.0
     a = jkr_contact_radius(delta, eff_radius, eff_modulus, gamma)
     repulsive = 4.0 * eff_modulus * a * a * a / (3.0 * eff_radius)
