@@ -41,6 +41,7 @@ __all__ = [
     "ROLLING_C",
     "ROLLING_NONE",
     "beta_from_restitution",
+    "clip_magnitude",
     "contact_response",
     "effective_radius",
     "hertz_normal",
@@ -286,6 +287,22 @@ def project_keep_length(x: float, y: float, z: float, n_x: float, n_y: float, n_
 
 
 @njit(cache=True)
+def clip_magnitude(x: float, y: float, z: float, limit: float):
+    """A vector scaled down onto the magnitude ``limit`` if it is longer.
+
+    Returns the (possibly scaled) ``x, y, z`` and whether it was longer than ``limit`` (a
+    tangential force that slides, a rolling torque at its cap).
+    """
+    mag = math.sqrt(x * x + y * y + z * z)
+    if mag > limit:
+        if mag > 0.0:
+            ratio = limit / mag
+            return x * ratio, y * ratio, z * ratio, True
+        return x, y, z, True
+    return x, y, z, False
+
+
+@njit(cache=True)
 def tangential_contact(xi_x: float, xi_y: float, xi_z: float,
                        n_x: float, n_y: float, n_z: float,
                        vt_x: float, vt_y: float, vt_z: float,
@@ -335,16 +352,11 @@ def tangential_contact(xi_x: float, xi_y: float, xi_z: float,
     fx = -kt * xi_x - ct * vt_x
     fy = -kt * xi_y - ct * vt_y
     fz = -kt * xi_z - ct * vt_z
-    fmag = math.sqrt(fx * fx + fy * fy + fz * fz)
     limit = friction * normal_limit
     if limit < 0.0:
         limit = 0.0
-    if fmag > limit:
-        if fmag > 0.0:
-            ratio = limit / fmag
-            fx *= ratio
-            fy *= ratio
-            fz *= ratio
+    fx, fy, fz, sliding = clip_magnitude(fx, fy, fz, limit)
+    if sliding:
         if kt > 0.0:
             xi_x = -(fx + ct * vt_x) / kt
             xi_y = -(fy + ct * vt_y) / kt
@@ -409,14 +421,7 @@ def rolling_c(m_x: float, m_y: float, m_z: float, n_x: float, n_y: float, n_z: f
     m_x -= kr * w_x * dt
     m_y -= kr * w_y * dt
     m_z -= kr * w_z * dt
-    mmax = mu_r * eff_radius * f_rep
-    mag = math.sqrt(m_x * m_x + m_y * m_y + m_z * m_z)
-    if mag > mmax:
-        if mag > 0.0:
-            r = mmax / mag
-            m_x *= r
-            m_y *= r
-            m_z *= r
+    m_x, m_y, m_z, _ = clip_magnitude(m_x, m_y, m_z, mu_r * eff_radius * f_rep)
     return m_x, m_y, m_z
 
 

@@ -213,10 +213,8 @@ def pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags):
             continue
         w = clu_world[ci]
         dt = worlds_dt[w]
-        oix = c_omega[ci, 0]
-        oiy = c_omega[ci, 1]
-        oiz = c_omega[ci, 2]
-        spin = (oix, oiy, oiz)
+        spin = load2(c_omega, ci)
+        oix, oiy, oiz = spin
         om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
         fx = 0.0
         fy = 0.0
@@ -379,10 +377,8 @@ def wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags):
             continue
         w = clu_world[ci]
         dt = worlds_dt[w]
-        oix = c_omega[ci, 0]
-        oiy = c_omega[ci, 1]
-        oiz = c_omega[ci, 2]
-        spin = (oix, oiy, oiz)
+        spin = load2(c_omega, ci)
+        oix, oiy, oiz = spin
         om_i = math.sqrt(oix * oix + oiy * oiy + oiz * oiz)
         ri = sph_radius[i]
         pix = sph_pos[i, 0]
