@@ -55,6 +55,28 @@ def test_fidelities_share_time_step_and_plate():
     assert paper.fill.rate == 5000 and paper.fill.filling_time == 0.6
 
 
+@pytest.mark.parametrize("name", ["quick", "standard", "large", "paper"])
+def test_every_fidelity_has_default_replicates_and_the_paper_physics(name):
+    """The fidelities differ in fill and tube only: time step, plate, phases and laws are
+    the paper's, so a parameter set means the same at every fidelity."""
+    from demcal.virtual import FIDELITY_REPLICATES
+
+    config, paper = fidelity_config(name), fidelity_config("paper")
+    assert FIDELITY_REPLICATES[name] >= 1
+    assert config.dt_fraction == paper.dt_fraction and config.phases == paper.phases
+    assert config.geometry.plate_size == paper.geometry.plate_size
+    assert config.rolling_model == paper.rolling_model and config.particle == paper.particle
+
+
+def test_large_fidelity_keeps_the_standard_fill_aspect():
+    """1200 stalks in 56 mm: the fill's count per tube volume ratio N / D^3 of 300 in 35 mm,
+    within 5 %, so the pile forms the same way at four times the size."""
+    std, large = fidelity_config("standard"), fidelity_config("large")
+    ratio = (large.fill.count / large.geometry.cylinder_inner_diameter ** 3) / (
+        std.fill.count / std.geometry.cylinder_inner_diameter ** 3)
+    assert large.fill.count == 4 * std.fill.count and abs(ratio - 1) < 0.05
+
+
 def test_unknown_fidelity():
     with pytest.raises(InputError, match="fidelity must be one of"):
         fidelity_config("medium")

@@ -138,7 +138,7 @@ class TestSpec(_M):
     """The virtual test: the engine's AoR test, or the analytic stand-in (a test double)."""
 
     kind: Literal["aor", "analytic"] = "aor"
-    fidelity: Literal["quick", "standard", "paper"] = "quick"
+    fidelity: Literal["quick", "standard", "large", "paper"] = "quick"
     overrides: dict[str, Any] = Field(default_factory=dict,
                                       description="nested AoRTestConfig overrides")
     analytic: dict[str, Any] = Field(default_factory=dict,
@@ -289,8 +289,8 @@ class Study(_M):
     name: str = "study"
     seed: int = Field(1, ge=0, le=MAX_STUDY_SEED)
     replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point; "
-                                   "default: the test fidelity's (quick 1, standard "
-                                   "FIDELITY_REPLICATES['standard'], paper 1)")
+                                   "default: the test fidelity's (quick 1, standard 3, "
+                                   "large 3, paper 1: FIDELITY_REPLICATES)")
     common_seeds: bool = Field(False, description="common random numbers: every design point "
                                "of a stage runs on the same seed set (verification keeps "
                                "fresh seeds)")
@@ -342,7 +342,7 @@ class Study(_M):
             config = fidelity_config(self.test.fidelity, **self.test.overrides)
             if config.fill.method != "packing":
                 raise ValueError("executor.engine = 'lammps' runs the packing fill only "
-                                 "(fidelities quick and standard); the test's fill is "
+                                 "(fidelities quick, standard and large); the test's fill is "
                                  f"{config.fill.method!r}")
         return self
 
@@ -477,7 +477,7 @@ high = 0.02
 
 [test]
 kind = "aor"              # aor (the DEM engine) | analytic (a planted stand-in, for tests)
-fidelity = "quick"        # quick | standard | paper
+fidelity = "quick"        # quick | standard | large | paper
 # overrides = { fill = { count = 200 } }
 
 [stages.rangefind]

@@ -2,7 +2,7 @@
 
 ``run_aor`` runs a batch of tests (one engine world each) and returns :class:`AoRResult`
 objects with a typed :class:`Outcome`; ``fidelity_config`` and ``preset_parameters`` give the
-quick, standard and paper configurations (``FIDELITY_REPLICATES``: their default seeds per
+quick, standard, large and paper configurations (``FIDELITY_REPLICATES``: their default seeds per
 point) and the corn-stalk material.
 """
 

@@ -17,8 +17,8 @@ engines the same initial clumps; the same time step, lift speed, settle rules an
   half do), the tube stops once it clears the material, and the script prints one
   ``DEMCAL <event> ...`` line per phase change and dumps the lifted and the final spheres.
 
-Only the ``packing`` fill is written (the quick and standard fidelities); the factory fill of
-the paper fidelity is not (an :class:`~demcal.errors.InputError` says so).
+Only the ``packing`` fill is written (the quick, standard and large fidelities); the factory
+fill of the paper fidelity is not (an :class:`~demcal.errors.InputError` says so).
 """
 
 from __future__ import annotations
@@ -91,8 +91,9 @@ def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
         Where to write ``aor.data``, ``bodies.txt`` and ``in.aor``.
     """
     if config.fill.method != "packing":
-        raise InputError("the LAMMPS engine runs the packing fill only (fidelities quick and "
-                         "standard); fill.method = 'factory' is not written for LAMMPS yet")
+        raise InputError("the LAMMPS engine runs the packing fill only (fidelities quick, "
+                         "standard and large); fill.method = 'factory' is not written for "
+                         "LAMMPS yet")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     template = make_template(config.particle)
