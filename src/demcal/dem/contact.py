@@ -189,7 +189,7 @@ def jkr_contact_radius(delta: float, eff_radius: float, eff_modulus: float, gamm
     difference of two cube roots, so it keeps full precision when Hertz dominates (large
     ``delta``); a negative discriminant (three real roots: trigonometric form) lies below the
     curve's minimum, i.e. beyond break-off. Agrees with a bracketing root finder to ~1e-14
-    (tests/dem/test_dem_jkr.py) at a quarter of the cost of Newton's method. Valid for
+    (tests/dem/test_dem_jkr.py) at less than half the cost of Newton's method. Valid for
     ``delta >= jkr_critical_overlap``.
     """
     cr = math.sqrt(4.0 * math.pi * gamma / eff_modulus) * eff_radius
