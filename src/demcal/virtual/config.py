@@ -192,7 +192,8 @@ FIDELITIES: dict[str, dict] = {
     # test's): a single test as precise as the lab's also at cohesive points. At the corn
     # stalk's calibrated point (benchmarks/precision.py, 6 seeds): seed std 1.72 deg against
     # the standard test's 4.16, the same mean (44.56 against 44.59), 379 CPU-s per test against
-    # ~61. Its 3 replicates give a design point a standard error <= 1 deg at about the CPU
+    # ~61 (at a steeper cohesive point, x8 0.0005, x4 0.2, x3 0.6: 1.31 deg, 6 seeds).
+    # Its 3 replicates give a design point a standard error <= 1 deg at about the CPU
     # that 18 standard replicates take: for a GPU or a cluster, or a verification to trust
     # one run at a time.
     "large": {"geometry": {"cylinder_inner_diameter": 0.056},
