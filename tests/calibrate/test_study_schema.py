@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 from demcal.calibrate import EXAMPLE_STUDY, load_study, parse_study
 from demcal.cli import app
 from demcal.errors import InputError
+from demcal.virtual.config import FIDELITIES, FIDELITY_REPLICATES
 
 
 def _bad(data: dict, *parts: str) -> None:
@@ -70,6 +71,20 @@ def test_bad_aor_test_override(example_data):
     d = copy.deepcopy(example_data)
     d["test"] = {"kind": "aor", "fidelity": "quick", "overrides": {"fill": {"count": -3}}}
     _bad(d, "test", "fill.count")
+
+
+@pytest.mark.parametrize("fidelity", sorted(FIDELITIES))
+def test_every_fidelity_is_a_study_fidelity_with_its_replicates(example_data, fidelity):
+    d = copy.deepcopy(example_data)
+    d["test"] = {"kind": "aor", "fidelity": fidelity}
+    d.pop("replicates", None)  # the default follows the fidelity
+    assert parse_study(d).replicates == FIDELITY_REPLICATES[fidelity]
+
+
+def test_an_unknown_fidelity_is_refused_naming_the_field(example_data):
+    d = copy.deepcopy(example_data)
+    d["test"] = {"kind": "aor", "fidelity": "medium"}
+    _bad(d, "test.fidelity", "'standard'", "'large'")
 
 
 def test_init_writes_a_valid_study(tmp_path):

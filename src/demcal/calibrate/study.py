@@ -37,6 +37,7 @@ from pydantic import (
 from demcal.errors import InputError
 from demcal.execute.engine_spec import EngineSpec
 from demcal.limits import MAX_CHUNK, MAX_INPUT_FILE_BYTES, MAX_STUDY_SEED
+from demcal.virtual.config import FIDELITIES, FIDELITY_REPLICATES
 from demcal.virtual.lammps_options import LammpsOptions
 
 __all__ = ["EXAMPLE_STUDY", "FactorSpec", "Study", "load_study", "parse_study"]
@@ -138,7 +139,7 @@ class TestSpec(_M):
     """The virtual test: the engine's AoR test, or the analytic stand-in (a test double)."""
 
     kind: Literal["aor", "analytic"] = "aor"
-    fidelity: Literal["quick", "standard", "large", "paper"] = "quick"
+    fidelity: Literal[tuple(FIDELITIES)] = "quick"
     overrides: dict[str, Any] = Field(default_factory=dict,
                                       description="nested AoRTestConfig overrides")
     analytic: dict[str, Any] = Field(default_factory=dict,
@@ -289,8 +290,9 @@ class Study(_M):
     name: str = "study"
     seed: int = Field(1, ge=0, le=MAX_STUDY_SEED)
     replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point; "
-                                   "default: the test fidelity's (quick 1, standard 3, "
-                                   "large 3, paper 1: FIDELITY_REPLICATES)")
+                                   "default: the test fidelity's ("
+                                   + ", ".join(f"{k} {v}" for k, v in FIDELITY_REPLICATES.items())
+                                   + ")")
     common_seeds: bool = Field(False, description="common random numbers: every design point "
                                "of a stage runs on the same seed set (verification keeps "
                                "fresh seeds)")
@@ -312,8 +314,6 @@ class Study(_M):
             raise ValueError(f"engine: an external engine runs the test; test.kind must be "
                              f"'aor' (the default) with it; got {self.test.kind!r}")
         if self.replicates is None:
-            from demcal.virtual import FIDELITY_REPLICATES
-
             self.replicates = (FIDELITY_REPLICATES[self.test.fidelity]
                                if self.test.kind == "aor" and self.engine is None else 1)
         return self
