@@ -20,6 +20,10 @@ per world, ``cap`` neighbour slots, SI units):
 - :class:`Flags`: what the compiled code reports to the host;
 - :class:`Params`: the scalars of a run.
 
+No field may be named like a method of ``tuple`` (``count``, ``index``): numba-cuda's typing
+resolves ``nb.index`` to the tuple's method, so the CUDA kernels do not compile, while the CPU
+and the CUDA simulator run. Array names in :data:`KEYS` are free of that rule.
+
 Adding an array: see ``docs/engine.md`` (a field here, its name in :data:`KEYS`, its
 allocation in :meth:`Simulation._build <demcal.dem.simulation.Simulation>`).
 """
@@ -76,14 +80,14 @@ class Clumps(NamedTuple):
     world: np.ndarray  #: (n_c,) int32 world index
     state: np.ndarray  #: (n_c,) int32 INACTIVE / ACTIVE / REMOVED
     first: np.ndarray  #: (n_c,) int32 index of its first sphere
-    count: np.ndarray  #: (n_c,) int32 number of its spheres
+    n_spheres: np.ndarray  #: (n_c,) int32 number of its spheres
 
 
 class Neighbors(NamedTuple):
     """One neighbour list (slots sorted by neighbour index)."""
 
-    count: np.ndarray  #: (n_s,) int32 neighbours found (may exceed ``cap``: grow)
-    index: np.ndarray  #: (n_s, cap) int32 neighbour sphere of each slot
+    found: np.ndarray  #: (n_s,) int32 neighbours found (may exceed ``cap``: grow)
+    partner: np.ndarray  #: (n_s, cap) int32 neighbour sphere of each slot
     hist: np.ndarray  #: (n_s, cap, 3) tangential spring of each slot, m
     rhist: np.ndarray  #: (n_s, cap, 3) type-C rolling spring, N m ((1, 1, 3) unless type C)
 
@@ -177,9 +181,13 @@ KEYS: dict[type, tuple[str, ...]] = {
 }
 
 
+#: the array-name stems of :class:`Neighbors`' fields, in order (``nb_<stem>_<side>``)
+NEIGHBOR_STEMS = ("count", "index", "hist", "rhist")
+
+
 def neighbor_keys(side: str) -> tuple[str, ...]:
     """Array names of neighbour buffer ``side`` ("a" or "b"), in :class:`Neighbors` order."""
-    return tuple(f"nb_{field}_{side}" for field in Neighbors._fields)
+    return tuple(f"nb_{stem}_{side}" for stem in NEIGHBOR_STEMS)
 
 
 def _take(cls, arrays):

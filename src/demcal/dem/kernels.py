@@ -185,7 +185,7 @@ def pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags):
     sph_torque = sph.torque
     sph_roll = sph.roll
     worlds_dt = worlds.dt
-    nb_count = nb.count
+    nb_count = nb.found
     flags_overlap = flags.overlap
     s_pos = sph.pos
     s_radius = sph.radius
@@ -196,7 +196,7 @@ def pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags):
     c_omega = clu.omega
     c_mass = clu.mass
     c_state = clu.state
-    nb_index = nb.index
+    nb_index = nb.partner
     nb_hist = nb.hist
     nb_rhist = nb.rhist
     pair_params = worlds.pair_params
@@ -547,7 +547,7 @@ def clump_step(lo, hi, clu, sph, worlds, prm, flags):
     """
     worlds_active = worlds.active
     clu_first = clu.first
-    clu_count = clu.count
+    clu_count = clu.n_spheres
     clu_mass = clu.mass
     sph_offset = sph.offset
     flags_nan = flags.nan
@@ -768,12 +768,12 @@ def neighbor_search(lo, hi, sph, clu, grid, prm, old, new):
     mask = prm.mask
     extra = prm.extra
     carry_rolling = prm.carry_rolling
-    old_count = old.count
-    old_index = old.index
+    old_count = old.found
+    old_index = old.partner
     old_hist = old.hist
     old_rhist = old.rhist
-    new_count = new.count
-    new_index = new.index
+    new_count = new.found
+    new_index = new.partner
     new_hist = new.hist
     new_rhist = new.rhist
     for i in range(lo, hi):

@@ -90,8 +90,8 @@ def search_pass(sph, clu, grid, prm, old, new):
         neighbor_search(blk * size, min(blk * size + size, n), sph, clu, grid, prm, old, new)
     most = 0
     for i in range(n):
-        if new.count[i] > most:
-            most = new.count[i]
+        if new.found[i] > most:
+            most = new.found[i]
     return most
 
 
@@ -145,7 +145,7 @@ def rebuild(parity, st):
     cur = st.nb_a if parity == 0 else st.nb_b
     nxt = st.nb_b if parity == 0 else st.nb_a
     most = search_pass(sph, clu, st.grid, prm, cur, nxt)
-    if most > nxt.index.shape[1]:
+    if most > nxt.partner.shape[1]:
         stats[0] = most
         return STATUS_NEIGHBOR_OVERFLOW, parity
     candidates_pass(sph, clu, st.walls, prm)

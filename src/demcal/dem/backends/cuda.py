@@ -142,7 +142,7 @@ def _build_kernels():
         if i >= sph.pos.shape[0]:
             return
         neighbor_search(i, i + 1, sph, clu, grid, prm, old, new)
-        cuda.atomic.max(flags.stats, 0, new.count[i])
+        cuda.atomic.max(flags.stats, 0, new.found[i])
         wall_candidates(i, i + 1, sph, clu, walls, prm)
 
     @cuda.jit
@@ -150,11 +150,11 @@ def _build_kernels():
         if halt[0] != 0 or flags.rebuild[0] == 0:
             return
         stats = flags.stats
-        cap = dst.index.shape[1]
+        cap = dst.partner.shape[1]
         if stats[0] > cap or stats[1] > bucket_cap:
             return
         i = cuda.grid(1)
-        if i >= dst.count.shape[0]:
+        if i >= dst.found.shape[0]:
             return
         # empty this sphere's bucket for the next build (idempotent writes of 0)
         key = sph.cellkey[i]
@@ -164,10 +164,10 @@ def _build_kernels():
             ix = (key >> (2 * CELL_BITS)) & CELL_MAX
             w = key >> (3 * CELL_BITS)
             grid.bucket_count[cell_bucket(w, ix, iy, iz, prm.mask)] = 0
-        n = src.count[i]
-        dst.count[i] = n
+        n = src.found[i]
+        dst.found[i] = n
         for k in range(min(n, cap)):
-            dst.index[i, k] = src.index[i, k]
+            dst.partner[i, k] = src.partner[i, k]
             dst.hist[i, k, 0] = src.hist[i, k, 0]
             dst.hist[i, k, 1] = src.hist[i, k, 1]
             dst.hist[i, k, 2] = src.hist[i, k, 2]
@@ -235,6 +235,49 @@ def _blocks(n: int) -> int:
     return max(1, (int(n) + THREADS - 1) // THREADS)
 
 
+def device_layout(arrays: dict, n_spheres: int) -> None:
+    """Put the slot arrays (sphere x neighbour/wall slot) in Fortran order, in place.
+
+    A thread walks its own sphere's slots, so slot k of consecutive spheres should be
+    adjacent (coalesced). Per-sphere and per-clump vectors stay row-major: their x, y, z
+    share a cache line, which matters for the random gathers of neighbour data.
+    """
+    for name, arr in arrays.items():
+        if arr.ndim >= 2 and name.split("_")[0] in ("nb", "w") and arr.shape[0] == n_spheres:
+            arrays[name] = np.asfortranarray(arr)
+
+
+def launch_plan(st, halt, n_clumps: int, n_worlds: int) -> list[tuple]:
+    """One time step's kernel launches, in order: ``(kernel name, blocks, threads, args)``.
+
+    Parameters
+    ----------
+    st : demcal.dem.containers.EngineState
+        The packed device arrays (or host arrays in the device layout, to type the kernels).
+    halt : array
+        The (1,) int32 halt flag.
+    n_clumps, n_worlds : int
+        Clumps and worlds of the simulation (the clump kernel's threads).
+    """
+    prm = st.params
+    nb = _blocks(st.spheres.pos.shape[0])
+    nb_cap = st.nb_a.partner.shape[1]
+    bcap = st.grid.bucket_members.shape[1]
+    # a: the current neighbour list, b: the scratch one the build fills
+    return [
+        ("k_bin", nb, THREADS, (halt, st.spheres, st.clumps, st.grid, prm, st.flags)),
+        ("k_search", nb, THREADS, (halt, st.spheres, st.clumps, st.grid, prm, st.nb_a,
+                                   st.nb_b, st.walls, st.flags)),
+        ("k_commit", nb, THREADS, (halt, st.flags, bcap, st.nb_b, st.nb_a, st.spheres,
+                                   st.grid, prm)),
+        ("k_finish", 1, 32, (halt, st.flags, nb_cap, bcap, st.walls)),
+        ("k_forces", nb, THREADS, (halt, st.spheres, st.clumps, st.nb_a, st.walls, st.worlds,
+                                   prm, st.flags)),
+        ("k_clumps", _blocks(max(n_clumps, n_worlds)), THREADS,
+         (halt, st.clumps, st.spheres, st.walls, st.worlds, prm, st.flags)),
+    ]
+
+
 class CudaBackend:
     """Runs a :class:`~demcal.dem.simulation.Simulation` on a CUDA GPU.
 
@@ -287,17 +330,7 @@ class CudaBackend:
                 a[f"nb_rhist_{side}"][:, :old_cap] = rhist
 
     def _to_device_layout(self) -> None:
-        """Slot arrays (sphere x neighbour/wall slot) in Fortran order on the device.
-
-        A thread walks its own sphere's slots, so slot k of consecutive spheres should be
-        adjacent (coalesced). Per-sphere and per-clump vectors stay row-major: their x, y, z
-        share a cache line, which matters for the random gathers of neighbour data.
-        """
-        sim = self.sim
-        for name, arr in sim.arrays.items():
-            if arr.ndim >= 2 and name.split("_")[0] in ("nb", "w") and \
-                    arr.shape[0] == sim.n_spheres:
-                sim.arrays[name] = np.asfortranarray(arr)
+        device_layout(self.sim.arrays, self.sim.n_spheres)
 
     # ---------------------------------------------------------------- transfers
     def upload_all(self) -> None:
@@ -349,27 +382,11 @@ class CudaBackend:
 
     # ---------------------------------------------------------------- stepping
     def _launch_step(self) -> None:
-        d = self.dev
         sim = self.sim
-        k = self.k
-        s = self.stream
-        st = pack(d, sim.params())
-        prm = st.params
-        halt = d["halt"]
-        nb = _blocks(sim.n_spheres)
-        nb_cap = st.nb_a.index.shape[1]
-        bcap = st.grid.bucket_members.shape[1]
-        # a: the current neighbour list, b: the scratch one the build fills
-        k.k_bin[nb, THREADS, s](halt, st.spheres, st.clumps, st.grid, prm, st.flags)
-        k.k_search[nb, THREADS, s](halt, st.spheres, st.clumps, st.grid, prm, st.nb_a, st.nb_b,
-                                   st.walls, st.flags)
-        k.k_commit[nb, THREADS, s](halt, st.flags, bcap, st.nb_b, st.nb_a, st.spheres, st.grid,
-                                   prm)
-        k.k_finish[1, 32, s](halt, st.flags, nb_cap, bcap, st.walls)
-        k.k_forces[nb, THREADS, s](halt, st.spheres, st.clumps, st.nb_a, st.walls, st.worlds,
-                                   prm, st.flags)
-        k.k_clumps[_blocks(max(sim.n_clumps, sim.n_worlds)), THREADS, s](
-            halt, st.clumps, st.spheres, st.walls, st.worlds, prm, st.flags)
+        st = pack(self.dev, sim.params())
+        for name, blocks, threads, args in launch_plan(st, self.dev["halt"], sim.n_clumps,
+                                                       sim.n_worlds):
+            getattr(self.k, name)[blocks, threads, self.stream](*args)
 
     def _capture(self):
         """Capture GRAPH_STEPS steps into an executable CUDA graph (driver API)."""
