@@ -143,8 +143,8 @@ def simulate_aor(
         "model (--set, --test and --fidelity still override).")] = None,
     fidelity: Annotated[str | None, typer.Option(
         help="Test fidelity: quick (150 stalks, a demonstration), standard (the calibration "
-        "fidelity: 300 stalks, 3 seeds), large (1200 stalks: a single test as precise as "
-        "the lab's, ~6x the CPU) or paper (the paper's factory fill); default "
+        "fidelity: 300 stalks, 3 seeds), large (1200 stalks: ~2x less scatter than "
+        "standard, ~6x the CPU) or paper (the paper's factory fill); default "
         "quick, or the material card's.")] = None,
     set_: Annotated[list[str] | None, typer.Option(
         "--set", help="Override a parameter: NAME=VALUE (SI units), repeatable.")] = None,

@@ -189,10 +189,11 @@ FIDELITIES: dict[str, dict] = {
     "standard": {"geometry": {"cylinder_inner_diameter": 0.035},
                  "fill": {"method": "packing", "count": 300}},
     # 1200 stalks dropped as a loose packing in a 56 mm tube (the fill's aspect of the standard
-    # test's): a single test as precise as the lab's also at cohesive points. At the corn
+    # test's): 1.6-2.4x less scatter than the standard test at cohesive points. At the corn
     # stalk's calibrated point (benchmarks/precision.py, 6 seeds): seed std 1.72 deg against
     # the standard test's 4.16, the same mean (44.56 against 44.59), 379 CPU-s per test against
-    # ~61 (at a steeper cohesive point, x8 0.0005, x4 0.2, x3 0.6: 1.31 deg, 6 seeds).
+    # ~61; at a steeper cohesive point (x8 0.0005, x4 0.2, x3 0.6): 2.64 deg over 18 piles
+    # (6 CPU, 12 on an H100) against standard's 4.81 (24), 9.8 s per test batched on the H100.
     # Its 3 replicates give a design point a standard error <= 1 deg at about the CPU
     # that 18 standard replicates take: for a GPU or a cluster, or a verification to trust
     # one run at a time.

@@ -1,0 +1,123 @@
+"""One prepared GPU session: the CUDA backend checked, timed, and its precision per GPU-second.
+
+GPU machines are lent for minutes, so this runs everything in one process (one compile) and
+writes the JSON after every stage (a stage cut off by a time limit loses only itself):
+
+1. ``check``: CUDA against the CPU on two small piles falling into a tube (positions after
+   3000 steps, ~21 ms, with contacts from ~1500: equal to rounding, FMA on the GPU) and graph
+   replay / plain launches / forced neighbour growth (bitwise equal to each other);
+2. ``bench``: sphere-steps per second on settled beds (1000 and 10000 stalks, 16 worlds of
+   1000);
+3. ``large``, ``standard``: the angle-of-repose test at a steep cohesive point (x8 0.0005
+   J/m^2, x4 0.2, x3 0.6) with ``--large-seeds`` / ``--standard-seeds`` replicates batched as
+   worlds of one engine (``benchmarks/precision.py``'s measurement: seed scatter, phases);
+4. ``paper``: the paper's fill at the dry reference point (optional);
+5. ``bigbench``: a 100 000-stalk bed.
+
+Usage (on the GPU machine)::
+
+    python benchmarks/gpu_check.py --json gpu.json
+    python benchmarks/gpu_check.py --stages check bench --json gpu.json
+    python benchmarks/gpu_check.py --backend cpu --stages check --json cpu.json  # dry run
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+import traceback
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+import cuda_check
+import precision
+
+#: a steep cohesive point at the top of the corn-stalk calibration region
+STEEP = {"pp.surface_energy": 0.0005, "pp.rolling_friction": 0.2, "pp.static_friction": 0.6}
+STAGES = ("check", "bench", "large", "standard", "paper", "bigbench")
+
+
+def parse_args() -> argparse.Namespace:
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--backend", default="cuda", choices=["cuda", "cpu"])
+    ap.add_argument("--stages", nargs="+", default=list(STAGES), choices=STAGES)
+    ap.add_argument("--large-seeds", type=int, default=12)
+    ap.add_argument("--standard-seeds", type=int, default=18)
+    ap.add_argument("--paper-seeds", type=int, default=6)
+    ap.add_argument("--bench-steps", type=int, default=1000)
+    ap.add_argument("--bench-settle", type=float, default=0.05, help="settling time, s")
+    ap.add_argument("--piles", default="out/gpu_piles", help="folder for the saved piles")
+    ap.add_argument("--json", default="gpu_check.json")
+    return ap.parse_args()
+
+
+def stage_functions(args: argparse.Namespace) -> dict:
+    """Each stage's work (a function returning its JSON-able numbers), by name."""
+    backend = args.backend
+
+    def checks() -> dict:
+        out = {"compare_cpu": cuda_check.compare(backend, 3000)}
+        if backend == "cuda":
+            out["graphs"] = cuda_check.graph_and_growth(300)
+        return out
+
+    def bench(sizes: list[tuple[int, int]]) -> list[dict]:
+        return [cuda_check.bench(backend, n, worlds, args.bench_settle, args.bench_steps)
+                for n, worlds in sizes]
+
+    def aor(case: str, n: int, seed0: int, sets: dict) -> dict:
+        seeds = list(range(seed0, seed0 + n))
+        return precision.run_case(case, seeds, Path(args.piles), backend, 1.0, sets)
+
+    return {
+        "check": checks,
+        "bench": lambda: bench([(1000, 1), (10000, 1), (1000, 16)]),
+        "large": lambda: aor("1200:0.056", args.large_seeds, 501, STEEP),
+        "standard": lambda: aor("300:0.035", args.standard_seeds, 501, STEEP),
+        "paper": lambda: aor("paper", args.paper_seeds, 101, {}),
+        "bigbench": lambda: bench([(100000, 1)]),
+    }
+
+
+def versions(backend: str) -> dict:
+    import numba
+
+    out = {"python": platform.python_version(), "numba": numba.__version__}
+    if backend == "cuda":
+        import numba_cuda
+        from numba import cuda
+
+        out["numba_cuda"] = numba_cuda.__version__
+        out["device"] = str(cuda.get_current_device().name)
+    return out
+
+
+def main() -> None:
+    args = parse_args()
+    report: dict = {"argv": sys.argv, "backend": args.backend, **versions(args.backend)}
+    t_start = time.perf_counter()
+    print(report, flush=True)
+    for name, work in stage_functions(args).items():
+        if name not in args.stages:
+            continue
+        t = time.perf_counter()
+        try:
+            report[name] = work()
+        except Exception as exc:  # keep the other stages' numbers
+            traceback.print_exc()
+            report[name] = {"error": repr(exc)}
+        report[name + "_wall_s"] = time.perf_counter() - t
+        print(name, f"{report[name + '_wall_s']:.1f}s",
+              json.dumps(report[name], default=str)[:1500], flush=True)
+        report["elapsed_s"] = time.perf_counter() - t_start
+        Path(args.json).write_text(json.dumps(report, indent=1, default=str))
+    print("done", f"{time.perf_counter() - t_start:.1f}s", flush=True)
+
+
+if __name__ == "__main__":
+    main()
