@@ -14,6 +14,10 @@ writes the JSON after every stage (a stage cut off by a time limit loses only it
 4. ``paper``: the paper's fill at the dry reference point (optional);
 5. ``bigbench``: a 100 000-stalk bed.
 
+The AoR stages print each world's phase changes with the wall time. On the H100 (2026-11-26)
+``paper`` (6 worlds, factory fill) had not finished after ~320 s while ``large`` (12 worlds,
+packing fill) took 118 s: that log says where the time goes next time.
+
 Usage (on the GPU machine)::
 
     python benchmarks/gpu_check.py --json gpu.json
@@ -72,7 +76,8 @@ def stage_functions(args: argparse.Namespace) -> dict:
 
     def aor(case: str, n: int, seed0: int, sets: dict) -> dict:
         seeds = list(range(seed0, seed0 + n))
-        return precision.run_case(case, seeds, Path(args.piles), backend, 1.0, sets)
+        return precision.run_case(case, seeds, Path(args.piles), backend, 1.0, sets,
+                                  log_phases=True)
 
     return {
         "check": checks,

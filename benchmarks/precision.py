@@ -143,8 +143,13 @@ def summarise(name: str, measured: list[dict], wall_per_test: float | None,
 
 
 def run_case(case: str, seeds: list[int], out_dir: Path, backend: str, se: float,
-             sets: dict[str, float] | None = None, test: dict | None = None) -> dict:
-    """Simulate one case's replicates as one batch, save the piles, measure them."""
+             sets: dict[str, float] | None = None, test: dict | None = None,
+             log_phases: bool = False) -> dict:
+    """Simulate one case's replicates as one batch, save the piles, measure them.
+
+    ``log_phases`` prints each world's phase changes with the wall time (a run cut off by a
+    time limit then still says where its time went).
+    """
     config = case_config(case, test)
     params = preset_parameters("corn_stalk", {**BASE, **(sets or {})})
     folder = out_dir / case.replace(":", "_")
@@ -153,12 +158,17 @@ def run_case(case: str, seeds: list[int], out_dir: Path, backend: str, se: float
     live = set(range(n))
     last = dict.fromkeys(range(n), 0.0)
     phase_wall: dict[str, float] = {}
+    seen: dict[int, str] = {}
 
     def on_progress(run: int, phase: str, t: float, wall: float) -> None:
         # each live world reports once per check: its share of the check's wall time goes
         # to the phase it is in
         phase_wall[phase] = phase_wall.get(phase, 0.0) + (wall - last[run]) / max(1, len(live))
         last[run] = wall
+        if log_phases and seen.get(run) != phase:
+            seen[run] = phase
+            print(f"  {case} world {run}: {phase} at t = {t:.3f} s, wall {wall:.1f} s",
+                  flush=True)
 
     def on_result(run: int, result) -> None:
         live.discard(run)
