@@ -117,6 +117,12 @@ def test_common_seeds_share_the_seed_set_but_not_between_centre_points(tmp_path)
         assert frozenset({1, 1001}) in seed_sets and len(seed_sets) == 3
         ver = store.runs(stage="verification")
         assert all(r.seed >= 10_000 for r in ver)  # verification keeps fresh seeds
+        # each replicate round (a seed set) is a block of the rows' ANOVA, as Design-Expert's
+        rsm = store.stage("rsm").summary
+        assert rsm["anova"][0]["term"] == "Block" and rsm["anova"][0]["df"] == 1
+        assert rsm["rounds"][-1]["blocks"] == 2
+        pe = next(r for r in rsm["anova"] if r["term"] == "Pure Error")
+        assert pe["df"] == 15 * (2 - 1) + 2 - 1
 
 
 def _replicated_bbd(truth, noise: float, reps: int, seed: int):
@@ -191,3 +197,20 @@ def test_a_study_reads_its_optimum_from_the_reduced_model_and_reports_both(tmp_p
     html = Path(build_report(path.parent)).read_text()
     assert "ANOVA of the full quadratic model" in html
     assert "ANOVA of the reduced response surface" in html
+
+
+def test_common_seed_blocks_fall_back_to_no_blocks_when_a_run_failed():
+    from demcal.calibrate.stages import _fit_rows, _replicated
+
+    d = doe.box_behnken(3, center_points=3, randomize=False)
+    rng = np.random.default_rng(2)
+    runs = [[_linear(x) + rng.normal() for _ in range(3)] for x in d.coded]
+    rep, y = _replicated(d, runs, 3)
+    blocked, notes = _fit_rows(rep, y, 3, common_seeds=True)
+    assert blocked.block_df == 2 and notes == []
+    plain, notes = _fit_rows(rep, y, 3, common_seeds=False)
+    assert plain.block_df == 0 and notes == []
+    y[4] = np.nan  # one run without a pile
+    fallback, notes = _fit_rows(rep, y, 3, common_seeds=True)
+    assert fallback.block_df == 0
+    assert len(notes) == 1 and "not used as blocks" in notes[0]

@@ -265,3 +265,27 @@ def test_steepest_from_given_coefficients_proportional(workdir):
     np.testing.assert_allclose(p["x4"], [0.09, 0.105, 0.12])
     bad = runner.invoke(app, ["design", "steepest", "--factors", "factors_table1.toml"])
     assert bad.exit_code == 2 and "--from-runs" in _error_line(bad)
+
+
+def test_analyze_with_a_block_column(tmp_path):
+    """`demcal analyze --block day`: a Block row first, the day offsets out of the residual."""
+    d = pd.read_csv(EXAMPLE / "table7_bbd.csv")
+    factor_cols = [c for c in d.columns if c.startswith("x") and c[1:].isdigit()]
+    rng = np.random.default_rng(1)
+    frames = []
+    for day, offset in ((1, -2.0), (2, 3.0)):
+        f = d[factor_cols].copy()
+        f["aor"] = d["aor_deg"] + offset + rng.normal(0, 0.3, len(d))
+        f["day"] = day
+        frames.append(f)
+    sheet = tmp_path / "blocked.csv"
+    pd.concat(frames).to_csv(sheet, index=False)
+    out = tmp_path / "a.json"
+    res = _invoke(["analyze", str(sheet), "--response", "aor", "--block", "day",
+                   "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "Block" in res.output
+    anova = json.loads(out.read_text())["anova"]
+    assert anova[0]["term"] == "Block" and anova[0]["df"] == 1
+    bad = _invoke(["analyze", str(sheet), "--response", "aor", "--block", "shift"])
+    assert bad.exit_code == 2 and "--block: column 'shift' not found" in bad.output

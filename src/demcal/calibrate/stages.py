@@ -168,6 +168,28 @@ def _replicated(design: doe.Design, runs: list[list[float]], n_reps: int
     return rep, y
 
 
+def _fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_seeds: bool
+              ) -> tuple[doe.ResponseSurface, list[str]]:
+    """The quadratic fitted to every replicate row; with common seeds, in blocks.
+
+    With ``common_seeds`` replicate k of every design point shares seed set k, so each
+    replicate round is a block (Design-Expert's): its shared offset leaves the residual and the
+    pure error. A run without a pile unbalances the blocks; then the rows are fitted without
+    blocks and a note (the list returned) says so.
+    """
+    if not common_seeds or n_reps < 2:
+        return doe.fit(rep_design, y_rows, model="quadratic"), []
+    blocks = np.tile(np.arange(1, n_reps + 1), rep_design.n_runs // n_reps)
+    try:
+        return doe.fit(rep_design, y_rows, model="quadratic", blocks=blocks), []
+    except InputError as exc:
+        if "blocks are unbalanced" not in str(exc):
+            raise
+        return doe.fit(rep_design, y_rows, model="quadratic"), [
+            f"common seeds: the replicate rounds are not used as blocks ({exc}); the pure "
+            "error includes the seed sets' offsets"]
+
+
 def _run_rows(design: doe.Design, y: np.ndarray, outcomes: list[str],
               runs: list[list[float]] | None = None) -> list[dict[str, Any]]:
     actual = design.actual
@@ -579,7 +601,7 @@ def rsm(ctx: Context) -> dict[str, Any]:
                 "excluded_points": excluded, "replicates": n_reps}
         rep_design, y_rows = _replicated(design, runs, n_reps)
         try:
-            model = doe.fit(rep_design, y_rows, model="quadratic")
+            model, block_notes = _fit_rows(rep_design, y_rows, n_reps, ctx.study.common_seeds)
             if model.df_resid < 1:
                 raise InputError("no residual degrees of freedom")
         except InputError as exc:
@@ -592,6 +614,7 @@ def rsm(ctx: Context) -> dict[str, Any]:
         model, table, lof_p = choice["rows"], choice["table"], choice["lof_p"]
         adequate, fails, stats_ = choice["adequate"], choice["failed"], choice["adequacy"]
         rounds.append({"replicates": n_reps, "runs": design.n_runs * n_reps,
+                       "blocks": model.block_df + 1 if model.block_df else 0,
                        "model": choice["model"], "removed_terms": choice["removed_terms"],
                        "adequate": adequate, "failed": fails, **stats_})
         more = design.n_runs * (n_reps + 1)
@@ -611,6 +634,7 @@ def rsm(ctx: Context) -> dict[str, Any]:
             f"({spent} runs; budget stages.rsm.max_runs = {budget}): its optimum is a guess "
             "within the noise; raise the budget or the fidelity, or narrow the ranges")
     warnings += choice["notes"]
+    warnings += block_notes
     summary = {**base, "anova": table.to_records(), "fit": table.fit.to_dict(),
                "lack_of_fit_p": lof_p, "adequacy": stats_, "rounds": rounds,
                "model": choice["model"], "removed_terms": choice["removed_terms"],

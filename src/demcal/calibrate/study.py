@@ -294,8 +294,9 @@ class Study(_M):
                                    + ", ".join(f"{k} {v}" for k, v in FIDELITY_REPLICATES.items())
                                    + ")")
     common_seeds: bool = Field(False, description="common random numbers: every design point "
-                               "of a stage runs on the same seed set (verification keeps "
-                               "fresh seeds)")
+                               "of a stage runs on the same seed set, and the response surface's "
+                               "ANOVA takes each replicate round as a block (verification "
+                               "keeps fresh seeds)")
     backend: Literal["auto", "cpu", "cuda"] = "auto"
     material: Material = Material()
     target: Target

@@ -166,9 +166,13 @@ def _load_surface(
     columns: str | None,
     units: str | None,
     terms: str | None = None,
+    block: str | None = None,
 ) -> doe.ResponseSurface:
     """Read a run sheet and fit the model (the shared front half of analyze and optimize)."""
     frame = _read_csv(runs)
+    if block is not None and block not in frame.columns:
+        raise InputError(f"--block: column {block!r} not found in {runs.name}; columns: "
+                         + ", ".join(frame.columns))
     if response not in frame.columns:
         raise InputError(
             f"--response: column {response!r} not found in {runs.name}; columns: "
@@ -192,7 +196,8 @@ def _load_surface(
         if coded_cols:
             names = coded_cols
         else:
-            names = [c for c in frame.columns if c != response and c not in BOOKKEEPING]
+            names = [c for c in frame.columns
+                     if c not in (response, block) and c not in BOOKKEEPING]
     if not names:
         raise InputError("--columns: no factor columns left in the runs file")
     missing = [n for n in names if n not in frame.columns]
@@ -203,6 +208,8 @@ def _load_surface(
         )
     if response in names:
         raise InputError(f"--columns: the response {response!r} cannot be a factor")
+    if block is not None and block in names:
+        raise InputError(f"--block: the block column {block!r} cannot be a factor")
     x = frame[names].copy()
     renamed = {c: c[: -len("_coded")] for c in names if c.endswith("_coded")}
     x = x.rename(columns=renamed)
@@ -228,6 +235,7 @@ def _load_surface(
         factors=space,
         units=units,  # type: ignore[arg-type]
         response_name=response,
+        blocks=frame[block].tolist() if block is not None else None,
     )
 
 
@@ -600,11 +608,16 @@ def analyze(
         float | None,
         typer.Option("--reduce", help="Backward elimination (hierarchical) with this alpha out."),
     ] = None,
+    block: Annotated[
+        str | None,
+        typer.Option("--block", help="Block column (Design-Expert's blocks, e.g. the seed set "
+                     "or day of each run); every block must hold the same design points."),
+    ] = None,
     json_out: JsonOpt = None,
 ) -> None:
     """Fit a model to a run sheet and print Design-Expert's ANOVA and fit statistics."""
     check_output_file(json_out, "--json", make_parents=True)
-    rs = _load_surface(runs, response, model, factors, columns, units)
+    rs = _load_surface(runs, response, model, factors, columns, units, block=block)
     if reduce is not None:
         rs = rs.reduce(alpha_out=reduce)
     _print_analysis(rs)

@@ -15,8 +15,10 @@ Cor Total  sum (y - ybar)^2             n - 1
 ========== ============================ ====================== ============ =============
 
 Lack of fit and pure error appear only when the design has replicated points and the
-residual has degrees of freedom beyond them. Significance markers: ``**`` p < 0.01,
-``*`` p < 0.05 (the paper's convention).
+residual has degrees of freedom beyond them. A fit with b blocks (:func:`demcal.doe.fit`'s
+``blocks``) adds a first row ``Block`` (the blocks' SS, b - 1 df, no test), takes b - 1 df
+from Residual and Pure Error, and its Cor Total includes the blocks. Significance
+markers: ``**`` p < 0.01, ``*`` p < 0.05 (the paper's convention).
 """
 
 from __future__ import annotations
@@ -209,7 +211,11 @@ def anova_table(rs: ResponseSurface) -> AnovaTable:
     if not rs.has_intercept:
         raise InputError("the ANOVA table needs a model with an intercept")
     mse, dfe = rs.mse, rs.df_resid
-    rows = [_row("Model", rs.ss_model, rs.df_model, mse, dfe)]
+    rows = []
+    if rs.block_df > 0:  # Design-Expert lists the blocks first, without a test
+        rows.append(AnovaRow("Block", rs.block_ss, rs.block_df, rs.block_ss / rs.block_df,
+                             math.nan, math.nan))
+    rows.append(_row("Model", rs.ss_model, rs.df_model, mse, dfe))
     for name, ss in rs.ss_partial.items():
         rows.append(_row(str(name), float(ss), 1, mse, dfe))
     rows.append(AnovaRow("Residual", rs.ss_resid, dfe, mse, math.nan, math.nan))
@@ -219,7 +225,8 @@ def anova_table(rs: ResponseSurface) -> AnovaTable:
         ms_pe = ss_pe / df_pe
         rows.append(_row("Lack of Fit", ss_lof, df_lof, ms_pe, df_pe))
         rows.append(AnovaRow("Pure Error", ss_pe, df_pe, ms_pe, math.nan, math.nan))
-    rows.append(AnovaRow("Cor Total", rs.ss_total, rs.n_runs - 1, math.nan, math.nan, math.nan))
+    rows.append(AnovaRow("Cor Total", rs.ss_total + rs.block_ss, rs.n_runs - 1, math.nan,
+                         math.nan, math.nan))
     fit = FitStatistics(
         std_dev=rs.std_dev,
         mean=rs.mean,

@@ -71,6 +71,11 @@ class ResponseSurface:
         ``"linear"``, ``"2fi"``, ``"quadratic"`` or ``"custom"`` (explicit or reduced terms).
     response_name : str
         Name of the response, for display.
+    block_df, block_ss, block_leverage : int, float, float
+        Blocks (Design-Expert's): ``b - 1`` degrees of freedom, the blocks' sum of squares
+        and the leverage each run gains from its block's mean (``1/n_b - 1/n``). With blocks,
+        ``response`` holds the block-adjusted responses (each block shifted to the grand
+        mean); see :func:`fit`. All 0 without blocks.
     """
 
     names: tuple[str, ...]
@@ -82,6 +87,9 @@ class ResponseSurface:
     excluded_runs: tuple[Any, ...] = ()
     model: str = "custom"
     response_name: str = "response"
+    block_df: int = 0
+    block_ss: float = 0.0
+    block_leverage: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("coded", "response"):
@@ -228,8 +236,8 @@ class ResponseSurface:
 
     @property
     def df_resid(self) -> int:
-        """Residual degrees of freedom, n - p."""
-        return self.n_runs - self.n_params
+        """Residual degrees of freedom, n - p (- (b - 1) with b blocks)."""
+        return self.n_runs - self.n_params - self.block_df
 
     @cached_property
     def mse(self) -> float:
@@ -256,12 +264,14 @@ class ResponseSurface:
         """Adjusted R-Squared, 1 - (SSE / (n - p)) / (SS_total / (n - 1))."""
         if self.df_resid <= 0 or self.ss_total <= 0:
             return math.nan
-        return 1.0 - self.mse / (self.ss_total / (self.n_runs - 1))
+        return 1.0 - self.mse / (self.ss_total / (self.n_runs - 1 - self.block_df))
 
     @cached_property
     def leverage(self) -> np.ndarray:
-        """(n,) float64 ndarray: h_i = x_i' (X'X)^-1 x_i; they sum to p."""
-        return np.einsum("ij,jk,ik->i", self._X, self._xtx_inv, self._X)
+        """(n,) float64 ndarray: h_i = x_i' (X'X)^-1 x_i; they sum to p (p + b - 1 with b
+        blocks, whose contrasts are orthogonal to the terms in a balanced design)."""
+        h = np.einsum("ij,jk,ik->i", self._X, self._xtx_inv, self._X)
+        return h + self.block_leverage
 
     @cached_property
     def press(self) -> float:
@@ -373,7 +383,8 @@ class ResponseSurface:
         """(SS, df) of pure error: the spread of responses within groups of replicated runs.
 
         SS_PE = sum over groups of identical settings of sum (y - group mean)^2,
-        df_PE = n - number of distinct settings.
+        df_PE = n - number of distinct settings (- (b - 1) with b blocks: the block-adjusted
+        responses have the block offsets removed from the groups' spread).
         """
         key = np.round(self.coded, 9)
         _, inverse = np.unique(key, axis=0, return_inverse=True)
@@ -383,7 +394,7 @@ class ResponseSurface:
         for g in range(n_groups):
             y = self.response[inverse == g]
             ss += float(np.sum((y - y.mean()) ** 2))
-        return ss, self.n_runs - n_groups
+        return ss, self.n_runs - n_groups - self.block_df
 
     @cached_property
     def lack_of_fit(self) -> tuple[float, int]:
@@ -513,6 +524,7 @@ class ResponseSurface:
             excluded=self.excluded_runs,
             model="custom",
             response_name=self.response_name,
+            blocks=(self.block_df, self.block_ss, self.block_leverage),
         )
 
     def reduce(self, *, alpha_out: float = 0.1, hierarchical: bool = True) -> ResponseSurface:
@@ -560,6 +572,7 @@ def _build(
     excluded: tuple[Any, ...],
     model: str,
     response_name: str,
+    blocks: tuple[int, float, float] = (0, 0.0, 0.0),
 ) -> ResponseSurface:
     n, p = len(y), len(terms)
     label = model if model != "custom" else f"{p}-term"
@@ -596,6 +609,9 @@ def _build(
         excluded_runs=excluded,
         model=model,
         response_name=response_name,
+        block_df=int(blocks[0]),
+        block_ss=float(blocks[1]),
+        block_leverage=float(blocks[2]),
     )
 
 
@@ -609,6 +625,7 @@ def fit(
     factors: Any = None,
     units: Literal["coded", "actual"] | None = None,
     response_name: str | None = None,
+    blocks: Sequence[Any] | None = None,
 ) -> ResponseSurface:
     """Fit a polynomial response surface by least squares in coded units.
 
@@ -634,6 +651,14 @@ def fit(
         given, coded otherwise.
     response_name : str, optional
         For display (default the Series name or ``"response"``).
+    blocks : (n,) sequence, optional
+        Block label of each run (Design-Expert's blocks), e.g. the seed set of each replicate
+        when every design point ran on the same seeds. Each block must hold the same design
+        points (a balanced design: its runs with a response, after NaN rows are dropped); then
+        the blocks are orthogonal to every term, and the fit subtracts each block's offset
+        from its runs, takes ``b - 1`` degrees of freedom from the residual and the pure error,
+        and the ANOVA shows a Block row. Coefficients and predictions are those of the average
+        block.
 
     Returns
     -------
@@ -644,7 +669,7 @@ def fit(
     InputError
         Unknown model; missing or non-numeric columns; lengths differ; non-finite settings;
         too few runs with a response for the model; a singular design (the message names the
-        aliased term).
+        aliased term); blocks of another length than the design, or unbalanced.
 
     Examples
     --------
@@ -733,14 +758,60 @@ def fit(
             raise InputError(f"model must be one of {', '.join(MODELS)}; got {model!r}")
         parsed = model_terms(len(nm), model)
         kind = model
+    y_fit, block_stats = y[keep], (0, 0.0, 0.0)
+    if blocks is not None:
+        labels_b = np.asarray(list(blocks), dtype=object)
+        if labels_b.shape[0] != x.shape[0]:
+            raise InputError(f"blocks has {labels_b.shape[0]} labels but the design has "
+                             f"{x.shape[0]} runs")
+        y_fit, block_stats = _block_adjust(x[keep], y_fit, labels_b[keep], used)
     return _build(
         nm,
         parsed,
         x[keep],
-        y[keep],
+        y_fit,
         factors=space,
         run_labels=used,
         excluded=excluded,
         model=kind,
         response_name=response_name or "response",
+        blocks=block_stats,
     )
+
+
+def _block_adjust(x: np.ndarray, y: np.ndarray, blocks: np.ndarray, labels: tuple[Any, ...]
+                  ) -> tuple[np.ndarray, tuple[int, float, float]]:
+    """Block-adjusted responses and (b - 1, SS_blocks, 1/n_b - 1/n) of a balanced design.
+
+    In a balanced design every block holds the same settings, so every term's column has the
+    same sum in each block and the block contrasts are orthogonal to the terms: fitting the
+    terms to ``y - (block mean - grand mean)`` gives the coefficients, residuals and partial
+    sums of squares of the fit with block terms (Design-Expert's), with ``b - 1`` fewer
+    residual degrees of freedom.
+    """
+    names = list(dict.fromkeys(blocks.tolist()))
+    if len(names) < 2:
+        return y, (0, 0.0, 0.0)
+    keys = [tuple(row) for row in np.round(x, 9)]
+    content = {}
+    for name in names:
+        rows = sorted(k for k, b in zip(keys, blocks, strict=True) if b == name)
+        content[name] = rows
+    first = names[0]
+    for name in names[1:]:
+        if content[name] != content[first]:
+            missing = [lab for lab, b in zip(labels, blocks, strict=True) if b == name]
+            raise InputError(
+                f"blocks are unbalanced: block {name} (runs {missing[:6]}) does not hold the "
+                f"same design points as block {first} (a run without a response removes its "
+                "point from one block); fit without blocks")
+    grand = float(y.mean())
+    y_adj = y.astype(float).copy()
+    ss = 0.0
+    for name in names:
+        sel = blocks == name
+        offset = float(y[sel].mean()) - grand
+        y_adj[sel] -= offset
+        ss += int(sel.sum()) * offset**2
+    n_b = len(content[first])
+    return y_adj, (len(names) - 1, ss, 1.0 / n_b - 1.0 / len(y))
