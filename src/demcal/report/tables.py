@@ -95,7 +95,7 @@ def term_label(term: str, symbols: Mapping[str, str]) -> str:
     """Display name of a model term with paper symbols: ``x3·x4``, ``x3²``, ``Intercept``."""
     if term in ("intercept", "1"):
         return "Intercept"
-    if term in ("Model", "Residual", "Lack of Fit", "Pure Error", "Cor Total"):
+    if term in ("Block", "Model", "Residual", "Lack of Fit", "Pure Error", "Cor Total"):
         return term
     parts = []
     for piece in str(term).split("*"):
