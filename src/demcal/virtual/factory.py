@@ -14,7 +14,7 @@ from collections import defaultdict
 import numpy as np
 
 from demcal.dem.shapes import ClumpTemplate, cylinder_template, sphere_template, stalk_template
-from demcal.dem.state import random_quaternions, rotate
+from demcal.dem.state import random_quaternions
 from demcal.errors import InputError
 from demcal.virtual.config import AoRTestConfig, ParticleShape
 
@@ -73,10 +73,23 @@ class SphereGrid:
         return False
 
 
-def _clump_spheres(template: ClumpTemplate, scale: float, pos: np.ndarray, quat: np.ndarray):
-    offs = template.offsets * scale
-    centres = pos + rotate(np.repeat(quat[None], len(offs), 0), offs)
-    return centres, template.radii * scale
+def _rotated(quat: np.ndarray, offs: np.ndarray) -> np.ndarray:
+    """``rotate`` of ``offs`` (n, 3) by one quaternion, bitwise the same, without np.cross.
+
+    np.cross of 3-vectors computes each component as ``a_i b_j - a_j b_i`` (two rounded
+    products, one rounded difference), exactly as written here; np.cross's axis handling cost
+    ~70 us per call, most of the factory's placement time.
+    """
+    w, u0, u1, u2 = quat[0], quat[1], quat[2], quat[3]
+    v0, v1, v2 = offs[:, 0], offs[:, 1], offs[:, 2]
+    t0 = 2.0 * (u1 * v2 - u2 * v1)
+    t1 = 2.0 * (u2 * v0 - u0 * v2)
+    t2 = 2.0 * (u0 * v1 - u1 * v0)
+    out = np.empty_like(offs)
+    out[:, 0] = v0 + w * t0 + (u1 * t2 - u2 * t1)
+    out[:, 1] = v1 + w * t1 + (u2 * t0 - u0 * t2)
+    out[:, 2] = v2 + w * t2 + (u0 * t1 - u1 * t0)
+    return out
 
 
 def place_in_cylinder(template: ClumpTemplate, scales: np.ndarray, *, radius: float,
@@ -116,11 +129,13 @@ def place_in_cylinder(template: ClumpTemplate, scales: np.ndarray, *, radius: fl
     if grid is None:
         grid = SphereGrid(2.0 * float(template.radii.max() * scales.max()) + gap)
     placed, positions, quats = [], [], []
+    bounding = template.bounding_radius
     for k, s in enumerate(scales):
+        offs, radii = template.offsets * s, template.radii * s
+        # radial room: the clump's spheres must stay inside the cylinder
+        rho_max = radius - s * bounding
         for _ in range(attempts):
             q = random_quaternions(1, rng)[0]
-            # radial room: the clump's spheres must stay inside the cylinder
-            rho_max = radius - s * template.bounding_radius
             if rho_max <= 0:
                 raise InputError("the cylinder is narrower than a particle")
             u = rng.random()
@@ -128,7 +143,7 @@ def place_in_cylinder(template: ClumpTemplate, scales: np.ndarray, *, radius: fl
             rho = rho_max * math.sqrt(u)
             pos = np.array([rho * math.cos(phi), rho * math.sin(phi),
                             rng.uniform(z_low, z_high)])
-            centres, radii = _clump_spheres(template, s, pos, q)
+            centres = pos + _rotated(q, offs)
             if np.any(np.hypot(centres[:, 0], centres[:, 1]) + radii > radius):
                 continue
             if grid.overlaps(centres, radii, gap):
