@@ -9,9 +9,10 @@ tried again elsewhere a few times, then left for the next generation event.
 from __future__ import annotations
 
 import math
-from collections import defaultdict
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from demcal.dem.shapes import ClumpTemplate, cylinder_template, sphere_template, stalk_template
 from demcal.dem.state import random_quaternions
@@ -38,57 +39,153 @@ def draw_scales(n: int, shape: ParticleShape, rng: np.random.Generator) -> np.nd
     return rng.uniform(shape.size_min, shape.size_max, n)
 
 
+#: slots of the grid's hash table (a power of two); colliding cells only add candidates
+_HASH_SLOTS = 1 << 14
+
+
+@njit(cache=True)
+def _cell_slot(x: float, y: float, z: float, cell: float) -> int:
+    ix = math.floor(x / cell)
+    iy = math.floor(y / cell)
+    iz = math.floor(z / cell)
+    return _slot_of(ix, iy, iz)
+
+
+@njit(cache=True)
+def _slot_of(ix: int, iy: int, iz: int) -> int:
+    h = (ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)
+    return h & (_HASH_SLOTS - 1)
+
+
+class _GridArrays(NamedTuple):
+    centres: np.ndarray  #: (cap, 3) stored sphere centres, m
+    radii: np.ndarray  #: (cap,) their radii, m
+    head: np.ndarray  #: (_HASH_SLOTS,) first sphere of each hash slot, -1: none
+    nxt: np.ndarray  #: (cap,) next sphere in the same slot, -1: none
+
+
+@njit(cache=True)
+def _grid_add(g, n, new_centres, new_radii, cell):
+    centres, radii, head, nxt = g.centres, g.radii, g.head, g.nxt
+    for k in range(new_centres.shape[0]):
+        j = n + k
+        centres[j, 0] = new_centres[k, 0]
+        centres[j, 1] = new_centres[k, 1]
+        centres[j, 2] = new_centres[k, 2]
+        radii[j] = new_radii[k]
+        s = _cell_slot(new_centres[k, 0], new_centres[k, 1], new_centres[k, 2], cell)
+        nxt[j] = head[s]
+        head[s] = j
+
+
+@njit(cache=True)
+def _grid_overlaps(g, cell, query, query_radii, gap) -> bool:
+    centres, radii, head, nxt = g.centres, g.radii, g.head, g.nxt
+    for i in range(query.shape[0]):
+        px, py, pz = query[i, 0], query[i, 1], query[i, 2]
+        r = query_radii[i]
+        kx = math.floor(px / cell)
+        ky = math.floor(py / cell)
+        kz = math.floor(pz / cell)
+        for dx in range(-1, 2):
+            for dy in range(-1, 2):
+                for dz in range(-1, 2):
+                    j = head[_slot_of(kx + dx, ky + dy, kz + dz)]
+                    while j >= 0:
+                        lim = r + radii[j] + gap
+                        d0 = px - centres[j, 0]
+                        d1 = py - centres[j, 1]
+                        d2 = pz - centres[j, 2]
+                        if d0 * d0 + d1 * d1 + d2 * d2 < lim * lim:
+                            return True
+                        j = nxt[j]
+    return False
+
+
 class SphereGrid:
-    """Hash grid of sphere centres for overlap queries during placement."""
+    """Hash grid of sphere centres for overlap queries during placement.
+
+    Spheres live in growable arrays; each hash slot heads a linked list of the spheres of the
+    cells that map to it (a cell at least as wide as the largest contact distance, so every
+    sphere that can touch a query sphere is in one of its 27 neighbour cells; a slot shared
+    by far cells only adds candidates that the distance test rejects). The queries are
+    compiled (numba): ~1 us per clump instead of ~40 us in Python.
+    """
 
     def __init__(self, cell: float):
         self.cell = float(cell)
-        self.cells: dict[tuple[int, int, int], list[int]] = defaultdict(list)
-        self.centres: list[np.ndarray] = []
-        self.radii: list[float] = []
+        self.n = 0
+        self._centres = np.empty((256, 3))
+        self._radii = np.empty(256)
+        self._next = np.empty(256, dtype=np.int64)
+        self._head = np.full(_HASH_SLOTS, -1, dtype=np.int64)
 
-    def _key(self, p) -> tuple[int, int, int]:
-        c = self.cell
-        return (math.floor(p[0] / c), math.floor(p[1] / c), math.floor(p[2] / c))
+    @property
+    def centres(self) -> np.ndarray:
+        """(n, 3) centres of the stored spheres, m."""
+        return self._centres[:self.n]
+
+    @property
+    def radii(self) -> np.ndarray:
+        """(n,) radii of the stored spheres, m."""
+        return self._radii[:self.n]
 
     def add(self, centres: np.ndarray, radii: np.ndarray) -> None:
-        for p, r in zip(centres, radii, strict=True):
-            self.cells[self._key(p)].append(len(self.radii))
-            self.centres.append(np.asarray(p, dtype=float))
-            self.radii.append(float(r))
+        centres = np.ascontiguousarray(centres, dtype=float).reshape(-1, 3)
+        radii = np.ascontiguousarray(radii, dtype=float).reshape(-1)
+        need = self.n + len(radii)
+        if need > len(self._radii):
+            size = max(need, 2 * len(self._radii))
+            for name, shape in (("_centres", (size, 3)), ("_radii", (size,)),
+                                ("_next", (size,))):
+                old = getattr(self, name)
+                grown = np.empty(shape, dtype=old.dtype)
+                grown[:self.n] = old[:self.n]
+                setattr(self, name, grown)
+        _grid_add(self._arrays(), self.n, centres, radii, self.cell)
+        self.n = need
 
     def overlaps(self, centres: np.ndarray, radii: np.ndarray, gap: float = 0.0) -> bool:
         """True if any of the given spheres comes closer than ``gap`` to a stored sphere."""
-        for p, r in zip(centres, radii, strict=True):
-            kx, ky, kz = self._key(p)
-            for dx in (-1, 0, 1):
-                for dy in (-1, 0, 1):
-                    for dz in (-1, 0, 1):
-                        for j in self.cells.get((kx + dx, ky + dy, kz + dz), ()):
-                            q = self.centres[j]
-                            lim = r + self.radii[j] + gap
-                            d0, d1, d2 = p[0] - q[0], p[1] - q[1], p[2] - q[2]
-                            if d0 * d0 + d1 * d1 + d2 * d2 < lim * lim:
-                                return True
-        return False
+        return bool(_grid_overlaps(self._arrays(), self.cell,
+                                   np.ascontiguousarray(centres, dtype=float),
+                                   np.ascontiguousarray(radii, dtype=float), float(gap)))
+
+    def _arrays(self) -> _GridArrays:
+        return _GridArrays(self._centres, self._radii, self._head, self._next)
+
+
+@njit(cache=True)
+def _clump_in_tube(quat, clump, pos, radius, out) -> bool:
+    """A clump's sphere centres ``out`` (``pos`` + offsets rotated by ``quat``); True if every
+    sphere lies inside the tube of ``radius`` around the z axis. ``clump``: (offsets (n, 3),
+    radii (n,)), m.
+
+    The rotation is :func:`demcal.dem.state.rotate` written out, bitwise the same: np.cross
+    of 3-vectors computes each component as ``a_i b_j - a_j b_i`` (two rounded products, one
+    rounded difference), as here, and ``v + w t + u x t`` is summed in the same order.
+    """
+    offs, radii = clump
+    px, py, pz = pos[0], pos[1], pos[2]
+    w, u0, u1, u2 = quat[0], quat[1], quat[2], quat[3]
+    inside = True
+    for i in range(offs.shape[0]):
+        v0, v1, v2 = offs[i, 0], offs[i, 1], offs[i, 2]
+        t0 = 2.0 * (u1 * v2 - u2 * v1)
+        t1 = 2.0 * (u2 * v0 - u0 * v2)
+        t2 = 2.0 * (u0 * v1 - u1 * v0)
+        out[i, 0] = px + (v0 + w * t0 + (u1 * t2 - u2 * t1))
+        out[i, 1] = py + (v1 + w * t1 + (u2 * t0 - u0 * t2))
+        out[i, 2] = pz + (v2 + w * t2 + (u0 * t1 - u1 * t0))
+        if math.hypot(out[i, 0], out[i, 1]) + radii[i] > radius:
+            inside = False
+    return inside
 
 
 def _rotated(quat: np.ndarray, offs: np.ndarray) -> np.ndarray:
-    """``rotate`` of ``offs`` (n, 3) by one quaternion, bitwise the same, without np.cross.
-
-    np.cross of 3-vectors computes each component as ``a_i b_j - a_j b_i`` (two rounded
-    products, one rounded difference), exactly as written here; np.cross's axis handling cost
-    ~70 us per call, most of the factory's placement time.
-    """
-    w, u0, u1, u2 = quat[0], quat[1], quat[2], quat[3]
-    v0, v1, v2 = offs[:, 0], offs[:, 1], offs[:, 2]
-    t0 = 2.0 * (u1 * v2 - u2 * v1)
-    t1 = 2.0 * (u2 * v0 - u0 * v2)
-    t2 = 2.0 * (u0 * v1 - u1 * v0)
+    """``offs`` (n, 3) rotated by one quaternion, as the placement computes it."""
     out = np.empty_like(offs)
-    out[:, 0] = v0 + w * t0 + (u1 * t2 - u2 * t1)
-    out[:, 1] = v1 + w * t1 + (u2 * t0 - u0 * t2)
-    out[:, 2] = v2 + w * t2 + (u0 * t1 - u1 * t0)
+    _clump_in_tube(quat, (offs, np.zeros(len(offs))), np.zeros(3), math.inf, out)
     return out
 
 
@@ -143,8 +240,8 @@ def place_in_cylinder(template: ClumpTemplate, scales: np.ndarray, *, radius: fl
             rho = rho_max * math.sqrt(u)
             pos = np.array([rho * math.cos(phi), rho * math.sin(phi),
                             rng.uniform(z_low, z_high)])
-            centres = pos + _rotated(q, offs)
-            if np.any(np.hypot(centres[:, 0], centres[:, 1]) + radii > radius):
+            centres = np.empty_like(offs)
+            if not _clump_in_tube(q, (offs, radii), pos, radius, centres):
                 continue
             if grid.overlaps(centres, radii, gap):
                 continue
