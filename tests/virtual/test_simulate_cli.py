@@ -62,3 +62,16 @@ def test_summary_spread_leaves_out_rejected_flanks():
                           wall_time_s=1.0, params={})
     out = summarize_runs([run])
     assert out["aor_std_deg"] == pytest.approx(1.0)
+
+
+def test_summary_line_gives_the_standard_error_and_the_seed_scatter():
+    from demcal.cli.simulate_cmd import summary_line
+
+    one = {"aor_deg": 41.0, "aor_std_deg": 1.0, "time_step_s": 7e-6, "aor_sem_deg": None,
+           "n_piles": 1}
+    assert summary_line(one) == "AoR = 41.00 deg (flank views' spread 1.00), time step 7e-06 s"
+    three = {"aor_deg": 44.63, "aor_std_deg": 4.42, "time_step_s": 7e-6, "n_piles": 3,
+             "aor_seed_std_deg": 2.02, "aor_sem_deg": 2.02 / 3 ** 0.5}
+    line = summary_line(three)
+    assert line.startswith("AoR = 44.63 +/- 1.17 deg (mean of 3 piles")
+    assert "seed-to-seed std 2.02" in line and "flank views' spread 4.42" in line

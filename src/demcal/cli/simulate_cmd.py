@@ -31,6 +31,18 @@ simulate_app = typer.Typer(help="Run virtual tests on demcal's DEM engine.",
 app.add_typer(simulate_app, name="simulate")
 
 
+def summary_line(summary: dict) -> str:
+    """The result in one line: the mean angle with its standard error and the seed-to-seed
+    scatter when several piles were built, the spread of one pile's flank views otherwise."""
+    views = f"flank views' spread {summary['aor_std_deg']:.2f}"
+    step = f", time step {summary['time_step_s']:.3g} s"
+    if summary.get("aor_sem_deg") is None:
+        return f"AoR = {summary['aor_deg']:.2f} deg ({views}){step}"
+    return (f"AoR = {summary['aor_deg']:.2f} +/- {summary['aor_sem_deg']:.2f} deg (mean of "
+            f"{summary['n_piles']} piles +/- its standard error; seed-to-seed std "
+            f"{summary['aor_seed_std_deg']:.2f}, {views}){step}")
+
+
 def summarize_runs(results: list) -> dict:
     """Aggregate replicate runs: mean angle over views and seeds (piles only), spreads."""
     piles = [r for r in results if r.outcome == "pile" and r.aor_deg is not None]
@@ -50,12 +62,14 @@ def summarize_runs(results: list) -> dict:
             aor_right_deg=float(np.mean([r.aor_right_deg for r in piles])),
             aor_std_deg=float(np.std(views, ddof=1)) if len(views) > 1 else 0.0,
             aor_seed_std_deg=float(means.std(ddof=1)) if len(means) > 1 else None,
+            aor_sem_deg=float(means.std(ddof=1) / math.sqrt(len(means)))
+            if len(means) > 1 else None,
             aor_profile_deg=float(np.mean([r.aor_profile_deg for r in piles
                                            if r.aor_profile_deg is not None] or [math.nan])),
         )
     else:
         out.update(aor_deg=None, aor_left_deg=None, aor_right_deg=None, aor_std_deg=None,
-                   aor_seed_std_deg=None, aor_profile_deg=None)
+                   aor_seed_std_deg=None, aor_sem_deg=None, aor_profile_deg=None)
     first = results[0]
     out.update(
         n_particles=int(np.mean([r.n_particles for r in results])),
@@ -272,8 +286,7 @@ def simulate_aor(
                       str(r.particles_lost), f"{r.sim_time_s:.3f}", f"{r.wall_time_s:.1f}")
     console.print(table)
     if summary["aor_deg"] is not None:
-        console.print(f"AoR = {summary['aor_deg']:.2f} deg (spread {summary['aor_std_deg']:.2f})"
-                      f", time step {summary['time_step_s']:.3g} s")
+        console.print(summary_line(summary), highlight=False)
     else:
         reasons = {r.reason for r in results if r.reason}
         console.print(styled("outcome: ", (str(summary["outcome"]), "bold"),
