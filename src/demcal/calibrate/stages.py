@@ -182,9 +182,7 @@ def _fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_se
     blocks = np.tile(np.arange(1, n_reps + 1), rep_design.n_runs // n_reps)
     try:
         return doe.fit(rep_design, y_rows, model="quadratic", blocks=blocks), []
-    except InputError as exc:
-        if "blocks are unbalanced" not in str(exc):
-            raise
+    except doe.UnbalancedBlocksError as exc:
         return doe.fit(rep_design, y_rows, model="quadratic"), [
             f"common seeds: the replicate rounds are not used as blocks ({exc}); the pure "
             "error includes the seed sets' offsets"]

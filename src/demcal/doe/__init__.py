@@ -34,7 +34,7 @@ from demcal.doe.designs import (
     steepest_path,
 )
 from demcal.doe.factors import Factor, FactorSpace, as_factor_space, load_factors
-from demcal.doe.model import ResponseSurface, fit
+from demcal.doe.model import ResponseSurface, UnbalancedBlocksError, fit
 from demcal.doe.optimize import (
     OptimizationResult,
     Solution,
@@ -56,6 +56,7 @@ __all__ = [
     "OptimizationResult",
     "ResponseSurface",
     "Solution",
+    "UnbalancedBlocksError",
     "anova_table",
     "as_factor_space",
     "backward_elimination",

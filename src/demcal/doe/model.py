@@ -40,7 +40,11 @@ from demcal.errors import InputError
 if TYPE_CHECKING:
     from demcal.doe.anova import AnovaTable
 
-__all__ = ["ResponseSurface", "fit"]
+__all__ = ["ResponseSurface", "UnbalancedBlocksError", "fit"]
+
+
+class UnbalancedBlocksError(InputError):
+    """The blocks of a fit do not each hold the same design points (see :func:`fit`)."""
 
 _RANK_TOL = 1e-9
 
@@ -669,7 +673,8 @@ def fit(
     InputError
         Unknown model; missing or non-numeric columns; lengths differ; non-finite settings;
         too few runs with a response for the model; a singular design (the message names the
-        aliased term); blocks of another length than the design, or unbalanced.
+        aliased term); blocks of another length than the design; unbalanced blocks
+        (:class:`UnbalancedBlocksError`).
 
     Examples
     --------
@@ -800,9 +805,9 @@ def _block_adjust(x: np.ndarray, y: np.ndarray, blocks: np.ndarray, labels: tupl
     first = names[0]
     for name in names[1:]:
         if content[name] != content[first]:
-            missing = [lab for lab, b in zip(labels, blocks, strict=True) if b == name]
-            raise InputError(
-                f"blocks are unbalanced: block {name} (runs {missing[:6]}) does not hold the "
+            runs = [lab for lab, b in zip(labels, blocks, strict=True) if b == name]
+            raise UnbalancedBlocksError(
+                f"blocks are unbalanced: block {name} (runs {runs[:6]}) does not hold the "
                 f"same design points as block {first} (a run without a response removes its "
                 "point from one block); fit without blocks")
     grand = float(y.mean())
