@@ -7,17 +7,20 @@ import numpy as np
 from demcal.dem.shapes import stalk_template
 from demcal.dem.state import random_quaternions, rotate
 from demcal.virtual.config import fidelity_config
-from demcal.virtual.factory import SphereGrid, _rotated, pack_cylinder, place_in_cylinder
+from demcal.virtual.factory import SphereGrid, _clump_in_tube, pack_cylinder, place_in_cylinder
 
 
-def test_rotated_is_bitwise_the_vectorised_rotate():
+def test_the_placement_rotation_is_bitwise_the_vectorised_rotate():
     """The placement's one-quaternion rotation must equal ``rotate`` to the last bit, or
     every pile of every seed would change."""
     rng = np.random.default_rng(4)
     offs = stalk_template().offsets * rng.uniform(0.5, 2.0)
+    pos = rng.normal(0.0, 0.01, 3)
+    out = np.empty_like(offs)
     for q in random_quaternions(500, rng):
-        expected = rotate(np.repeat(q[None], len(offs), 0), offs)
-        assert np.array_equal(_rotated(q, offs), expected)
+        assert _clump_in_tube(q, (offs, np.zeros(len(offs))), pos, np.inf, out)
+        expected = pos + rotate(np.repeat(q[None], len(offs), 0), offs)
+        assert np.array_equal(out, expected)
 
 
 def test_a_packing_fill_has_no_overlap_and_stays_in_the_tube():

@@ -182,13 +182,6 @@ def _clump_in_tube(quat, clump, pos, radius, out) -> bool:
     return inside
 
 
-def _rotated(quat: np.ndarray, offs: np.ndarray) -> np.ndarray:
-    """``offs`` (n, 3) rotated by one quaternion, as the placement computes it."""
-    out = np.empty_like(offs)
-    _clump_in_tube(quat, (offs, np.zeros(len(offs))), np.zeros(3), math.inf, out)
-    return out
-
-
 def place_in_cylinder(template: ClumpTemplate, scales: np.ndarray, *, radius: float,
                       z_low: float, z_high: float, rng: np.random.Generator,
                       grid: SphereGrid | None = None, attempts: int = 50,
@@ -227,6 +220,7 @@ def place_in_cylinder(template: ClumpTemplate, scales: np.ndarray, *, radius: fl
         grid = SphereGrid(2.0 * float(template.radii.max() * scales.max()) + gap)
     placed, positions, quats = [], [], []
     bounding = template.bounding_radius
+    centres = np.empty_like(template.offsets)  # a try's spheres (grid.add copies them)
     for k, s in enumerate(scales):
         offs, radii = template.offsets * s, template.radii * s
         # radial room: the clump's spheres must stay inside the cylinder
@@ -240,7 +234,6 @@ def place_in_cylinder(template: ClumpTemplate, scales: np.ndarray, *, radius: fl
             rho = rho_max * math.sqrt(u)
             pos = np.array([rho * math.cos(phi), rho * math.sin(phi),
                             rng.uniform(z_low, z_high)])
-            centres = np.empty_like(offs)
             if not _clump_in_tube(q, (offs, radii), pos, radius, centres):
                 continue
             if grid.overlaps(centres, radii, gap):
