@@ -16,28 +16,17 @@ import types
 import numba
 import numpy as np
 import pytest
+from worlds import random_world, table
 
 from demcal.dem.containers import KEYS, EngineState, Neighbors, Params, pack
-from demcal.dem.materials import Interaction, Material, MaterialTable
-from demcal.dem.shapes import stalk_template
+from demcal.dem.materials import Interaction
 from demcal.dem.simulation import Simulation
-from demcal.dem.state import ClumpGroup, World, random_quaternions
-from demcal.dem.walls import PlaneWall, TubeWall
 
 
-def _world(gamma: float) -> World:
-    table = MaterialTable(
-        [Material("stalk", 114.36, 2.5e6, 0.3), Material("steel", 7865.0, 7.9e10, 0.3)],
-        {("stalk", "stalk"): Interaction(0.3, 0.55, 0.14, gamma),
-         ("stalk", "steel"): Interaction(0.45, 0.55, 0.15, 0.0)})
-    rng = np.random.default_rng(0)
-    n = 6
-    pos = np.column_stack([np.zeros(n), np.zeros(n), 0.01 + 0.012 * np.arange(n)])
-    group = ClumpGroup(stalk_template(), "stalk", n, positions=pos,
-                       orientations=random_quaternions(n, rng))
-    walls = [PlaneWall([0, 0, 0], [0, 0, 1], (0.1, 0.1), material="steel", name="plate"),
-             TubeWall([0, 0, 0], [0, 0, 1], 0.02, 2e-3, 0.1, material="steel", name="tube")]
-    return World(table, [group], walls, (-0.1, -0.1, -0.05), (0.1, 0.1, 0.3))
+def _world(gamma: float):
+    """tests/dem/worlds.random_world: spheres, stalks and an odd clump against a plate, a
+    slope and a tube (every kind of contact), dry or with JKR cohesion."""
+    return random_world(np.random.default_rng(0), table(Interaction(0.3, 0.5, 0.1, gamma)))
 
 
 @pytest.fixture(scope="module")
