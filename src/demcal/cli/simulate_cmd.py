@@ -55,15 +55,15 @@ def summarize_runs(results: list) -> dict:
                  "n_piles": len(piles)}
     if piles and outcome == "pile":
         means = np.array([r.aor_deg for r in piles])
+        seed_std = float(means.std(ddof=1)) if len(means) > 1 else None
         views = [v for r in piles for v in _view_angles(r)] or list(means)
         out.update(
             aor_deg=float(means.mean()),
             aor_left_deg=float(np.mean([r.aor_left_deg for r in piles])),
             aor_right_deg=float(np.mean([r.aor_right_deg for r in piles])),
             aor_std_deg=float(np.std(views, ddof=1)) if len(views) > 1 else 0.0,
-            aor_seed_std_deg=float(means.std(ddof=1)) if len(means) > 1 else None,
-            aor_sem_deg=float(means.std(ddof=1) / math.sqrt(len(means)))
-            if len(means) > 1 else None,
+            aor_seed_std_deg=seed_std,
+            aor_sem_deg=None if seed_std is None else seed_std / math.sqrt(len(means)),
             aor_profile_deg=float(np.mean([r.aor_profile_deg for r in piles
                                            if r.aor_profile_deg is not None] or [math.nan])),
         )
