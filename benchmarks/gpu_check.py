@@ -8,15 +8,17 @@ writes the JSON after every stage (a stage cut off by a time limit loses only it
    replay / plain launches / forced neighbour growth (bitwise equal to each other);
 2. ``bench``: sphere-steps per second on settled beds (1000 and 10000 stalks, 16 worlds of
    1000);
-3. ``large``, ``standard``: the angle-of-repose test at a steep cohesive point (x8 0.0005
-   J/m^2, x4 0.2, x3 0.6) with ``--large-seeds`` / ``--standard-seeds`` replicates batched as
+3. ``standard``, ``small``: the angle-of-repose test (the fidelities' piles: 1200 and 300
+   stalks) at a steep cohesive point (x8 0.0005
+   J/m^2, x4 0.2, x3 0.6) with ``--standard-seeds`` / ``--small-seeds`` replicates batched as
    worlds of one engine (``benchmarks/precision.py``'s measurement: seed scatter, phases);
 4. ``paper``: the paper's fill at the dry reference point (optional);
 5. ``bigbench``: a 100 000-stalk bed.
 
 The AoR stages print each world's phase changes with the wall time. On the H100 (2026-11-26)
-``paper`` (6 worlds, factory fill) had not finished after ~320 s while ``large`` (12 worlds,
-packing fill) took 118 s: that log says where the time goes next time.
+``paper`` (6 worlds, factory fill) had not finished after ~320 s while the 1200-stalk test
+(12 worlds, packing fill; stage ``standard``, then called ``large``) took 118 s: that log
+says where the time goes next time.
 
 Usage (on the GPU machine)::
 
@@ -42,7 +44,7 @@ import precision
 
 #: a steep cohesive point at the top of the corn-stalk calibration region
 STEEP = {"pp.surface_energy": 0.0005, "pp.rolling_friction": 0.2, "pp.static_friction": 0.6}
-STAGES = ("check", "bench", "large", "standard", "paper", "bigbench")
+STAGES = ("check", "bench", "standard", "small", "paper", "bigbench")
 
 
 def parse_args() -> argparse.Namespace:
@@ -50,8 +52,8 @@ def parse_args() -> argparse.Namespace:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--backend", default="cuda", choices=["cuda", "cpu"])
     ap.add_argument("--stages", nargs="+", default=list(STAGES), choices=STAGES)
-    ap.add_argument("--large-seeds", type=int, default=12)
-    ap.add_argument("--standard-seeds", type=int, default=18)
+    ap.add_argument("--standard-seeds", type=int, default=12)
+    ap.add_argument("--small-seeds", type=int, default=18)
     ap.add_argument("--paper-seeds", type=int, default=6)
     ap.add_argument("--bench-steps", type=int, default=1000)
     ap.add_argument("--bench-settle", type=float, default=0.05, help="settling time, s")
@@ -82,8 +84,8 @@ def stage_functions(args: argparse.Namespace) -> dict:
     return {
         "check": checks,
         "bench": lambda: bench([(1000, 1), (10000, 1), (1000, 16)]),
-        "large": lambda: aor("1200:0.056", args.large_seeds, 501, STEEP),
-        "standard": lambda: aor("300:0.035", args.standard_seeds, 501, STEEP),
+        "standard": lambda: aor("1200:0.056", args.standard_seeds, 501, STEEP),
+        "small": lambda: aor("300:0.035", args.small_seeds, 501, STEEP),
         "paper": lambda: aor("paper", args.paper_seeds, 101, {}),
         "bigbench": lambda: bench([(100000, 1)]),
     }

@@ -84,7 +84,7 @@ def test_every_fidelity_is_a_study_fidelity_with_its_replicates(example_data, fi
 def test_an_unknown_fidelity_is_refused_naming_the_field(example_data):
     d = copy.deepcopy(example_data)
     d["test"] = {"kind": "aor", "fidelity": "medium"}
-    _bad(d, "test.fidelity", "'standard'", "'large'")
+    _bad(d, "test.fidelity", "'small'", "'standard'")
 
 
 def test_init_writes_a_valid_study(tmp_path):

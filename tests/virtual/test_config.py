@@ -55,7 +55,7 @@ def test_fidelities_share_time_step_and_plate():
     assert paper.fill.rate == 5000 and paper.fill.filling_time == 0.6
 
 
-@pytest.mark.parametrize("name", ["quick", "standard", "large", "paper"])
+@pytest.mark.parametrize("name", ["quick", "small", "standard", "paper"])
 def test_every_fidelity_has_default_replicates_and_the_paper_physics(name):
     """The fidelities differ in fill and tube only: time step, plate, phases and laws are
     the paper's, so a parameter set means the same at every fidelity."""
@@ -68,13 +68,32 @@ def test_every_fidelity_has_default_replicates_and_the_paper_physics(name):
     assert config.rolling_model == paper.rolling_model and config.particle == paper.particle
 
 
-def test_large_fidelity_keeps_the_standard_fill_aspect():
+def test_standard_fidelity_keeps_the_small_fill_aspect():
     """1200 stalks in 56 mm: the fill's count per tube volume ratio N / D^3 of 300 in 35 mm,
     within 5 %, so the pile forms the same way at four times the size."""
-    std, large = fidelity_config("standard"), fidelity_config("large")
-    ratio = (large.fill.count / large.geometry.cylinder_inner_diameter ** 3) / (
-        std.fill.count / std.geometry.cylinder_inner_diameter ** 3)
-    assert large.fill.count == 4 * std.fill.count and abs(ratio - 1) < 0.05
+    small, std = fidelity_config("small"), fidelity_config("standard")
+    ratio = (std.fill.count / std.geometry.cylinder_inner_diameter ** 3) / (
+        small.fill.count / small.geometry.cylinder_inner_diameter ** 3)
+    assert std.fill.count == 4 * small.fill.count and abs(ratio - 1) < 0.05
+
+
+def test_the_old_name_large_says_what_it_is_called_now():
+    with pytest.raises(InputError, match="now called 'standard'"):
+        fidelity_config("large")
+
+
+def test_a_stored_run_is_keyed_by_the_test_itself_not_the_fidelity_name():
+    """Renaming a fidelity keeps its stored runs; changing what a fidelity means does not
+    reuse runs of the old meaning (the key holds the resolved test configuration)."""
+    from demcal.execute.tasks import TestDef
+
+    same = TestDef(fidelity="paper", overrides={
+        "geometry": {"cylinder_inner_diameter": 0.056},
+        "fill": {"method": "packing", "count": 1200}})
+    assert same.identity() == TestDef(fidelity="standard").identity()
+    assert TestDef(fidelity="small").identity() != TestDef(fidelity="standard").identity()
+    other = TestDef(fidelity="standard", overrides={"fill": {"count": 1201}})
+    assert other.identity() != TestDef(fidelity="standard").identity()
 
 
 def test_unknown_fidelity():

@@ -343,7 +343,7 @@ class Study(_M):
             config = fidelity_config(self.test.fidelity, **self.test.overrides)
             if config.fill.method != "packing":
                 raise ValueError("executor.engine = 'lammps' runs the packing fill only "
-                                 "(fidelities quick, standard and large); the test's fill is "
+                                 "(fidelities quick, small and standard); the test's fill is "
                                  f"{config.fill.method!r}")
         return self
 
@@ -478,7 +478,7 @@ high = 0.02
 
 [test]
 kind = "aor"              # aor (the DEM engine) | analytic (a planted stand-in, for tests)
-fidelity = "quick"        # quick | standard | large | paper
+fidelity = "quick"        # quick | small | standard | paper
 # overrides = { fill = { count = 200 } }
 
 [stages.rangefind]

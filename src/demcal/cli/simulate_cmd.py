@@ -156,10 +156,10 @@ def simulate_aor(
         "`demcal report`): its parameters exactly, its fidelity, test settings and rolling "
         "model (--set, --test and --fidelity still override).")] = None,
     fidelity: Annotated[str | None, typer.Option(
-        help="Test fidelity: quick (150 stalks, a demonstration), standard (the calibration "
-        "fidelity: 300 stalks, 3 seeds), large (1200 stalks: ~2x less scatter than "
-        "standard, ~6x the CPU) or paper (the paper's factory fill); default "
-        "quick, or the material card's.")] = None,
+        help="Test fidelity: quick (150 stalks, a demonstration), small (300 stalks, 3 "
+        "seeds: a workstation calibration; 4-5 deg seed scatter when cohesive), standard "
+        "(1200 stalks, 3 seeds: seed scatter near the lab's, ~5x small's CPU per test) or "
+        "paper (the paper's factory fill); default quick, or the material card's.")] = None,
     set_: Annotated[list[str] | None, typer.Option(
         "--set", help="Override a parameter: NAME=VALUE (SI units), repeatable.")] = None,
     test: Annotated[list[str] | None, typer.Option(

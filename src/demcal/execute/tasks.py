@@ -51,8 +51,13 @@ class TestDef:
             if self.external["result"]["kind"] == "positions":
                 ident["measurement"] = MEASUREMENT_VERSION
             return ident
-        out = {"kind": "aor", "fidelity": self.fidelity, "overrides": self.overrides,
-               "measurement": MEASUREMENT_VERSION}
+        from demcal.virtual import fidelity_config
+
+        # the test as resolved, not the fidelity's name: a stored run is reused only by a
+        # test that is the same (a fidelity whose definition changed does not reuse it; one
+        # renamed does)
+        config = fidelity_config(self.fidelity, **self.overrides).model_dump(mode="json")
+        out = {"kind": "aor", "config": config, "measurement": MEASUREMENT_VERSION}
         if self.engine != "demcal":  # demcal's identity (and its stored runs) unchanged
             from demcal.virtual.lammps_laws import LAWS_VERSION
 

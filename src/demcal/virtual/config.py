@@ -1,8 +1,8 @@
 """Configuration of the cylinder-lifting angle-of-repose test (validated, SI units).
 
 :class:`AoRTestConfig` holds the geometry, the particle template, the fill, the phases, the
-measurement and the outcome criteria; :func:`fidelity_config` gives the ``paper`` and ``quick``
-fidelities. Material parameters are separate (a dict of named values, see
+measurement and the outcome criteria; :func:`fidelity_config` gives the fidelities
+(``quick``, ``small``, ``standard``, ``paper``). Material parameters are separate (a dict of named values, see
 :mod:`demcal.virtual.parameters` and :mod:`demcal.virtual.presets`).
 """
 
@@ -179,40 +179,41 @@ FIDELITIES: dict[str, dict] = {
     # Seed-to-seed scatter of the angle: 2-9 deg (std) near 45 deg: average replicates.
     "quick": {"geometry": {"cylinder_inner_diameter": 0.030},
               "fill": {"method": "packing", "count": 150}},
-    # 300 stalks dropped as a loose packing in a 35 mm tube; a pile ~30-35 mm high. Seed-to-
-    # seed scatter (benchmarks/precision.py): 1.5-2.5 deg without cohesion (mu_s 0.55, mu_r
-    # 0.15; 150 stalks: 4.66) but 4.16 deg at the corn stalk's calibrated point (10 seeds,
-    # 44.6 deg): its weak JKR cohesion makes the piles vary (600 stalks: 3.0 deg for 2.4x the
-    # CPU, so replicates are the cheaper precision). FIDELITY_REPLICATES["standard"] = 3
-    # seeds give a design point a standard error of 0.9-2.4 deg depending on the parameters
-    # (the study's pure error says which; docs/precision.md).
-    "standard": {"geometry": {"cylinder_inner_diameter": 0.035},
-                 "fill": {"method": "packing", "count": 300}},
-    # 1200 stalks dropped as a loose packing in a 56 mm tube (the fill's aspect of the standard
-    # test's): 1.6-2.4x less scatter than the standard test at cohesive points. At the corn
-    # stalk's calibrated point (benchmarks/precision.py, 6 seeds): seed std 1.72 deg against
-    # the standard test's 4.16, the same mean (44.56 against 44.59), 379 CPU-s per test against
-    # ~61; at a steeper cohesive point (x8 0.0005, x4 0.2, x3 0.6): 2.64 deg over 18 piles
-    # (6 CPU, 12 on an H100) against standard's 4.81 (24), 9.8 s per test batched on the H100.
-    # Its 3 replicates give a design point a standard error <= 1 deg at about the CPU
-    # that 18 standard replicates take: for a GPU or a cluster, or a verification to trust
-    # one run at a time.
-    "large": {"geometry": {"cylinder_inner_diameter": 0.056},
-              "fill": {"method": "packing", "count": 1200}},
+    # 300 stalks dropped as a loose packing in a 35 mm tube; a pile ~30-35 mm high: a
+    # calibration a 2-core workstation runs in about an hour, with replicates. Seed-to-seed
+    # scatter (benchmarks/precision.py): 1.5-2.5 deg without cohesion (mu_s 0.55, mu_r 0.15;
+    # 150 stalks: 4.66) but 4.2-4.8 deg at cohesive points (the corn stalk's calibrated point:
+    # 4.16 over 10 seeds): its 3 replicates give a design point a standard error of
+    # 0.9-2.8 deg, so the study's pure error and adequacy rules decide (docs/precision.md).
+    # (Called "standard" before 2026-11-27.)
+    "small": {"geometry": {"cylinder_inner_diameter": 0.035},
+              "fill": {"method": "packing", "count": 300}},
+    # 1200 stalks dropped as a loose packing in a 56 mm tube (the small test's fill aspect,
+    # N / D^3): the cheapest pile whose seed-to-seed scatter is near the lab's own (the five
+    # photos: 1.74 deg) at cohesive points as well. Measured (benchmarks/precision.py): 1.50
+    # deg over 12 seeds at the corn stalk's calibrated point (small: 4.16), 2.64 over 18 at a
+    # steeper one (x8 0.0005, x4 0.2, x3 0.6; small: 4.81 over 24); ~380 CPU-s per test
+    # (small: ~61-80). Its 3 replicates give a design point a standard error of ~1 deg;
+    # for the same standard error the small test needs ~18 replicates, about the same CPU.
+    # 9.8 s per test batched on an H100. (Called "large" before 2026-11-27.)
+    "standard": {"geometry": {"cylinder_inner_diameter": 0.056},
+                 "fill": {"method": "packing", "count": 1200}},
 }
 
 #: Default replicates (seeds) per design point of each fidelity: ``simulate aor`` runs this
 #: many when ``--seeds`` is not given, and a study's ``replicates`` defaults to it.
-FIDELITY_REPLICATES: dict[str, int] = {"quick": 1, "standard": 3, "large": 3, "paper": 1}
+FIDELITY_REPLICATES: dict[str, int] = {"quick": 1, "small": 3, "standard": 3, "paper": 1}
 
 
 def fidelity_config(name: str, **overrides) -> AoRTestConfig:
-    """The test configuration of a fidelity (``quick``, ``standard``, ``large`` or ``paper``),
+    """The test configuration of a fidelity (``quick``, ``small``, ``standard`` or ``paper``),
     with nested overrides."""
     from demcal.errors import InputError
 
     if name not in FIDELITIES:
-        raise InputError(f"fidelity must be one of {', '.join(FIDELITIES)}; got {name!r}")
+        renamed = {"large": " ('large' is now called 'standard')"}.get(name, "")
+        raise InputError(f"fidelity must be one of {', '.join(FIDELITIES)}; got {name!r}"
+                         + renamed)
     data: dict = {}
     for src in (FIDELITIES[name], overrides):
         for key, value in src.items():
