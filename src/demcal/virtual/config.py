@@ -2,8 +2,8 @@
 
 :class:`AoRTestConfig` holds the geometry, the particle template, the fill, the phases, the
 measurement and the outcome criteria; :func:`fidelity_config` gives the fidelities
-(``quick``, ``small``, ``standard``, ``paper``). Material parameters are separate (a dict of named values, see
-:mod:`demcal.virtual.parameters` and :mod:`demcal.virtual.presets`).
+(``quick``, ``small``, ``standard``, ``paper``). Material parameters are separate (a dict of
+named values, see :mod:`demcal.virtual.parameters` and :mod:`demcal.virtual.presets`).
 """
 
 from __future__ import annotations
