@@ -99,6 +99,27 @@ def test_a_lammps_study_gives_a_lammps_card_with_model_c(tmp_path):
     assert "these parameters are for LAMMPS" in section(path.read_text("utf-8"), "material")
 
 
+def test_the_card_pins_the_fidelity_pile_so_a_renamed_fidelity_runs_the_same_test(tmp_path):
+    """The card writes the fidelity's tube and fill under the study's overrides: read back,
+    it resolves to the study's test even under another fidelity name."""
+    from demcal.virtual import fidelity_config
+
+    study = build_paper_store(tmp_path / "study")
+    with RunStore(study) as store:
+        meta = store.meta("study")
+        meta["test"] = {"kind": "aor", "fidelity": "small", "overrides": {"dt_fraction": 0.15}}
+        store.set_meta("study", meta)
+    path = build_report(study)
+    card = read_material_card(path.parent / "material.toml")
+    assert card.test["fidelity"] == "small"
+    overrides = card.test["overrides"]
+    assert overrides["fill"] == {"method": "packing", "count": 300}
+    assert overrides["geometry"] == {"cylinder_inner_diameter": 0.035}
+    assert overrides["dt_fraction"] == 0.15
+    assert fidelity_config("standard", **overrides) == fidelity_config(
+        "small", dt_fraction=0.15)
+
+
 def test_no_card_before_an_optimum(tmp_path):
     study = build_paper_store(tmp_path / "study", stages=("rangefind", "screening"))
     path = build_report(study)

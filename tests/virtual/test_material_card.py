@@ -153,6 +153,25 @@ def test_simulate_reads_the_card_exactly(captured, tmp_path):
         assert data["params"] == params and data["material"] == str(path)
 
 
+def test_a_pinned_card_runs_its_pile_and_fidelity_still_picks_another(captured, tmp_path):
+    """A card written by the report repeats its fidelity's tube and fill in its overrides:
+    they hold under the card's fidelity and give way to another --fidelity."""
+    card = replace(_card(), test={"kind": "aor", "fidelity": "small", "overrides": {
+        "geometry": {"cylinder_inner_diameter": 0.035},
+        "fill": {"method": "packing", "count": 300}, "dt_fraction": 0.15}})
+    path, _ = card.write(tmp_path)
+    res = CliRunner().invoke(app, ["simulate", "aor", "--material", str(path), "--seeds", "1"])
+    assert res.exit_code == 0, res.output
+    cfg = captured["config"]
+    assert (cfg.fill.count, cfg.geometry.cylinder_inner_diameter) == (300, 0.035)
+    res = CliRunner().invoke(app, ["simulate", "aor", "--material", str(path), "--seeds", "1",
+                                   "--fidelity", "standard"])
+    assert res.exit_code == 0, res.output
+    cfg = captured["config"]
+    assert (cfg.fill.count, cfg.geometry.cylinder_inner_diameter) == (1200, 0.056)
+    assert cfg.dt_fraction == 0.15  # the study's own override stays
+
+
 def test_simulate_set_and_test_override_the_card(captured, tmp_path):
     path, _ = _card().write(tmp_path)
     res = CliRunner().invoke(app, ["simulate", "aor", "--material", str(path), "--set",

@@ -136,6 +136,23 @@ def merge_overrides(base: dict, extra: dict) -> dict:
     return out
 
 
+def without_fidelity(overrides: dict, fidelity: str) -> dict:
+    """Test overrides less the settings that only repeat the fidelity's own (the tube and
+    fill a material card writes out so that it runs the same pile)."""
+    from demcal.virtual.config import FIDELITIES
+
+    out = {}
+    for key, value in overrides.items():
+        own = FIDELITIES.get(fidelity, {}).get(key)
+        if isinstance(value, dict) and isinstance(own, dict):
+            rest = {k: v for k, v in value.items() if k not in own or own[k] != v}
+            if rest:
+                out[key] = rest
+        elif own is None or own != value:
+            out[key] = value
+    return out
+
+
 def _view_angles(result) -> list[float]:
     """The flank angles of a run's views that passed the quality gates, deg."""
     angles = []
@@ -212,7 +229,11 @@ def simulate_aor(
                              "every parameter)")
         card, params, card_test = material_inputs(material)
         params.update(overrides)
-        test_overrides = merge_overrides(card_test.pop("overrides"), test_overrides)
+        card_overrides = card_test.pop("overrides")
+        if fidelity is not None and fidelity != card_test["fidelity"]:
+            # --fidelity picks another pile: drop the card's copy of its own fidelity's
+            card_overrides = without_fidelity(card_overrides, card_test["fidelity"])
+        test_overrides = merge_overrides(card_overrides, test_overrides)
         fidelity = fidelity or card_test["fidelity"]
         preset = f"material card {material.name}"
     else:
