@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import platform
 from collections.abc import Callable
+from dataclasses import replace
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -151,11 +152,14 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     ex = study.executor
     chunk = ex.chunk or (1 if study.test.kind != "aor" or study.engine is not None else
                          default_chunk(study.backend, study.replicates))
-    runner = Runner(store, test_def(study, folder),
+    test = test_def(study, folder)
+    runner = Runner(store, test,
                     workers=workers or ex.workers or default_workers(),
                     dask=dask if dask is not None else ex.dask, chunk=chunk,
                     progress=progress, external=external,
-                    figures_dir=folder / "figures" / "runs")
+                    figures_dir=folder / "figures" / "runs",
+                    stage_tests={name: replace(test, fidelity=fid)
+                                 for name, fid in study.stage_fidelities().items()})
     return st.Context(study, store, runner, fixed, float(target["aor_deg"]),
                       [dict(f) for f in factors], target_std=target.get("std_deg"),
                       target_n=target.get("n"))
@@ -193,6 +197,8 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
             out[name] = {"candidates": s["candidates"]}
         elif name == "verification":
             out[name] = {"aor_deg": s["aor_deg"], "outcomes": s["outcomes"]}
+        if name in out and "fidelity" in s:  # the stage ran at its own fidelity
+            out[name]["fidelity"] = s["fidelity"]
     return out
 
 

@@ -61,6 +61,9 @@ class Runner:
     store : RunStore
     test : TestDef
         The virtual test (its identity enters every run key).
+    stage_tests : dict of str -> TestDef, optional
+        Another test for some stages (a screening at a lower fidelity); its identity enters
+        those stages' run keys.
     workers : int
         Local worker processes (1 = in this process).
     dask : str or Client, optional
@@ -78,10 +81,13 @@ class Runner:
 
     def __init__(self, store: RunStore, test: TestDef, *, workers: int = 1, dask: Any = None,
                  chunk: int = 1, progress: Callable[[str, int, int], None] | None = None,
-                 external: bool = False, figures_dir: str | Path | None = None) -> None:
+                 external: bool = False, figures_dir: str | Path | None = None,
+                 stage_tests: dict[str, TestDef] | None = None) -> None:
         self.store = store
         self.test = test
         self.test_hash = params_hash(test.identity())
+        self.stage_tests = dict(stage_tests or {})
+        self._stage_hashes = {s: params_hash(t.identity()) for s, t in self.stage_tests.items()}
         self.workers = workers
         self.dask = dask
         self.chunk = max(1, chunk)
@@ -92,9 +98,17 @@ class Runner:
         #: with Dask: give up after this many seconds without a worker (None: wait)
         self.dask_timeout: float | None = None
 
+    def test_for(self, stage: str) -> TestDef:
+        """The virtual test a stage runs (the study's, unless the stage has its own)."""
+        return self.stage_tests.get(stage, self.test)
+
+    def stage_hash(self, stage: str) -> str:
+        """The identity hash of the test a stage runs."""
+        return self._stage_hashes.get(stage, self.test_hash)
+
     def key(self, stage: str, p: Point) -> str:
         """The store key of a point's run."""
-        return run_key(stage, p.params, p.seed, self.test_hash)
+        return run_key(stage, p.params, p.seed, self.stage_hash(stage))
 
     def missing(self, stage: str, points: Sequence[Point]) -> list[Point]:
         """Points with no finished run in the store (done, or failed after its retry); a run
@@ -148,9 +162,10 @@ class Runner:
                 + " ".join(engine["command"]))
 
     def _plot_path(self, stage: str, key: str) -> str | None:
+        test = self.test_for(stage)
         if self.figures_dir is None or not (
-                self.test.kind == "aor" or (self.test.external and
-                                            self.test.external["result"]["kind"] == "positions")):
+                test.kind == "aor" or (test.external and
+                                       test.external["result"]["kind"] == "positions")):
             return None
         digest = key.partition(":")[2]  # keys are "<stage>:<hash>"
         return str(self.figures_dir / f"{stage}_{digest[:12]}.png")
@@ -159,9 +174,15 @@ class Runner:
                  total: int, done0: int) -> list[Point]:
         """Run points; return those to retry."""
         by_key = {self.key(stage, p): p for p in points}
-        tasks = [RunTask(k, self.test, p.params, p.seed, dt_scale, self._plot_path(stage, k))
+        test = self.test_for(stage)
+        tasks = [RunTask(k, test, p.params, p.seed, dt_scale, self._plot_path(stage, k))
                  for k, p in by_key.items()]
-        chunks = [tasks[i:i + self.chunk] for i in range(0, len(tasks), self.chunk)]
+        size = self.chunk
+        if self.dask is None and self.workers > 1 and len(tasks) > size:
+            # several tasks on the pool: even them out so no worker idles while runs wait
+            # (one task runs in this process on every thread instead)
+            size = max(1, min(size, -(-len(tasks) // self.workers)))
+        chunks = [tasks[i:i + size] for i in range(0, len(tasks), size)]
         retry: list[Point] = []
         started = time.time()
         count = [done0]

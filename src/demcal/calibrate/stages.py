@@ -75,13 +75,18 @@ class Context:
             return int(self.study.seed + 1000 * replicate + copy)
         return int(self.study.seed + 1000 * replicate + point)
 
+    def own_fidelity(self, stage: str) -> dict[str, str]:
+        """``{"fidelity": name}`` when the stage runs at its own fidelity, else ``{}``."""
+        fid = getattr(getattr(self.study.stages, stage, None), "fidelity", None)
+        return {"fidelity": fid} if fid is not None else {}
+
     def run(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:
         recs = self.runner.run(stage, points)
         self.records.extend(recs)
         return recs
 
     def begin(self, stage: str, inputs: Any) -> str:
-        h = params_hash({"inputs": inputs, "test": self.runner.test_hash})
+        h = params_hash({"inputs": inputs, "test": self.runner.stage_hash(stage)})
         self.store.set_stage(stage, "running", {}, inputs_hash=h)
         return h
 
@@ -287,7 +292,8 @@ def rangefind(ctx: Context) -> dict[str, Any]:
                                     for v, pt in pts],
                          "reason": reason})
         if not aors:
-            summary = {"factors": rows, "response_min_deg": None, "response_max_deg": None,
+            summary = {**ctx.own_fidelity("rangefind"),
+                       "factors": rows, "response_min_deg": None, "response_max_deg": None,
                        "target_in_range": False, "message": "no pile formed in any scan"}
             ctx.store.set_stage("rangefind", "failed", {**summary, "error": summary["message"]})
             raise StudyError("rangefind: no pile formed anywhere in the scanned ranges; lower "
@@ -329,7 +335,8 @@ def rangefind(ctx: Context) -> dict[str, Any]:
         ctx.fixed[row["name"]] = 0.5 * (f["low"] + f["high"])
     if moves:
         msg += "; ranges moved within hard limits: " + "; ".join(moves)
-    summary = {"factors": rows, "response_min_deg": lo, "response_max_deg": hi,
+    summary = {**ctx.own_fidelity("rangefind"),
+               "factors": rows, "response_min_deg": lo, "response_max_deg": hi,
                "target_in_range": inside, "message": msg}
     ctx.store.set_stage("rangefind", "done", summary,
                         inputs_hash=ctx.store.stage("rangefind").inputs_hash)
@@ -353,7 +360,8 @@ def screening(ctx: Context) -> dict[str, Any]:
     y, outcomes, point_runs = _point_runs(recs, design.n_runs)
     excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
     summary: dict[str, Any] = {
-        "design": "plackett_burman", "n_runs": design.n_runs, "alpha": opts.alpha,
+        **ctx.own_fidelity("screening"), "design": "plackett_burman",
+        "n_runs": design.n_runs, "alpha": opts.alpha,
         "factors": [dict(f) for f in ctx.factors],
         "dummies": [f"dummy{j + 1}" for j in range(design.dummies.shape[1])],
         "runs": _run_rows(design, y, outcomes, point_runs), "excluded_points": excluded}
@@ -467,7 +475,7 @@ def steepest(ctx: Context) -> dict[str, Any]:
         if not hi > lo:
             lo, hi = centre[n] - step_actual[n] / 2, centre[n] + step_actual[n] / 2
         levels[n] = [lo, 0.5 * (lo + hi), hi]
-    summary = {"factors": selected, "direction": sign,
+    summary = {**ctx.own_fidelity("steepest"), "factors": selected, "direction": sign,
                "steps": [{"step": i, "actual": path[i],
                           "aor_deg": None if math.isnan(y[i]) else float(y[i]),
                           "outcome": outcomes[i], "relative_error_percent": err[i]}

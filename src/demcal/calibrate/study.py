@@ -177,6 +177,9 @@ class RangefindOptions(_M):
                               "target lies outside the response seen")
     hard_limits: dict[str, tuple[float, float]] = Field(default_factory=dict)
     max_moves: int = Field(2, ge=0, le=10)
+    fidelity: Literal[tuple(FIDELITIES)] | None = Field(
+        None, description="run this stage at another test fidelity (e.g. screen at 'small' "
+        "for a 'standard' study; default: the study's)")
 
 
 class ScreeningOptions(_M):
@@ -191,6 +194,9 @@ class ScreeningOptions(_M):
     factors: list[str] | None = Field(None, description="skip the choice: use these")
     replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point "
                                    "of this stage (default: the study's replicates)")
+    fidelity: Literal[tuple(FIDELITIES)] | None = Field(
+        None, description="run this stage at another test fidelity (e.g. screen at 'small' "
+        "for a 'standard' study; default: the study's)")
 
 
 class SteepestOptions(_M):
@@ -204,6 +210,9 @@ class SteepestOptions(_M):
         "auto", description="'auto': the path spans each factor's range; a number: coded step")
     replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point "
                                    "of this stage (default: the study's replicates)")
+    fidelity: Literal[tuple(FIDELITIES)] | None = Field(
+        None, description="run this stage at another test fidelity (e.g. screen at 'small' "
+        "for a 'standard' study; default: the study's)")
 
 
 class RsmOptions(_M):
@@ -331,6 +340,27 @@ class Study(_M):
             known = set(PARAMETERS) | {f.symbol for f in self.factors if f.symbol}
             self._engine = load_engine(self.engine, (base or Path.cwd()).resolve(), known)
         return self._engine
+
+    def stage_fidelities(self) -> dict[str, str]:
+        """The stages that run at their own fidelity: stage name -> fidelity."""
+        return {name: fid for name in ("rangefind", "screening", "steepest")
+                if (fid := getattr(self.stages, name).fidelity) is not None}
+
+    @model_validator(mode="after")
+    def _stage_fidelity(self) -> Study:
+        for name, fid in self.stage_fidelities().items():
+            if self.test.kind != "aor" or self.engine is not None:
+                raise ValueError(f"stages.{name}.fidelity: only demcal's angle-of-repose test "
+                                 "has fidelities (test.kind 'aor', no [engine])")
+            from demcal.limits import check_test_size
+            from demcal.virtual import fidelity_config
+
+            config = fidelity_config(fid, **self.test.overrides)
+            check_test_size(config)
+            if self.executor.engine == "lammps" and config.fill.method != "packing":
+                raise ValueError(f"stages.{name}.fidelity: executor.engine = 'lammps' runs the "
+                                 f"packing fill only; {fid!r} has the {config.fill.method} fill")
+        return self
 
     @model_validator(mode="after")
     def _lammps_fill(self) -> Study:

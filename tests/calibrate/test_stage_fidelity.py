@@ -1,0 +1,120 @@
+"""A study whose screening and steepest path run at a lower fidelity than its response surface
+and verification; and the local pool's chunks sized so that no worker waits."""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+
+import pytest
+
+import demcal.execute.tasks as tasks
+from demcal.calibrate import calibrate
+from demcal.calibrate.runner import Point, Runner
+from demcal.calibrate.study import parse_study
+from demcal.errors import InputError
+from demcal.execute.tasks import TestDef
+from demcal.store import RunStore
+from demcal.virtual import preset_parameters
+
+REAL_RUN_CHUNK = tasks.run_chunk
+
+
+class StandIn:
+    """Runs every task on the analytic stand-in, remembering which fidelity each stage asked
+    for (the engine's test is what is routed; the stand-in gives it fast answers)."""
+
+    def __init__(self, analytic: dict):
+        self.test = TestDef(kind="analytic", analytic=analytic)
+        self.asked: dict[str, set[str]] = {}
+        self.chunk_sizes: list[int] = []
+
+    def __call__(self, chunk, on_result=None):
+        self.chunk_sizes.append(len(chunk))
+        for t in chunk:
+            self.asked.setdefault(t.key.partition(":")[0], set()).add(t.test.fidelity)
+        return REAL_RUN_CHUNK([dataclasses.replace(t, test=self.test) for t in chunk], on_result)
+
+
+@pytest.fixture
+def two_fidelity_study(study_file, example_data):
+    """The analytic example as a study of the engine's standard test whose screening and
+    steepest path run at the small one, its range finding at the quick one."""
+    text = study_file.read_text()
+    for old, new in (('kind = "analytic"', 'kind = "aor"\nfidelity = "standard"'),
+                     ("[stages.rangefind]\n", '[stages.rangefind]\nfidelity = "quick"\n'),
+                     ("[stages.screening]\n", '[stages.screening]\nfidelity = "small"\n'),
+                     ("[stages.steepest]\n", '[stages.steepest]\nfidelity = "small"\n')):
+        assert old in text
+        text = text.replace(old, new)
+    study_file.write_text(text)
+    return study_file, example_data["test"]["analytic"]
+
+
+def test_screening_and_path_run_at_their_fidelity_the_surface_at_the_study_s(
+        two_fidelity_study, monkeypatch):
+    path, analytic = two_fidelity_study
+    stand_in = StandIn(analytic)
+    monkeypatch.setattr(tasks, "run_chunk", stand_in)
+    res = calibrate(path)
+    assert stand_in.asked == {"rangefind": {"quick"}, "screening": {"small"},
+                              "steepest": {"small"},
+                              "rsm": {"standard"}, "verification": {"standard"}}
+    assert res["stages"]["screening"].get("fidelity") == "small"
+    with RunStore(path.parent) as store:
+        assert store.stage("screening").summary["fidelity"] == "small"
+        assert "fidelity" not in store.stage("rsm").summary
+    # resumed, nothing runs again: the stages' own tests are part of their run keys
+    again = StandIn(analytic)
+    monkeypatch.setattr(tasks, "run_chunk", again)
+    assert calibrate(path)["optimum"] == res["optimum"]
+    assert again.asked == {}
+
+
+def test_a_stage_fidelity_changes_that_stage_s_run_keys_only(two_fidelity_study):
+    path, _ = two_fidelity_study
+    study = parse_study(tomllib.loads(path.read_text()))
+    base = TestDef(kind="aor", fidelity="standard")
+    runner = Runner(None, base, stage_tests={"screening": dataclasses.replace(
+        base, fidelity=study.stages.screening.fidelity)})
+    p = Point(point=0, replicate=0, params={"pp.static_friction": 0.5}, seed=1)
+    plain = Runner(None, base)
+    assert runner.key("rsm", p) == plain.key("rsm", p)
+    assert runner.key("screening", p) != plain.key("screening", p)
+    assert runner.test_for("screening").fidelity == "small"
+
+
+def test_a_stage_fidelity_needs_the_engine_s_test(example_data):
+    data = dict(example_data)
+    data["stages"] = {**data["stages"], "screening": {"fidelity": "small"}}
+    with pytest.raises(InputError, match=r"stages\.screening\.fidelity: only demcal's"):
+        parse_study(data)
+
+
+def test_the_pool_s_chunks_leave_no_worker_idle(study_file, monkeypatch):
+    """4 verification runs of one design point on 2 workers: two tasks of 2, not 3 + 1; 3 runs
+    stay one task (it runs in this process on every thread)."""
+    import demcal.calibrate.runner as runner_mod
+
+    sizes: list[int] = []
+
+    def fake_local(chunks, on_result, *, workers=1, threads_per_worker=1):
+        for c in chunks:
+            sizes.append(len(c))
+            for r in REAL_RUN_CHUNK(c):
+                on_result(r)
+
+    monkeypatch.setattr(runner_mod, "run_local", fake_local)
+    study = parse_study(tomllib.loads(study_file.read_text()))
+    from demcal.calibrate.pipeline import test_def
+
+    full = preset_parameters("corn_stalk")
+    with RunStore(study_file.parent) as store:
+        runner = Runner(store, test_def(study), workers=2, chunk=3)
+        for n, want in ((4, [2, 2]), (3, [3]), (12, [3, 3, 3, 3])):
+            sizes.clear()
+            points = [Point(point=i, replicate=0, seed=1000 * n + i,
+                            params={**full, "pp.static_friction": 0.3 + 0.01 * i})
+                      for i in range(n)]
+            runner.run("rsm", points)
+            assert sorted(sizes) == want, n
