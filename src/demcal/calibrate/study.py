@@ -523,6 +523,8 @@ alpha = 0.05
 max_factors = 3
 min_factors = 3
 runs = 12                 # Plackett-Burman runs
+# fidelity = "small"      # screen at a cheaper test than the study's (also rangefind,
+                          # steepest); the response surface runs the study's
 
 [stages.steepest]
 steps = 5
