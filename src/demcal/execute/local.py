@@ -16,6 +16,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from demcal.execute import tasks as _tasks
+from demcal.execute.signals import die_with_parent, sigterm_raises
 from demcal.execute.tasks import RunTask
 
 __all__ = ["default_chunk", "default_workers", "run_local"]
@@ -48,9 +49,10 @@ def default_chunk(backend: str, replicates: int) -> int:
     return max(1, int(replicates))
 
 
-def _init_worker(threads: int) -> None:
+def _init_worker(threads: int, parent_pid: int) -> None:
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    die_with_parent(parent_pid)  # a killed study leaves no worker computing on
 
 
 def run_local(chunks: Sequence[list[RunTask]], on_result: OnResult, *,
@@ -68,19 +70,20 @@ def run_local(chunks: Sequence[list[RunTask]], on_result: OnResult, *,
     os.environ["NUMBA_NUM_THREADS"] = str(threads_per_worker)  # inherited by spawned workers
     try:
         pool = ctx.Pool(min(workers, len(chunks)), initializer=_init_worker,
-                        initargs=(threads_per_worker,))
+                        initargs=(threads_per_worker, os.getpid()))
     finally:
         if old is None:
             os.environ.pop("NUMBA_NUM_THREADS", None)
         else:
             os.environ["NUMBA_NUM_THREADS"] = old
     try:
-        for results in pool.imap_unordered(_tasks.run_chunk, [list(c) for c in chunks]):
-            for r in results:
-                on_result(r)
+        with sigterm_raises():  # `kill PID` unwinds here like Ctrl-C
+            for results in pool.imap_unordered(_tasks.run_chunk, [list(c) for c in chunks]):
+                for r in results:
+                    on_result(r)
     except BaseException:
-        # Ctrl-C or an error: every finished run is stored already; drop the queue and stop
-        # the runs in flight now rather than wait for them
+        # Ctrl-C, SIGTERM or an error: every finished run is stored already; drop the queue
+        # and stop the runs in flight now rather than wait for them
         pool.terminate()
         pool.join()
         raise

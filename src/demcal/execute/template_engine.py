@@ -30,14 +30,14 @@ import shutil
 import signal
 import subprocess
 import sys
-import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from demcal.errors import InputError
 from demcal.execute.engine_results import ResultUnreadable, read_positions, read_value
+from demcal.execute.signals import sigterm_raises
 from demcal.execute.template_fill import fill
 
 __all__ = ["ENGINE_FAILURES", "KILL_GRACE_S", "LOG_NAME", "run_dir_name", "run_template"]
@@ -133,27 +133,9 @@ def _kill_group(proc: subprocess.Popen) -> None:
     proc.wait()
 
 
-@contextlib.contextmanager
-def _sigterm_raises() -> Iterator[None]:
-    """SIGTERM raises SystemExit while the engine runs (in a main thread), so a terminated
-    worker (a local pool's Ctrl-C) kills the engine's process group instead of orphaning it."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def stop(signum: int, frame: Any) -> None:
-        raise SystemExit(128 + signum)
-
-    old = signal.signal(signal.SIGTERM, stop)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, old)
-
-
 def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[str | None, str]:
     """Run the command; return (failure outcome or None, what happened)."""
-    with open(log, "wb") as out, _sigterm_raises():
+    with open(log, "wb") as out, sigterm_raises():
         try:
             proc = subprocess.Popen(cmd, cwd=run_dir, stdin=subprocess.DEVNULL, stdout=out,
                                     stderr=subprocess.STDOUT, start_new_session=True)
