@@ -13,7 +13,11 @@ writes the JSON after every stage (a stage cut off by a time limit loses only it
    J/m^2, x4 0.2, x3 0.6) with ``--standard-seeds`` / ``--small-seeds`` replicates batched as
    worlds of one engine (``benchmarks/precision.py``'s measurement: seed scatter, phases);
 4. ``paper``: the paper's fill at the dry reference point (optional);
-5. ``bigbench``: a 100 000-stalk bed.
+5. ``bigbench``: a 100 000-stalk bed;
+6. ``study``: a whole calibration (``--study``, default the corn stalk's standard study),
+   every stage one batch of worlds on the GPU; its result JSON lands beside ``--json``
+   (``<json stem>_result.json``) and in the report. It resumes from its store (``--study-dir``)
+   if a time limit cut it off.
 
 The AoR stages print each world's phase changes with the wall time. On the H100 (2026-11-26)
 ``paper`` (6 worlds, factory fill) had not finished after ~320 s while the 1200-stalk test
@@ -25,6 +29,7 @@ Usage (on the GPU machine)::
     python benchmarks/gpu_check.py --json gpu.json
     python benchmarks/gpu_check.py --stages check bench --json gpu.json
     python benchmarks/gpu_check.py --backend cpu --stages check --json cpu.json  # dry run
+    python benchmarks/gpu_check.py --stages study --json $OUT/study.json  # the standard study
 """
 
 from __future__ import annotations
@@ -44,7 +49,8 @@ import precision
 
 #: a steep cohesive point at the top of the corn-stalk calibration region
 STEEP = {"pp.surface_energy": 0.0005, "pp.rolling_friction": 0.2, "pp.static_friction": 0.6}
-STAGES = ("check", "bench", "standard", "small", "paper", "bigbench")
+STAGES = ("check", "bench", "standard", "small", "paper", "bigbench", "study")
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 def parse_args() -> argparse.Namespace:
@@ -58,6 +64,9 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--bench-steps", type=int, default=1000)
     ap.add_argument("--bench-settle", type=float, default=0.05, help="settling time, s")
     ap.add_argument("--piles", default="out/gpu_piles", help="folder for the saved piles")
+    ap.add_argument("--study", default=str(EXAMPLES / "corn_stalk" / "study_standard.toml"),
+                    help="the study the 'study' stage runs (its folder's files are copied)")
+    ap.add_argument("--study-dir", default="out/gpu_study", help="where the study runs")
     ap.add_argument("--json", default="gpu_check.json")
     return ap.parse_args()
 
@@ -81,6 +90,26 @@ def stage_functions(args: argparse.Namespace) -> dict:
         return precision.run_case(case, seeds, Path(args.piles), backend, 1.0, sets,
                                   log_phases=True)
 
+    def study() -> dict:
+        import shutil
+
+        from demcal.calibrate import calibrate
+
+        src = Path(args.study).resolve()
+        work = Path(args.study_dir)
+        work.mkdir(parents=True, exist_ok=True)
+        for f in src.parent.glob("*.toml"):  # the study and the files it names
+            shutil.copy(f, work / f.name)
+        t0 = time.perf_counter()
+        result = calibrate(work / src.name, workers=1,
+                           progress=lambda stage, done, total: print(
+                               f"  {stage} {done}/{total} {time.perf_counter() - t0:.0f}s",
+                               flush=True))
+        Path(args.json).with_name(Path(args.json).stem + "_result.json").write_text(
+            json.dumps(result, indent=1, default=str))
+        return {k: result[k] for k in ("optimum", "predicted_aor_deg", "verification",
+                                       "n_runs", "rsm_adequacy", "rsm_model")}
+
     return {
         "check": checks,
         "bench": lambda: bench([(1000, 1), (10000, 1), (1000, 16)]),
@@ -88,6 +117,7 @@ def stage_functions(args: argparse.Namespace) -> dict:
         "small": lambda: aor("300:0.035", args.small_seeds, 501, STEEP),
         "paper": lambda: aor("paper", args.paper_seeds, 101, {}),
         "bigbench": lambda: bench([(100000, 1)]),
+        "study": study,
     }
 
 
