@@ -118,3 +118,16 @@ def test_the_pool_s_chunks_leave_no_worker_idle(study_file, monkeypatch):
                       for i in range(n)]
             runner.run("rsm", points)
             assert sorted(sizes) == want, n
+
+
+def test_a_lammps_study_refuses_a_stage_at_the_factory_fill(example_data):
+    """LAMMPS runs the packing fill only: a stage at 'paper' is refused naming that stage."""
+    data = dict(example_data)
+    data["test"] = {"kind": "aor", "fidelity": "quick"}
+    data["executor"] = {"engine": "lammps"}
+    data["stages"] = {**data["stages"], "screening": {"fidelity": "paper"}}
+    with pytest.raises(InputError, match=r"stages\.screening\.fidelity: executor\.engine = "
+                                         r"'lammps' runs the packing fill only"):
+        parse_study(data)
+    data["stages"]["screening"] = {"fidelity": "small"}
+    assert parse_study(data).stage_fidelities() == {"screening": "small"}

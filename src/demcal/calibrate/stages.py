@@ -77,7 +77,7 @@ class Context:
 
     def own_fidelity(self, stage: str) -> dict[str, str]:
         """``{"fidelity": name}`` when the stage runs at its own fidelity, else ``{}``."""
-        fid = getattr(getattr(self.study.stages, stage, None), "fidelity", None)
+        fid = self.study.stage_fidelities().get(stage)
         return {"fidelity": fid} if fid is not None else {}
 
     def run(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:

@@ -355,11 +355,7 @@ class Study(_M):
             from demcal.limits import check_test_size
             from demcal.virtual import fidelity_config
 
-            config = fidelity_config(fid, **self.test.overrides)
-            check_test_size(config)
-            if self.executor.engine == "lammps" and config.fill.method != "packing":
-                raise ValueError(f"stages.{name}.fidelity: executor.engine = 'lammps' runs the "
-                                 f"packing fill only; {fid!r} has the {config.fill.method} fill")
+            check_test_size(fidelity_config(fid, **self.test.overrides))
         return self
 
     @model_validator(mode="after")
@@ -370,11 +366,14 @@ class Study(_M):
         if self.executor.engine == "lammps" and self.test.kind == "aor":
             from demcal.virtual import fidelity_config
 
-            config = fidelity_config(self.test.fidelity, **self.test.overrides)
-            if config.fill.method != "packing":
-                raise ValueError("executor.engine = 'lammps' runs the packing fill only "
-                                 "(fidelities quick, small and standard); the test's fill is "
-                                 f"{config.fill.method!r}")
+            fields = {"test.fidelity": self.test.fidelity,
+                      **{f"stages.{n}.fidelity": f for n, f in self.stage_fidelities().items()}}
+            for field, fid in fields.items():
+                config = fidelity_config(fid, **self.test.overrides)
+                if config.fill.method != "packing":
+                    raise ValueError(f"{field}: executor.engine = 'lammps' runs the packing "
+                                     "fill only (fidelities quick, small and standard); "
+                                     f"{fid!r} has the {config.fill.method!r} fill")
         return self
 
     @model_validator(mode="after")

@@ -136,23 +136,6 @@ def merge_overrides(base: dict, extra: dict) -> dict:
     return out
 
 
-def without_fidelity(overrides: dict, fidelity: str) -> dict:
-    """Test overrides less the settings that only repeat the fidelity's own (the tube and
-    fill a material card writes out so that it runs the same pile)."""
-    from demcal.virtual.config import FIDELITIES
-
-    out = {}
-    for key, value in overrides.items():
-        own = FIDELITIES.get(fidelity, {}).get(key)
-        if isinstance(value, dict) and isinstance(own, dict):
-            rest = {k: v for k, v in value.items() if k not in own or own[k] != v}
-            if rest:
-                out[key] = rest
-        elif own is None or own != value:
-            out[key] = value
-    return out
-
-
 def _view_angles(result) -> list[float]:
     """The flank angles of a run's views that passed the quality gates, deg."""
     angles = []
@@ -215,6 +198,7 @@ def simulate_aor(
         preset_parameters,
         run_aor,
     )
+    from demcal.virtual.config import without_fidelity
 
     if seeds is not None and not 1 <= seeds <= MAX_REPLICATES:
         raise InputError(f"--seeds must be in 1..{MAX_REPLICATES}; got {seeds}")

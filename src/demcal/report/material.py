@@ -91,26 +91,14 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
         overrides = test.get("overrides") or {}
         if isinstance(overrides, dict) and overrides.get("rolling_model"):
             engine["rolling_model"] = str(overrides["rolling_model"])
+    from demcal.virtual.config import fidelity_overrides
+
+    # the fidelity's tube and fill written out: the card runs the same pile if the name later
+    # means another (as "standard" did: 300 stalks until 2026-11-27, 1200 since)
     fidelity = str(test.get("fidelity") or "quick")
     test_out = {"kind": str(test.get("kind") or "aor"), "fidelity": fidelity,
-                "overrides": _pinned_overrides(fidelity, dict(test.get("overrides") or {}))}
+                "overrides": fidelity_overrides(fidelity, dict(test.get("overrides") or {}))}
     return engine, test_out, shape
-
-
-def _pinned_overrides(fidelity: str, overrides: dict[str, Any]) -> dict[str, Any]:
-    """The test overrides with the fidelity's own settings (its tube and fill) written out
-    under them, so the card runs the same pile if the fidelity's name later means another
-    (as ``standard`` did: 300 stalks until 2026-11-27, 1200 since)."""
-    from demcal.virtual.config import FIDELITIES
-
-    out: dict[str, Any] = {}
-    for src in (FIDELITIES.get(fidelity, {}), overrides):
-        for key, value in src.items():
-            if isinstance(value, dict):
-                out.setdefault(key, {}).update(value)
-            else:
-                out[key] = value
-    return out
 
 
 def material_card(data: ReportData) -> MaterialCard | None:

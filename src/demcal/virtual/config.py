@@ -206,6 +206,37 @@ FIDELITIES: dict[str, dict] = {
 FIDELITY_REPLICATES: dict[str, int] = {"quick": 1, "small": 3, "standard": 3, "paper": 1}
 
 
+def fidelity_overrides(name: str, overrides: dict) -> dict:
+    """The fidelity's own settings (its tube and fill) with ``overrides`` on top, nested
+    tables merged key by key: everything that sets the test apart from the default (paper)
+    configuration. An unknown name contributes nothing."""
+    data: dict = {}
+    for src in (FIDELITIES.get(name, {}), overrides):
+        for key, value in src.items():
+            if isinstance(value, dict):
+                data.setdefault(key, {}).update(value)
+            else:
+                data[key] = value
+    return data
+
+
+def without_fidelity(overrides: dict, name: str) -> dict:
+    """Test overrides less the settings that only repeat the fidelity's own (the tube and
+    fill a material card writes out so that it runs the same pile): the inverse of
+    :func:`fidelity_overrides` for the settings the overrides did not change."""
+    own_all = FIDELITIES.get(name, {})
+    out = {}
+    for key, value in overrides.items():
+        own = own_all.get(key)
+        if isinstance(value, dict) and isinstance(own, dict):
+            rest = {k: v for k, v in value.items() if k not in own or own[k] != v}
+            if rest:
+                out[key] = rest
+        elif own is None or own != value:
+            out[key] = value
+    return out
+
+
 def fidelity_config(name: str, **overrides) -> AoRTestConfig:
     """The test configuration of a fidelity (``quick``, ``small``, ``standard`` or ``paper``),
     with nested overrides."""
@@ -215,11 +246,4 @@ def fidelity_config(name: str, **overrides) -> AoRTestConfig:
         renamed = {"large": " ('large' is now called 'standard')"}.get(name, "")
         raise InputError(f"fidelity must be one of {', '.join(FIDELITIES)}; got {name!r}"
                          + renamed)
-    data: dict = {}
-    for src in (FIDELITIES[name], overrides):
-        for key, value in src.items():
-            if isinstance(value, dict):
-                data.setdefault(key, {}).update(value)
-            else:
-                data[key] = value
-    return AoRTestConfig.model_validate(data)
+    return AoRTestConfig.model_validate(fidelity_overrides(name, overrides))
