@@ -27,9 +27,16 @@ def test_calibrate_cli_json_layout(study_file, tmp_path):
                                          "relative_error_percent", "n", "ci_low_deg",
                                          "ci_high_deg", "p_value", "consistent", "test",
                                          "half_width_deg", "half_width_goal_deg",
-                                         "half_width_reached", "aor_deg"}
+                                         "half_width_reached", "confirm_pi_low_deg",
+                                         "confirm_pi_high_deg", "confirmed",
+                                         "target_in_interval", "aor_deg"}
     v = data["verification"]
     assert v["ci_low_deg"] < v["aor_mean_deg"] < v["ci_high_deg"] and 0 <= v["p_value"] <= 1
+    # Design-Expert's confirmation: the mean against the surface's interval for n runs
+    assert v["confirm_pi_low_deg"] < data["predicted_aor_deg"] < v["confirm_pi_high_deg"]
+    assert v["confirmed"] == (v["confirm_pi_low_deg"] <= v["aor_mean_deg"]
+                              <= v["confirm_pi_high_deg"])
+    assert "confirmation: the response surface predicted" in res.output
     assert data["n_runs"] == 40
     st = data["stages"]
     assert list(st) == ["rangefind", "screening", "steepest", "rsm", "optimize", "verification"]

@@ -35,3 +35,46 @@ def test_one_sample_without_a_spread_and_a_clear_miss():
 def test_too_few_replicates_give_no_verdict():
     out = compare_to_target(np.array([44.0]), 44.12, 1.74, 5)
     assert out["p_value"] is None and out["consistent"] is None and out["ci_low_deg"] is None
+
+
+def _surface():
+    from demcal import doe
+
+    d = doe.box_behnken({"a": (0.0, 1.0), "b": (0.0, 2.0), "c": (-1.0, 1.0)}, center_points=3,
+                        randomize=False)
+    x = np.asarray(d.coded, dtype=float)
+    rng = np.random.default_rng(11)
+    y = 40 + 3 * x[:, 0] + 2 * x[:, 1] - x[:, 2] + x[:, 0] * x[:, 1] + rng.normal(0, 0.8, len(x))
+    return doe.fit(d, y, model="quadratic"), x, y
+
+
+def test_confirmation_is_design_experts_interval_for_the_mean_of_n_runs():
+    import statsmodels.api as sm
+
+    from demcal import doe
+    from demcal.calibrate.stages import confirmation
+
+    rs, _, y = _surface()
+    chosen = {"a": 0.65, "b": 0.8, "c": 0.5}  # coded 0.3, -0.2, 0.5
+    ols = sm.OLS(y, rs.model_matrix).fit()
+    x0 = doe.model_matrix(np.array([[0.3, -0.2, 0.5]]), rs.terms)
+    ref = ols.get_prediction(x0, weights=6).summary_frame(alpha=0.05)
+    yhat = float(ref["mean"].iloc[0])
+    close = np.array([-0.5, 0.5, -0.2, 0.2, 0.1, -0.1]) + yhat
+    out = confirmation(rs, chosen, close, yhat + 5.0)  # the target far outside
+    assert out["confirm_pi_low_deg"] == pytest.approx(float(ref["obs_ci_lower"].iloc[0]))
+    assert out["confirm_pi_high_deg"] == pytest.approx(float(ref["obs_ci_upper"].iloc[0]))
+    assert out["confirmed"] is True and out["target_in_interval"] is False
+    far = close + (out["confirm_pi_high_deg"] - yhat) + 0.5  # the mean just above the interval
+    out = confirmation(rs, chosen, far, float(far.mean()) + 0.1)
+    assert out["confirmed"] is False and out["target_in_interval"] is True
+
+
+def test_confirmation_without_a_surface_or_an_interval():
+    from demcal.calibrate.stages import confirmation
+
+    out = confirmation(None, {}, np.array([44.0]), 44.12)
+    assert out == {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None,
+                   "confirmed": None, "target_in_interval": None}
+    out = confirmation(None, {}, np.array([44.0, 45.0]), 44.12)
+    assert out["confirmed"] is None and out["target_in_interval"] is True

@@ -71,6 +71,26 @@ def test_prediction_intervals_match_statsmodels():
     np.testing.assert_allclose(rs.predict(pts), frame["mean"], rtol=1e-10)
 
 
+def test_confirmation_interval_for_the_mean_of_n_runs_matches_statsmodels():
+    # Design-Expert's confirmation: the PI for the mean of n new runs; statsmodels gives it
+    # as the observation interval with weights n (residual variance / n)
+    x, y = _random_case(5, "quadratic", 3, 20)
+    rs = doe.fit(x, y, model="quadratic")
+    ols = sm.OLS(y, rs.model_matrix).fit()
+    pts = np.array([[0.2, -0.4, 0.7]])
+    x0 = doe.model_matrix(pts, rs.terms)
+    for n in (1, 4, 12):
+        got = rs.predict_interval(pts, n_new=n)
+        frame = ols.get_prediction(x0, weights=n).summary_frame(alpha=0.05)
+        np.testing.assert_allclose(got["pi_low"], frame["obs_ci_lower"], rtol=1e-9)
+        np.testing.assert_allclose(got["pi_high"], frame["obs_ci_upper"], rtol=1e-9)
+    wide, narrow = rs.predict_interval(pts), rs.predict_interval(pts, n_new=12)
+    width = (narrow["pi_high"] - narrow["pi_low"]).iloc[0]
+    assert width < (wide["pi_high"] - wide["pi_low"]).iloc[0]
+    with pytest.raises(InputError, match="n_new"):
+        rs.predict_interval(pts, n_new=0)
+
+
 def test_lack_of_fit_and_pure_error_by_hand():
     d = doe.box_behnken(3, center_points=4, randomize=False)
     rng = np.random.default_rng(3)

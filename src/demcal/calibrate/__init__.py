@@ -77,7 +77,10 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       "consistent" (Welch t-test against the measurement when its spread is known, else a
       one-sample t-test; None with fewer than 2 piles), "half_width_deg" (of the 95 %
       interval), "half_width_goal_deg", "half_width_reached" (runs are added from n up to
-      max_n until the half-width reaches the goal)}
+      max_n until the half-width reaches the goal), "confirm_pi_low_deg",
+      "confirm_pi_high_deg" (the response surface's 95 % prediction interval for the mean of
+      the n runs at the optimum), "confirmed" (the mean inside it: Design-Expert's
+      confirmation), "target_in_interval" (the target inside ci_low_deg-ci_high_deg)}
 
 ## runs (RunStore.record_run / runs(stage=...))
 Each RunRecord: stage, point (design row index), replicate, params (full set), seed,

@@ -249,7 +249,8 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         "verification": {k: ver.get(k) for k in (
             "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg",
             "ci_high_deg", "p_value", "consistent", "test", "half_width_deg",
-            "half_width_goal_deg", "half_width_reached", "aor_deg")},
+            "half_width_goal_deg", "half_width_reached", "confirm_pi_low_deg",
+            "confirm_pi_high_deg", "confirmed", "target_in_interval", "aor_deg")},
         "n_runs": ctx.store.count(),
         "n_runs_executed": ctx.runner.executed,
         "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},

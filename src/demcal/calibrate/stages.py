@@ -9,7 +9,7 @@ outcome and never enters a fit as a number: its design point is excluded and lis
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -735,6 +735,31 @@ def compare_to_target(values: np.ndarray, target: float, target_std: float | Non
     return out
 
 
+def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray,
+                 target: float, *, alpha: float = 0.05) -> dict[str, Any]:
+    """Did the optimum give what the response surface promised, and the target? (deg)
+
+    Design-Expert's confirmation: the mean of the n verification piles against the surface's
+    (1 - alpha) prediction interval for the mean of n new runs at the chosen settings
+    (``predict_interval(..., n_new=n)``). Keys ``confirm_pi_low_deg``, ``confirm_pi_high_deg``,
+    ``confirmed`` (the mean inside that interval) and ``target_in_interval`` (the target
+    inside the (1 - alpha) t-interval of the piles' mean); None where undefined.
+    """
+    out: dict[str, Any] = {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None,
+                           "confirmed": None, "target_in_interval": None}
+    if values.size >= 2:
+        out["target_in_interval"] = bool(abs(float(values.mean()) - target)
+                                         <= _half_width(values, alpha))
+    if model is None or values.size == 0 or model.df_resid <= 0:
+        return out
+    iv = model.predict_interval({n: [chosen[n]] for n in model.names}, units="actual",
+                                alpha=alpha, n_new=int(values.size))
+    lo, hi = float(iv["pi_low"].iloc[0]), float(iv["pi_high"].iloc[0])
+    out.update(confirm_pi_low_deg=lo, confirm_pi_high_deg=hi,
+               confirmed=bool(lo <= float(values.mean()) <= hi))
+    return out
+
+
 def _half_width(values: np.ndarray, alpha: float = 0.05) -> float:
     """Half-width of the (1 - alpha) t-interval of the mean of ``values`` (inf below two)."""
     from scipy import stats
@@ -817,6 +842,8 @@ def verification(ctx: Context) -> dict[str, Any]:
                                           and hw <= opts.half_width_deg),
                "sized_with_std_deg": sigma, "sized_with_df": sigma_df,
                **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)}
+    summary.update(confirmation(ctx.results.get("_rsm_model"), ctx.results["optimize"]["chosen"],
+                                vals, ctx.target))
     ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
     ctx.results["verification"] = summary
     return summary

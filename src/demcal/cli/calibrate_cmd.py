@@ -47,11 +47,7 @@ def _print_result(result: dict) -> None:
                   f"{result['predicted_aor_deg']:.2f} deg; verification ({v['n']} runs): "
                   f"{mean} +/- {std} deg, relative error {rel}; {result['n_runs']} runs stored "
                   f"({result['n_runs_executed']} run now)")
-    if v.get("p_value") is not None:
-        verdict = ("consistent with", "") if v["consistent"] else ("differs from", "yellow")
-        console.print(styled(f"verification: 95 % interval {v['ci_low_deg']:.2f}-"
-                             f"{v['ci_high_deg']:.2f} deg, ", verdict, " the measurement "
-                             f"(p = {v['p_value']:.3g}, {v['test']})"))
+    _print_verification(result)
     a = result.get("rsm_adequacy") or {}
     if a:
         def f(key: str, fmt: str) -> str:
@@ -69,6 +65,27 @@ def _print_result(result: dict) -> None:
         console.print(styled(("warning:", "yellow"), " the response-surface model is not "
                              "adequate (see the rsm stage's warnings): its optimum is a guess "
                              "within the noise"))
+
+
+def _print_verification(result: dict) -> None:
+    """The verification against the measurement, the surface's promise and the target."""
+    v = result["verification"]
+    if v.get("p_value") is not None:
+        verdict = ("consistent with", "") if v["consistent"] else ("differs from", "yellow")
+        console.print(styled(f"verification: 95 % interval {v['ci_low_deg']:.2f}-"
+                             f"{v['ci_high_deg']:.2f} deg, ", verdict, " the measurement "
+                             f"(p = {v['p_value']:.3g}, {v['test']})"))
+    if v.get("confirmed") is not None:
+        word = ("confirmed", "") if v["confirmed"] else ("not confirmed", "yellow")
+        console.print(styled(
+            f"confirmation: the response surface predicted {result['predicted_aor_deg']:.2f} "
+            f"deg, 95 % interval for the mean of {v['n']} runs "
+            f"{v['confirm_pi_low_deg']:.2f}-{v['confirm_pi_high_deg']:.2f}: ", word))
+    if v.get("target_in_interval") is False:
+        off = v["aor_mean_deg"] - result["target_aor_deg"]
+        console.print(styled(("note:", "yellow"), f" the target {result['target_aor_deg']:.2f} "
+                             f"deg lies outside the verification's 95 % interval: the "
+                             f"calibrated angle is {off:+.2f} deg from it"), highlight=False)
 
 
 def _build_report(study_dir: Path) -> Path:

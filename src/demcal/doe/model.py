@@ -462,11 +462,14 @@ class ResponseSurface:
         *,
         units: Literal["coded", "actual"] | None = None,
         alpha: float = 0.05,
+        n_new: int = 1,
     ) -> pd.DataFrame:
         """Predictions with two-sided confidence and prediction intervals.
 
         ``se_mean = s sqrt(x0' (X'X)^-1 x0)``; CI = yhat -/+ t se_mean;
-        PI = yhat -/+ t sqrt(s^2 + se_mean^2); t = t_{1 - alpha/2, n - p}.
+        PI = yhat -/+ t sqrt(s^2 / n_new + se_mean^2); t = t_{1 - alpha/2, n - p}. With
+        ``n_new`` > 1 the PI is for the mean of that many new runs (Design-Expert's
+        confirmation interval).
 
         Parameters
         ----------
@@ -476,6 +479,8 @@ class ResponseSurface:
             Units of ``points``.
         alpha : float, optional
             1 - confidence level, in (0, 1).
+        n_new : int, optional
+            The prediction interval is for the mean of this many new runs (>= 1).
 
         Returns
         -------
@@ -485,12 +490,14 @@ class ResponseSurface:
         """
         if not 0 < alpha < 1:
             raise InputError(f"alpha must be in (0, 1); got {alpha!r}")
+        if int(n_new) < 1:
+            raise InputError(f"n_new must be >= 1; got {n_new!r}")
         x0 = model_matrix(self._points(points, units), self.terms)
         yhat = x0 @ self.params
         q = np.einsum("ij,jk,ik->i", x0, self._xtx_inv, x0)
         se = np.sqrt(self.mse * q)
         t = stats.t.ppf(1 - alpha / 2, self.df_resid) if self.df_resid > 0 else math.nan
-        se_pred = np.sqrt(self.mse + se**2)
+        se_pred = np.sqrt(self.mse / int(n_new) + se**2)
         return pd.DataFrame(
             {
                 "predicted": yhat,

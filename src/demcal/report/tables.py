@@ -406,19 +406,27 @@ def verification_table(summary: Mapping[str, Any]) -> Table:
 
 def verification_summary_table(summary: Mapping[str, Any], target: float | None) -> Table:
     """Mean ± std of the replicates, their 95 % interval, the relative error against the
-    measurement and the t-test's p and verdict (see demcal.calibrate.stages.compare_to_target)."""
+    measurement and the t-test's p and verdict (see demcal.calibrate.stages.compare_to_target),
+    and Design-Expert's confirmation: the surface's prediction interval for the mean of the n
+    runs and whether the mean lies inside it (demcal.calibrate.stages.confirmation)."""
     lo, hi = summary.get("ci_low_deg"), summary.get("ci_high_deg")
-    ok = summary.get("consistent")
+    plo, phi = summary.get("confirm_pi_low_deg"), summary.get("confirm_pi_high_deg")
+    ok, confirmed = summary.get("consistent"), summary.get("confirmed")
     rows = [{"n": summary.get("n"), "mean AoR (deg)": _num(summary.get("aor_mean_deg")),
              "std (deg)": _num(summary.get("aor_std_deg")),
              "95 % interval (deg)": "" if lo is None else f"{lo:.2f}-{hi:.2f}",
              "measured AoR (deg)": target,
              "relative error %": _num(summary.get("relative_error_percent")),
              "p": _num(summary.get("p_value")),
-             "verdict": "" if ok is None else ("consistent" if ok else "differs")}]
+             "verdict": "" if ok is None else ("consistent" if ok else "differs"),
+             "surface's 95 % PI for the mean (deg)": "" if plo is None else
+             f"{plo:.2f}-{phi:.2f}",
+             "confirmation": "" if confirmed is None else
+             ("confirmed" if confirmed else "not confirmed")}]
     return Table("verification_summary", "Verification against the measurement",
                  _frame(rows, ["n", "mean AoR (deg)", "std (deg)", "95 % interval (deg)",
-                               "measured AoR (deg)", "relative error %", "p", "verdict"]))
+                               "measured AoR (deg)", "relative error %", "p", "verdict",
+                               "surface's 95 % PI for the mean (deg)", "confirmation"]))
 
 
 def excluded_table(data: ReportData) -> Table:
