@@ -663,6 +663,7 @@ def optimize(ctx: Context) -> dict[str, Any]:
     """Settings whose predicted AoR equals the target, ranked; only inside the pile region."""
     opts = ctx.study.stages.optimize
     model = ctx.results["_rsm_model"]
+    prior = ctx.store.stage("optimize")  # before begin() marks it running
     h = ctx.begin("optimize", {"rsm": ctx.results["rsm"]["coefficients_coded"],
                                "opts": opts.model_dump(mode="json"), "target": ctx.target})
     clf = PileClassifier.fit(ctx.records, [(f.name, f.low, f.high) for f in ctx.study.factors])
@@ -671,6 +672,11 @@ def optimize(ctx: Context) -> dict[str, Any]:
     def constraint(x: np.ndarray) -> np.ndarray:
         return clf.p_pile_grid(ctx.fixed, names, x) >= opts.min_p_pile
 
+    kept = _stored_optimum(prior, ctx.target, model, constraint, opts.model_dump(mode="json"))
+    if kept is not None:  # a resume (on this or another machine): the decision stands
+        ctx.store.set_stage("optimize", "done", kept, inputs_hash=h)
+        ctx.results["optimize"] = kept
+        return kept
     centre = {n: ctx.results["steepest"]["levels"][n][1] for n in names}
     try:
         res = doe.optimize_target(model, ctx.target, constraint=constraint, near=centre,
@@ -695,10 +701,40 @@ def optimize(ctx: Context) -> dict[str, Any]:
                       "desirability": float(s.desirability)})
     summary = {"target_aor_deg": ctx.target, "candidates": cands,
                "chosen": cands[0]["params"], "predicted_aor_deg": cands[0]["predicted_aor_deg"],
-               "classifier": clf.describe()}
+               "classifier": clf.describe(), "opts": opts.model_dump(mode="json")}
     ctx.store.set_stage("optimize", "done", summary, inputs_hash=h)
     ctx.results["optimize"] = summary
     return summary
+
+
+#: how far (deg) the current surface may put a stored optimum from the target and still keep it
+KEEP_OPTIMUM_TOL_DEG = 1e-6
+
+
+def _stored_optimum(prior: Any, target: float, model: Any, constraint: Any,
+                    opts: dict[str, Any]) -> dict[str, Any] | None:
+    """The stored optimize stage's summary (``prior``, a StageRecord or None) if its optimum
+    still solves the current problem.
+
+    The optimizer is numerical: the same runs refitted on another machine (other BLAS, other
+    numpy) move its answer in the 8th digit, and the verification's stored runs, keyed by
+    their exact parameters, would be run again. A stored optimum is kept when the stage
+    finished for the same target and settings (``opts``; summaries written before they were
+    stored count as the same), its factors are the model's, the current surface predicts the
+    target there within :data:`KEEP_OPTIMUM_TOL_DEG` and it lies inside the pile region. A
+    surface fitted to other runs moves the prediction far more and the optimum is found anew.
+    """
+    if prior is None or prior.status != "done":
+        return None
+    old = prior.summary
+    chosen = old.get("chosen") or {}
+    if (old.get("target_aor_deg") != target or old.get("opts", opts) != opts
+            or set(chosen) != set(model.names)):
+        return None
+    x = np.array([[float(chosen[n]) for n in model.names]])
+    if abs(float(model.predict(x, units="actual")[0]) - target) > KEEP_OPTIMUM_TOL_DEG:
+        return None
+    return old if bool(np.all(constraint(x))) else None
 
 
 # ------------------------------------------------------------------------------ verification
