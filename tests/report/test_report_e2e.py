@@ -99,6 +99,11 @@ def test_the_raw_measurement_dump_is_gone(calibrated):
     assert lab == [["angle of repose (target)", "deg", "40", "1", "5", "", ""]]
 
 
+def ver_summary_confirmed(calibrated) -> bool:
+    v = calibrated["json"]["summaries"]["verification"]
+    return v["confirm_pi_low_deg"] <= v["aor_mean_deg"] <= v["confirm_pi_high_deg"]
+
+
 def test_material_card_round_trips_the_verified_parameters(calibrated):
     out = calibrated["html_path"].parent
     ver = calibrated["json"]["summaries"]["verification"]["params"]
@@ -110,9 +115,13 @@ def test_material_card_round_trips_the_verified_parameters(calibrated):
                                         "pp.surface_energy"}
         assert card.test["kind"] == "analytic" and card.rolling_model == "A"
     text = (out / "material.toml").read_text()
-    assert tomllib.loads(text)["verification"]["consistent"] is True
+    card_ver = tomllib.loads(text)["verification"]
+    assert card_ver["consistent"] is True
+    assert card_ver["confirmed"] == ver_summary_confirmed(calibrated)  # Design-Expert's check
+    assert card_ver["confirm_pi_low_deg"] < card_ver["predicted_aor_deg"]
     line = calibrated["json"]["material"]["verification"]["line"]
     assert line.startswith("verified AoR") and "(n = 3)" in line and "vs measured 40.00" in line
+    assert "response surface's prediction" in line
     mat = section(calibrated["html"], "material")
     assert escape(line) in mat
     assert "JKR" in mat and "rolling friction model A" in mat

@@ -52,6 +52,9 @@ def verification_line(ver: Mapping[str, Any], target: Mapping[str, Any] | None) 
         out += f"; p = {p:.3g}"
     if ver.get("consistent") is not None:
         out += ", consistent" if ver.get("consistent") else ", differs"
+    if ver.get("confirmed") is not None:
+        out += ("; the response surface's prediction confirmed" if ver.get("confirmed") else
+                "; the response surface's prediction not confirmed")
     return out
 
 
@@ -136,7 +139,8 @@ def material_card(data: ReportData) -> MaterialCard | None:
         symbols.setdefault(name, spec.paper_symbol)
     verification = {"line": verification_line(ver, data.target)}
     for key in ("aor_mean_deg", "aor_std_deg", "n", "relative_error_percent", "p_value",
-                "consistent", "ci_low_deg", "ci_high_deg"):
+                "consistent", "ci_low_deg", "ci_high_deg", "confirm_pi_low_deg",
+                "confirm_pi_high_deg", "confirmed", "target_in_interval"):
         if ver.get(key) is not None:
             verification[key] = ver[key]
     if data.target_aor_deg is not None:
