@@ -21,28 +21,26 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from pathlib import Path
 
-import numpy as np
-from scipy import stats
-
+from demcal.physical import summarize
 from demcal.virtual.aor import run_aor
 from demcal.virtual.config import fidelity_config
 
 
 def summarise(angles: list[float], target: float | None) -> dict:
-    """Mean, seed std, 95 % interval of the mean and relative error (deg, %) of some piles."""
-    a = np.asarray(angles, dtype=float)
-    out: dict = {"n": int(a.size), "mean_deg": float(a.mean()) if a.size else None}
-    if a.size >= 2:
-        sd = float(a.std(ddof=1))
-        half = float(stats.t.ppf(0.975, a.size - 1) * sd / math.sqrt(a.size))
-        out.update(std_deg=sd, ci_low_deg=out["mean_deg"] - half,
-                   ci_high_deg=out["mean_deg"] + half, half_width_deg=half)
-    if target and a.size:
-        out["relative_error_percent"] = float(abs(a.mean() - target) / target * 100.0)
+    """Mean, seed std, 95 % interval of the mean and relative error (deg, %) of some piles
+    (the interval is :func:`demcal.physical.summarize`'s, the one the photos get)."""
+    if not angles:
+        return {"n": 0, "mean_deg": None}
+    s = summarize(angles, name="angle of repose", unit="deg")
+    out: dict = {"n": s.n_repeats, "mean_deg": s.mean}
+    if s.std is not None:
+        out.update(std_deg=s.std, ci_low_deg=s.ci_low, ci_high_deg=s.ci_high,
+                   half_width_deg=s.mean - s.ci_low)
+    if target:
+        out["relative_error_percent"] = abs(s.mean - target) / target * 100.0
     return out
 
 
