@@ -663,16 +663,17 @@ def optimize(ctx: Context) -> dict[str, Any]:
     """Settings whose predicted AoR equals the target, ranked; only inside the pile region."""
     opts = ctx.study.stages.optimize
     model = ctx.results["_rsm_model"]
+    opts_json = opts.model_dump(mode="json")
     prior = ctx.store.stage("optimize")  # before begin() marks it running
     h = ctx.begin("optimize", {"rsm": ctx.results["rsm"]["coefficients_coded"],
-                               "opts": opts.model_dump(mode="json"), "target": ctx.target})
+                               "opts": opts_json, "target": ctx.target})
     clf = PileClassifier.fit(ctx.records, [(f.name, f.low, f.high) for f in ctx.study.factors])
     names = list(model.names)
 
     def constraint(x: np.ndarray) -> np.ndarray:
         return clf.p_pile_grid(ctx.fixed, names, x) >= opts.min_p_pile
 
-    kept = _stored_optimum(prior, ctx.target, model, constraint, opts.model_dump(mode="json"))
+    kept = _stored_optimum(prior, ctx.target, model, constraint, opts_json)
     if kept is not None:  # a resume (on this or another machine): the decision stands
         ctx.store.set_stage("optimize", "done", kept, inputs_hash=h)
         ctx.results["optimize"] = kept
@@ -701,7 +702,7 @@ def optimize(ctx: Context) -> dict[str, Any]:
                       "desirability": float(s.desirability)})
     summary = {"target_aor_deg": ctx.target, "candidates": cands,
                "chosen": cands[0]["params"], "predicted_aor_deg": cands[0]["predicted_aor_deg"],
-               "classifier": clf.describe(), "opts": opts.model_dump(mode="json")}
+               "classifier": clf.describe(), "opts": opts_json}
     ctx.store.set_stage("optimize", "done", summary, inputs_hash=h)
     ctx.results["optimize"] = summary
     return summary
@@ -745,18 +746,20 @@ def compare_to_target(values: np.ndarray, target: float, target_std: float | Non
     With the measurement's spread and count known, Welch's two-sample t-test of the
     replicates against the measurement (scipy ``ttest_ind_from_stats``); otherwise a one-sample
     t-test against the target value. Also the (1 - alpha) t-interval of the simulated mean.
-    Keys: ``ci_low_deg``, ``ci_high_deg``, ``p_value``, ``test`` and ``consistent`` (p >=
-    alpha), all None with fewer than two replicates.
+    Keys: ``ci_low_deg``, ``ci_high_deg``, ``target_in_interval`` (the target inside that
+    interval), ``p_value``, ``test`` and ``consistent`` (p >= alpha), all None with fewer than
+    two replicates.
     """
     from scipy import stats
 
-    out: dict[str, Any] = {"ci_low_deg": None, "ci_high_deg": None, "p_value": None,
-                           "test": None, "consistent": None}
+    out: dict[str, Any] = {"ci_low_deg": None, "ci_high_deg": None, "target_in_interval": None,
+                           "p_value": None, "test": None, "consistent": None}
     if values.size < 2:
         return out
     mean, sd, n = float(values.mean()), float(values.std(ddof=1)), int(values.size)
     half = _half_width(values, alpha)
-    out.update(ci_low_deg=mean - half, ci_high_deg=mean + half)
+    out.update(ci_low_deg=mean - half, ci_high_deg=mean + half,
+               target_in_interval=bool(abs(mean - target) <= half))
     if sd == 0.0 and not target_std:
         return out
     if target_std is not None and target_n is not None and target_n >= 2:
@@ -771,21 +774,17 @@ def compare_to_target(values: np.ndarray, target: float, target_std: float | Non
     return out
 
 
-def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray,
-                 target: float, *, alpha: float = 0.05) -> dict[str, Any]:
-    """Did the optimum give what the response surface promised, and the target? (deg)
+def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
+                 alpha: float = 0.05) -> dict[str, Any]:
+    """Did the optimum give what the response surface promised? (deg)
 
     Design-Expert's confirmation: the mean of the n verification piles against the surface's
     (1 - alpha) prediction interval for the mean of n new runs at the chosen settings
-    (``predict_interval(..., n_new=n)``). Keys ``confirm_pi_low_deg``, ``confirm_pi_high_deg``,
-    ``confirmed`` (the mean inside that interval) and ``target_in_interval`` (the target
-    inside the (1 - alpha) t-interval of the piles' mean); None where undefined.
+    (``predict_interval(..., n_new=n)``). Keys ``confirm_pi_low_deg``, ``confirm_pi_high_deg``
+    and ``confirmed`` (the mean inside that interval); None without a surface or a pile.
     """
     out: dict[str, Any] = {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None,
-                           "confirmed": None, "target_in_interval": None}
-    if values.size >= 2:
-        out["target_in_interval"] = bool(abs(float(values.mean()) - target)
-                                         <= _half_width(values, alpha))
+                           "confirmed": None}
     if model is None or values.size == 0 or model.df_resid <= 0:
         return out
     iv = model.predict_interval({n: [chosen[n]] for n in model.names}, units="actual",
@@ -879,7 +878,7 @@ def verification(ctx: Context) -> dict[str, Any]:
                "sized_with_std_deg": sigma, "sized_with_df": sigma_df,
                **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)}
     summary.update(confirmation(ctx.results.get("_rsm_model"), ctx.results["optimize"]["chosen"],
-                                vals, ctx.target))
+                                vals))
     ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
     ctx.results["verification"] = summary
     return summary
