@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from demcal.calibrate import refine
 from demcal.calibrate import stages as st
 from demcal.calibrate.runner import Runner
 from demcal.calibrate.study import Study, load_study, study_folder
@@ -237,9 +238,10 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
             continue
         getattr(st, name)(ctx)
     st.rsm(ctx)
-    st.optimize(ctx)
-    st.verification(ctx)
+    refine.run_rounds(ctx)
     opt, ver = ctx.results["optimize"], ctx.results["verification"]
+    rounds = [refine.round_row(o, v) for o, v in zip(
+        [*opt.get("rounds", []), opt], [*ver.get("rounds", []), ver], strict=True)]
     result = {
         "study": ctx.study.name,
         "optimum": opt["chosen"],
@@ -251,6 +253,7 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
             "ci_high_deg", "p_value", "consistent", "test", "half_width_deg",
             "half_width_goal_deg", "half_width_reached", "confirm_pi_low_deg",
             "confirm_pi_high_deg", "confirmed", "target_in_interval", "aor_deg")},
+        "rounds": rounds,
         "n_runs": ctx.store.count(),
         "n_runs_executed": ctx.runner.executed,
         "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},

@@ -28,6 +28,32 @@ __all__ = ["Context", "adequacy", "choose_model", "optimize", "rangefind", "rsm"
 
 
 @dataclass
+class Rounds:
+    """The verification rounds of one study (:mod:`demcal.calibrate.refine`).
+
+    ``number``: the round now running (1: the response surface's own optimum);
+    ``optimize``/``verification``: the summaries of the rounds already finished, in order;
+    ``stored``: the optimize summaries the store held when the study started, by round (read
+    once, before round 1 overwrites them; None until then).
+    """
+
+    number: int = 1
+    optimize: list[dict[str, Any]] = field(default_factory=list)
+    verification: list[dict[str, Any]] = field(default_factory=list)
+    stored: dict[int, dict[str, Any]] | None = None
+
+    def offset(self, model: Any) -> tuple[float, dict[str, float] | None, int]:
+        """The surface's offset (deg) measured by the last finished round, where and on how
+        many piles: (mean of its piles - the surface's prediction there, its optimum, its
+        number of piles); (0, None, 0) in round 1."""
+        if not self.verification:
+            return 0.0, None, 0
+        ver, at = self.verification[-1], self.optimize[-1]["chosen"]
+        pred = float(model.predict({n: [at[n]] for n in model.names}, units="actual")[0])
+        return float(ver["aor_mean_deg"]) - pred, dict(at), int(ver["n_piles"])
+
+
+@dataclass
 class Context:
     """State shared by the stages of one study.
 
@@ -47,6 +73,7 @@ class Context:
     results: dict[str, Any] = field(default_factory=dict)
     target_std: float | None = None
     target_n: int | None = None
+    rounds: Rounds = field(default_factory=Rounds)
 
     def full(self, actual: dict[str, float]) -> dict[str, float]:
         """The fixed set with ``actual`` factor values applied (floats)."""
@@ -659,28 +686,62 @@ def rsm(ctx: Context) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------------------ optimize
+def stored_rounds(record: Any) -> dict[int, dict[str, Any]]:
+    """The summaries of a finished stage record by round (``{}`` for none or an unfinished one).
+
+    The record holds the last round's summary, with the earlier rounds' under ``"rounds"``;
+    a summary without ``"round"`` (written before refinement rounds existed) is round 1.
+    """
+    if record is None or record.status != "done":
+        return {}
+    last = record.summary
+    return {int(s.get("round", 1)): s for s in [*last.get("rounds", []), last]}
+
+
+def _with_rounds(summary: dict[str, Any], earlier: list[dict[str, Any]]) -> dict[str, Any]:
+    """``summary`` of the current round as stored: its round number and, when there were
+    earlier rounds, their summaries (without their own history)."""
+    out = dict(summary)
+    if earlier:
+        out["rounds"] = [{k: v for k, v in e.items() if k != "rounds"} for e in earlier]
+    return out
+
+
 def optimize(ctx: Context) -> dict[str, Any]:
-    """Settings whose predicted AoR equals the target, ranked; only inside the pile region."""
+    """Settings whose predicted AoR equals the target, ranked; only inside the pile region.
+
+    In a refinement round (``ctx.rounds.number`` > 1, :mod:`demcal.calibrate.refine`) the
+    surface is corrected by the offset the previous round measured at its optimum (its piles'
+    mean minus the surface's prediction there): the optimum is where the surface reads the
+    target minus that offset, searched from the previous optimum, so it moves along the
+    target contour instead of jumping to another branch of it.
+    """
     opts = ctx.study.stages.optimize
     model = ctx.results["_rsm_model"]
+    k = ctx.rounds.number
+    offset, _, _ = ctx.rounds.offset(model)
+    aim = ctx.target - offset
     opts_json = opts.model_dump(mode="json")
-    prior = ctx.store.stage("optimize")  # before begin() marks it running
+    if ctx.rounds.stored is None:  # before begin() marks the stage running
+        ctx.rounds.stored = stored_rounds(ctx.store.stage("optimize"))
     h = ctx.begin("optimize", {"rsm": ctx.results["rsm"]["coefficients_coded"],
-                               "opts": opts_json, "target": ctx.target})
+                               "opts": opts_json, "target": ctx.target,
+                               **({"round": k, "offset": offset} if k > 1 else {})})
     clf = PileClassifier.fit(ctx.records, [(f.name, f.low, f.high) for f in ctx.study.factors])
     names = list(model.names)
 
     def constraint(x: np.ndarray) -> np.ndarray:
         return clf.p_pile_grid(ctx.fixed, names, x) >= opts.min_p_pile
 
-    kept = _stored_optimum(prior, ctx.target, model, constraint, opts_json)
+    kept = _stored_optimum(ctx.rounds.stored.get(k), (ctx.target, aim), model, constraint,
+                           opts_json)
     if kept is not None:  # a resume (on this or another machine): the decision stands
-        ctx.store.set_stage("optimize", "done", kept, inputs_hash=h)
-        ctx.results["optimize"] = kept
-        return kept
-    centre = {n: ctx.results["steepest"]["levels"][n][1] for n in names}
+        kept = {kk: v for kk, v in kept.items() if kk != "rounds"}
+        return _store_optimum(ctx, kept, h)
+    prev = ctx.rounds.optimize[-1]["chosen"] if ctx.rounds.optimize else None
+    near = prev or {n: ctx.results["steepest"]["levels"][n][1] for n in names}
     try:
-        res = doe.optimize_target(model, ctx.target, constraint=constraint, near=centre,
+        res = doe.optimize_target(model, aim, constraint=constraint, near=near,
                                   n_solutions=opts.n_solutions, n_starts=opts.n_starts,
                                   units="actual", seed=ctx.study.seed)
     except InputError as exc:
@@ -695,27 +756,34 @@ def optimize(ctx: Context) -> dict[str, Any]:
     for s in res.solutions:
         full = ctx.full(s.actual or {})
         cands.append({"params": {n: float(s.actual[n]) for n in names},  # type: ignore[index]
-                      "predicted_aor_deg": float(s.predicted),
-                      "pi_low_deg": float(s.pi[0]) if math.isfinite(s.pi[0]) else None,
-                      "pi_high_deg": float(s.pi[1]) if math.isfinite(s.pi[1]) else None,
+                      "predicted_aor_deg": float(s.predicted) + offset,
+                      "pi_low_deg": float(s.pi[0]) + offset if math.isfinite(s.pi[0]) else None,
+                      "pi_high_deg": float(s.pi[1]) + offset if math.isfinite(s.pi[1]) else None,
                       "p_pile": float(clf.p_pile([full])[0]),
                       "desirability": float(s.desirability)})
     summary = {"target_aor_deg": ctx.target, "candidates": cands,
                "chosen": cands[0]["params"], "predicted_aor_deg": cands[0]["predicted_aor_deg"],
                "classifier": clf.describe(), "opts": opts_json}
-    ctx.store.set_stage("optimize", "done", summary, inputs_hash=h)
-    ctx.results["optimize"] = summary
-    return summary
+    if k > 1:
+        summary.update(round=k, surface_offset_deg=offset)
+    return _store_optimum(ctx, summary, h)
+
+
+def _store_optimum(ctx: Context, summary: dict[str, Any], h: str) -> dict[str, Any]:
+    stored = _with_rounds(summary, ctx.rounds.optimize)
+    ctx.store.set_stage("optimize", "done", stored, inputs_hash=h)
+    ctx.results["optimize"] = stored
+    return stored
 
 
 #: how far (deg) the current surface may put a stored optimum from the target and still keep it
 KEEP_OPTIMUM_TOL_DEG = 1e-6
 
 
-def _stored_optimum(prior: Any, target: float, model: Any, constraint: Any,
-                    opts: dict[str, Any]) -> dict[str, Any] | None:
-    """The stored optimize stage's summary (``prior``, a StageRecord or None) if its optimum
-    still solves the current problem.
+def _stored_optimum(prior: dict[str, Any] | None, target: tuple[float, float], model: Any,
+                    constraint: Any, opts: dict[str, Any]) -> dict[str, Any] | None:
+    """The stored optimize summary of this round (``prior``, or None) if its optimum still
+    solves the current problem.
 
     The optimizer is numerical: the same runs refitted on another machine (other BLAS, other
     numpy) move its answer in the 8th digit, and the verification's stored runs, keyed by
@@ -724,18 +792,19 @@ def _stored_optimum(prior: Any, target: float, model: Any, constraint: Any,
     stored count as the same), its factors are the model's, the current surface predicts the
     target there within :data:`KEEP_OPTIMUM_TOL_DEG` and it lies inside the pile region. A
     surface fitted to other runs moves the prediction far more and the optimum is found anew.
+    ``target`` is (the target, what the surface must read: the target less a refinement
+    round's offset).
     """
-    if prior is None or prior.status != "done":
+    if prior is None:
         return None
-    old = prior.summary
-    chosen = old.get("chosen") or {}
-    if (old.get("target_aor_deg") != target or old.get("opts", opts) != opts
+    chosen = prior.get("chosen") or {}
+    if (prior.get("target_aor_deg") != target[0] or prior.get("opts", opts) != opts
             or set(chosen) != set(model.names)):
         return None
     x = np.array([[float(chosen[n]) for n in model.names]])
-    if abs(float(model.predict(x, units="actual")[0]) - target) > KEEP_OPTIMUM_TOL_DEG:
+    if abs(float(model.predict(x, units="actual")[0]) - target[1]) > KEEP_OPTIMUM_TOL_DEG:
         return None
-    return old if bool(np.all(constraint(x))) else None
+    return prior if bool(np.all(constraint(x))) else None
 
 
 # ------------------------------------------------------------------------------ verification
@@ -775,21 +844,42 @@ def compare_to_target(values: np.ndarray, target: float, target_std: float | Non
 
 
 def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
-                 alpha: float = 0.05) -> dict[str, Any]:
+                 alpha: float = 0.05,
+                 offset: tuple[float, Mapping[str, float] | None, int] = (0.0, None, 0)
+                 ) -> dict[str, Any]:
     """Did the optimum give what the response surface promised? (deg)
 
     Design-Expert's confirmation: the mean of the n verification piles against the surface's
     (1 - alpha) prediction interval for the mean of n new runs at the chosen settings
     (``predict_interval(..., n_new=n)``). Keys ``confirm_pi_low_deg``, ``confirm_pi_high_deg``
     and ``confirmed`` (the mean inside that interval); None without a surface or a pile.
+
+    In a refinement round the promise is the surface corrected by ``offset`` = (b, x_prev,
+    n_prev): b measured as the mean of n_prev piles at x_prev less the surface there. Then the
+    prediction is yhat(x) + b and its variance s^2 (1/n + 1/n_prev + d' (X'X)^-1 d), with d
+    the difference of the model rows at x and x_prev (the two predictions share their
+    coefficients' error; s^2 the residual mean square, t on its df).
     """
     out: dict[str, Any] = {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None,
                            "confirmed": None}
     if model is None or values.size == 0 or model.df_resid <= 0:
         return out
-    iv = model.predict_interval({n: [chosen[n]] for n in model.names}, units="actual",
-                                alpha=alpha, n_new=int(values.size))
-    lo, hi = float(iv["pi_low"].iloc[0]), float(iv["pi_high"].iloc[0])
+    at = {n: [chosen[n]] for n in model.names}
+    b, prev, n_prev = offset
+    if prev is None:
+        iv = model.predict_interval(at, units="actual", alpha=alpha, n_new=int(values.size))
+        lo, hi = float(iv["pi_low"].iloc[0]), float(iv["pi_high"].iloc[0])
+    else:
+        from scipy import stats
+
+        space = model.factors.subset(model.names)
+        rows = [doe.model_matrix(space.to_coded(np.array([[p[n] for n in model.names]])),
+                                 model.terms)[0] for p in (chosen, prev)]
+        d = rows[0] - rows[1]
+        var = model.mse * (1 / values.size + 1 / n_prev + float(d @ model.xtx_inv @ d))
+        pred = float(model.predict(at, units="actual")[0]) + b
+        half = float(stats.t.ppf(1 - alpha / 2, model.df_resid)) * math.sqrt(var)
+        lo, hi = pred - half, pred + half
     out.update(confirm_pi_low_deg=lo, confirm_pi_high_deg=hi,
                confirmed=bool(lo <= float(values.mean()) <= hi))
     return out
@@ -839,6 +929,13 @@ def _pure_error_std(model: Any) -> tuple[float | None, int]:
     return (math.sqrt(ss / df), df) if df > 0 else (None, 0)
 
 
+def verification_seed(seed: int, round_: int, i: int) -> int:
+    """Seed of verification run ``i`` of round ``round_`` (1-based): ``seed + 10000 round + i``,
+    never one a design point of the study used (they are ``seed + 1000 replicate + point``
+    with fewer than 10 replicates) nor one of another round (at most 200 runs a round)."""
+    return int(seed + 10_000 * round_ + i)
+
+
 def verification(ctx: Context) -> dict[str, Any]:
     """Replicate runs at the chosen optimum, on fresh seeds: mean, spread, error to the target.
 
@@ -850,10 +947,12 @@ def verification(ctx: Context) -> dict[str, Any]:
     opts = ctx.study.stages.verification
     params = ctx.full(ctx.results["optimize"]["chosen"])
     sigma, sigma_df = _pure_error_std(ctx.results.get("_rsm_model"))
-    h = ctx.begin("verification", {"params": params, "n": opts.n})
+    k = ctx.rounds.number
+    h = ctx.begin("verification", {"params": params, "n": opts.n,
+                                   **({"round": k} if k > 1 else {})})
     n = opts.n
     while True:
-        pts = [Point(0, i, params, ctx.study.seed + 10_000 + i) for i in range(n)]
+        pts = [Point(0, i, params, verification_seed(ctx.study.seed, k, i)) for i in range(n)]
         recs = ctx.run("verification", pts)
         aors = [r.aor_deg if r.outcome == "pile" else None for r in recs]
         vals = np.array([a for a in aors if a is not None])
@@ -877,8 +976,12 @@ def verification(ctx: Context) -> dict[str, Any]:
                                           and hw <= opts.half_width_deg),
                "sized_with_std_deg": sigma, "sized_with_df": sigma_df,
                **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)}
-    summary.update(confirmation(ctx.results.get("_rsm_model"), ctx.results["optimize"]["chosen"],
-                                vals))
+    model = ctx.results.get("_rsm_model")
+    summary.update(confirmation(model, ctx.results["optimize"]["chosen"], vals,
+                                offset=ctx.rounds.offset(model) if k > 1 else (0.0, None, 0)))
+    if k > 1:
+        summary["round"] = k
+    summary = _with_rounds(summary, ctx.rounds.verification)
     ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
     ctx.results["verification"] = summary
     return summary

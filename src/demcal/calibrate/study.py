@@ -252,6 +252,11 @@ class VerificationOptions(_M):
         1.5, gt=0, le=90, description="add runs until the 95 % interval of the mean is at "
         "most this wide either side, deg (None: exactly n runs)")
     max_n: int = Field(12, ge=1, le=200, description="most verification runs")
+    max_rounds: int = Field(
+        1, ge=1, le=5, description="verification rounds: while a round's mean is not "
+        "confirmed by the surface, or the target lies outside its 95 % interval, refit the "
+        "surface with its piles, re-optimise and verify again on fresh seeds "
+        "(demcal.calibrate.refine; 1: no refinement)")
 
 
 class Stages(_M):
@@ -545,6 +550,7 @@ n_solutions = 5
 n = 3                     # runs to start with, on fresh seeds
 half_width_deg = 1.5      # add runs until the 95 % interval is +/- this (deg) ...
 max_n = 12                # ... or this many runs
+max_rounds = 1            # > 1: refine the optimum while the verification disagrees
 
 [executor]
 # workers = 2             # local process pool (default: CPU count)

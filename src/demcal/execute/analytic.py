@@ -6,6 +6,7 @@ end to end in milliseconds and checked against the answer it must find:
 
     aor_deg = base_deg + sum_p linear[p] * (x_p - centre[p])
                        + sum_p quadratic[p] * (x_p - centre[p])^2
+                       + sum_p cubic[p] * (x_p - centre[p])^3
                        + sum_{p*q} interaction[p*q] * (x_p - centre[p]) (x_q - centre[q])
                        + noise_deg * N(0, 1)       (seeded by the parameters and the seed)
 
@@ -42,6 +43,8 @@ class AnalyticOptions(BaseModel):
     centre: dict[str, float] = Field(default_factory=dict)
     linear: dict[str, float] = Field(default_factory=dict)
     quadratic: dict[str, float] = Field(default_factory=dict)
+    cubic: dict[str, float] = Field(default_factory=dict, description="a term no quadratic "
+                                    "response surface can fit")
     interaction: dict[str, float] = Field(default_factory=dict, description="'p*q' -> coef")
     noise_deg: float = Field(0.3, ge=0)
     no_pile_above: dict[str, float] = Field(default_factory=dict)
@@ -60,6 +63,7 @@ def true_aor(params: Mapping[str, float], options: AnalyticOptions | Mapping[str
     y = o.base_deg
     y += sum(c * d(p) for p, c in o.linear.items())
     y += sum(c * d(p) ** 2 for p, c in o.quadratic.items())
+    y += sum(c * d(p) ** 3 for p, c in o.cubic.items())
     for pq, c in o.interaction.items():
         p, q = pq.split("*")
         y += c * d(p.strip()) * d(q.strip())
