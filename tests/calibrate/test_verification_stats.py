@@ -82,3 +82,30 @@ def test_confirmation_without_a_surface_or_an_interval():
     out = confirmation(None, {}, np.array([44.0, 45.0]))
     assert out["confirmed"] is None
     assert compare_to_target(np.array([44.0, 45.0]), 44.12)["target_in_interval"] is True
+
+
+def test_a_refinement_rounds_confirmation_carries_the_offsets_error():
+    # The corrected prediction yhat(x) + (mean of n_prev piles at x_prev - yhat(x_prev)) has
+    # the variance s^2 (1/n + 1/n_prev) + Var(yhat(x) - yhat(x_prev)); the last term is
+    # statsmodels' t_test of the contrast of the two model rows.
+    import statsmodels.api as sm
+
+    from demcal import doe
+    from demcal.calibrate.stages import confirmation
+
+    rs, _, y = _surface()
+    chosen, prev = {"a": 0.65, "b": 0.8, "c": 0.5}, {"a": 0.6, "b": 1.1, "c": 0.3}
+    ols = sm.OLS(y, rs.model_matrix).fit()
+    rows = doe.model_matrix(np.array([[0.3, -0.2, 0.5], [0.2, 0.1, 0.3]]), rs.terms)
+    contrast = ols.t_test(rows[0] - rows[1])
+    offset, n, n_prev = -1.3, 6, 12
+    se = math.sqrt(ols.mse_resid * (1 / n + 1 / n_prev) + float(contrast.sd[0, 0]) ** 2)
+    pred = float(ols.predict(rows[:1])[0]) + offset
+    half = stats.t.ppf(0.975, ols.df_resid) * se
+    piles = np.full(n, pred) + np.array([-0.3, 0.3, -0.1, 0.1, 0.2, -0.2])
+    out = confirmation(rs, chosen, piles, offset=(offset, prev, n_prev))
+    assert out["confirm_pi_low_deg"] == pytest.approx(pred - half, rel=1e-10)
+    assert out["confirm_pi_high_deg"] == pytest.approx(pred + half, rel=1e-10)
+    assert out["confirmed"] is True
+    out = confirmation(rs, chosen, piles + half + 0.1, offset=(offset, prev, n_prev))
+    assert out["confirmed"] is False

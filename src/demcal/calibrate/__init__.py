@@ -69,7 +69,11 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       "candidates": [{"params": {name: value}, "predicted_aor_deg": float,
                       "pi_low_deg": float|None, "pi_high_deg": float|None,
                       "p_pile": float|None}],  (ranked, best first)
-      "chosen": {name: value}, "predicted_aor_deg": float}
+      "chosen": {name: value}, "predicted_aor_deg": float,
+      in a refinement round (demcal.calibrate.refine): "round": int (2, 3, ...),
+      "surface_offset_deg": float (the previous round's piles' mean less the surface
+      there; the surface was aimed at the target less it), "rounds": [the earlier rounds'
+      summaries]}
 - "verification": {"params": {name: value (full set)}, "aor_deg": [float|None],
       "outcomes": [str], "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n",
       "pile_png": str|None (side view of a verification pile with fitted lines),
@@ -80,7 +84,9 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       max_n until the half-width reaches the goal), "confirm_pi_low_deg",
       "confirm_pi_high_deg" (the response surface's 95 % prediction interval for the mean of
       the n runs at the optimum), "confirmed" (the mean inside it: Design-Expert's
-      confirmation), "target_in_interval" (the target inside ci_low_deg-ci_high_deg)}
+      confirmation; in a refinement round, of the surface corrected by the offset, widened
+      by the offset's own error), "target_in_interval" (the target inside
+      ci_low_deg-ci_high_deg), in a refinement round "round" and "rounds" (as optimize's)}
 
 ## runs (RunStore.record_run / runs(stage=...))
 Each RunRecord: stage, point (design row index), replicate, params (full set), seed,
@@ -90,10 +96,11 @@ AoRResult.to_dict() or the stand-in's dict), reason, attempts, timings, artefact
 Also written (extra keys, readers may ignore them): steepest "message"; optimize
 "classifier" and each candidate's "desirability"; verification "n_piles"; a retried run's
 result "first_attempt"; meta "result" also holds "optimum_full" (every parameter),
-"n_runs_executed", "ranges" (final factor ranges), "rsm_adequate" and "stages" (per stage:
-design, factors, responses, selected). Each stage row's inputs_hash is a hash of the stage's
-inputs (ranges, options, fixed values, test); runs are reused by run key, so a changed study
-re-runs only the runs whose key changed.
+"n_runs_executed", "ranges" (final factor ranges), "rounds" (one row per verification
+round: its optimum, prediction, piles and confirmation; the study's answer is the last),
+"rsm_adequate" and "stages" (per stage: design, factors, responses, selected). Each stage
+row's inputs_hash is a hash of the stage's inputs (ranges, options, fixed values, test); runs
+are reused by run key, so a changed study re-runs only the runs whose key changed.
 """
 
 from demcal.calibrate.pipeline import STAGES, calibrate, open_study

@@ -67,8 +67,26 @@ def _print_result(result: dict) -> None:
                              "within the noise"))
 
 
+def _print_rounds(result: dict) -> None:
+    """One line per verification round when the study refined its optimum."""
+    rounds = result.get("rounds") or []
+    if len(rounds) < 2:
+        return
+    for r in rounds:
+        mean = "n/a" if r["aor_mean_deg"] is None else f"{r['aor_mean_deg']:.2f} deg"
+        word = {True: "confirmed", False: "not confirmed", None: "no confirmation"}[
+            r["confirmed"]]
+        params = ", ".join(f"{k} {v:.4g}" for k, v in r["optimum"].items())
+        console.print(f"round {r['round']}: {params}: verification {mean} on {r['n_piles']} "
+                      f"piles, {word}", highlight=False)
+    console.print(f"the optimum above is round {rounds[-1]['round']}'s: each later round aimed "
+                  "the surface by the offset the previous round's piles measured "
+                  "(stages.verification.max_rounds)", highlight=False)
+
+
 def _print_verification(result: dict) -> None:
     """The verification against the measurement, the surface's promise and the target."""
+    _print_rounds(result)
     v = result["verification"]
     if v.get("p_value") is not None:
         verdict = ("consistent with", "") if v["consistent"] else ("differs from", "yellow")
@@ -78,7 +96,9 @@ def _print_verification(result: dict) -> None:
     if v.get("confirmed") is not None:
         word = ("confirmed", "") if v["confirmed"] else ("not confirmed", "yellow")
         console.print(styled(
-            f"confirmation: the response surface predicted {result['predicted_aor_deg']:.2f} "
+            f"confirmation: the response surface"
+            f"{' (corrected by the last offset)' if len(result.get('rounds') or []) > 1 else ''}"
+            f" predicted {result['predicted_aor_deg']:.2f} "
             f"deg, 95 % interval for the mean of {v['n']} runs "
             f"{v['confirm_pi_low_deg']:.2f}-{v['confirm_pi_high_deg']:.2f}: ", word))
     if v.get("target_in_interval") is False:

@@ -523,7 +523,11 @@ def _verification(b: _Builder) -> str:
         s = view.summary
         t = d.target or {}
         parts = ['<div class="row">' + b.table(T.verification_summary_table(s, d.target_aor_deg))
-                 + b.table(T.verification_table(s)) + "</div>",
+                 + b.table(T.verification_table(s)) + "</div>"]
+        rounds = T.verification_rounds_table(d.stage("optimize").summary, s, d.symbols)
+        if rounds is not None:
+            parts.append(b.table(rounds))
+        parts += [
                  b.figure("verification", "Verification replicates, their mean ± 1 std "
                           "(blue band) and the measurement (green).",
                           lambda: F.verification_figure(s, d.target_aor_deg, t.get("std_deg")))]
@@ -543,7 +547,8 @@ def _verification(b: _Builder) -> str:
 
         # every verification replicate's pile beside a measured photo (cycled): both are the
         # diagnostic figure of demcal.measure's boundary and flank-line fit
-        runs = sorted((r for r in view.runs if (r.artefacts or {}).get("pile_png")),
+        runs = sorted((r for r in view.runs if (r.artefacts or {}).get("pile_png")
+                       and r.params == s.get("params")),  # the last round's piles
                       key=lambda r: (r.point, r.replicate))
         shown = [p for p in photos if p.get("figure")]
         if runs:

@@ -104,6 +104,26 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
     return engine, test_out, shape
 
 
+def _verification_block(ver: Mapping[str, Any], opt: Mapping[str, Any],
+                        data: ReportData) -> dict[str, Any]:
+    """The card's [verification]: its line, the numbers behind it, the round it is from."""
+    verification = {"line": verification_line(ver, data.target)}
+    for key in ("aor_mean_deg", "aor_std_deg", "n", "relative_error_percent", "p_value",
+                "consistent", "ci_low_deg", "ci_high_deg", "confirm_pi_low_deg",
+                "confirm_pi_high_deg", "confirmed", "target_in_interval"):
+        if ver.get(key) is not None:
+            verification[key] = ver[key]
+    if data.target_aor_deg is not None:
+        verification["target_aor_deg"] = data.target_aor_deg
+    if opt.get("predicted_aor_deg") is not None:
+        verification["predicted_aor_deg"] = opt["predicted_aor_deg"]
+    if ver.get("round", 1) > 1:  # a refinement round's (demcal.calibrate.refine)
+        verification["round"] = ver["round"]
+        if opt.get("surface_offset_deg") is not None:
+            verification["surface_offset_deg"] = opt["surface_offset_deg"]
+    return verification
+
+
 def material_card(data: ReportData) -> MaterialCard | None:
     """The study's material card, or None when no full parameter set is stored.
 
@@ -137,16 +157,7 @@ def material_card(data: ReportData) -> MaterialCard | None:
     symbols = dict(data.symbols)
     for name, spec in PARAMETERS.items():
         symbols.setdefault(name, spec.paper_symbol)
-    verification = {"line": verification_line(ver, data.target)}
-    for key in ("aor_mean_deg", "aor_std_deg", "n", "relative_error_percent", "p_value",
-                "consistent", "ci_low_deg", "ci_high_deg", "confirm_pi_low_deg",
-                "confirm_pi_high_deg", "confirmed", "target_in_interval"):
-        if ver.get(key) is not None:
-            verification[key] = ver[key]
-    if data.target_aor_deg is not None:
-        verification["target_aor_deg"] = data.target_aor_deg
-    if opt.get("predicted_aor_deg") is not None:
-        verification["predicted_aor_deg"] = opt["predicted_aor_deg"]
+    verification = _verification_block(ver, opt, data)
     study = data.meta.get("study") or {}
     return MaterialCard(parameters=params, calibrated=tuple(k for k in chosen if k in params),
                         symbols=symbols, study=str(study.get("name") or data.study_dir.name),
