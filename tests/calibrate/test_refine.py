@@ -55,20 +55,9 @@ def test_rounds_move_the_optimum_towards_the_truth_on_fresh_seeds(curved_study):
     assert seeds == [10_001, 10_002, 10_003, 20_001, 20_002, 20_003, 30_001, 30_002, 30_003]
 
 
-def test_a_resumed_study_re_runs_no_round_even_on_another_machine(curved_study, monkeypatch):
-    import demcal.doe as doe_pkg
-
-    first = calibrate(curved_study, workers=1)
-    real = doe_pkg.optimize_target
-
-    def other_machine(*args, **kwargs):  # another BLAS: the optimizer's 9th digit moves
-        res = real(*args, **kwargs)
-        for sol in res.solutions:
-            sol.actual.update({k: v * (1 + 1e-9) for k, v in sol.actual.items()})
-        return res
-
-    monkeypatch.setattr(doe_pkg, "optimize_target", other_machine)
-    again = calibrate(curved_study, workers=1)
+def test_a_resumed_study_re_runs_no_round_even_on_another_machine(curved_study,
+                                                                   another_machine):
+    first, again = another_machine(curved_study)
     assert again["n_runs_executed"] == 0
     assert again["rounds"] == first["rounds"] and again["verification"] == first["verification"]
 

@@ -86,23 +86,11 @@ def test_unstable_run_is_stored_and_retried_with_a_smaller_step(study_file):
 
 
 def test_a_resume_on_another_machine_keeps_the_optimum_and_its_verification(study_file,
-                                                                            monkeypatch):
+                                                                            another_machine):
     # Another machine's BLAS and numpy move the optimizer's answer in the 8th digit; the
     # verification's runs are keyed by their exact parameters, so a resume that took the new
     # answer would run them again. The stored optimum still hits the target: it is kept.
-    import demcal.doe as doe_pkg
-
-    first = calibrate(study_file, workers=1)
-    real = doe_pkg.optimize_target
-
-    def other_machine(*args, **kwargs):
-        res = real(*args, **kwargs)
-        for sol in res.solutions:
-            sol.actual.update({k: v * (1 + 1e-9) for k, v in sol.actual.items()})
-        return res
-
-    monkeypatch.setattr(doe_pkg, "optimize_target", other_machine)
-    again = calibrate(study_file, workers=1)
+    first, again = another_machine(study_file)
     assert again["n_runs_executed"] == 0
     assert again["optimum"] == first["optimum"] and again["verification"] == first["verification"]
     # a different target is a different problem: the optimum is found anew (perturbed here)
