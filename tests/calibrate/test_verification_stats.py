@@ -85,27 +85,53 @@ def test_confirmation_without_a_surface_or_an_interval():
 
 
 def test_a_refinement_rounds_confirmation_carries_the_offsets_error():
-    # The corrected prediction yhat(x) + (mean of n_prev piles at x_prev - yhat(x_prev)) has
-    # the variance s^2 (1/n + 1/n_prev) + Var(yhat(x) - yhat(x_prev)); the last term is
-    # statsmodels' t_test of the contrast of the two model rows.
+    # The corrected prediction yhat(x) + sum_j w_j (ybar_j - yhat(x_j)), w_j = n_j / N, has
+    # the variance s^2 (1/n + 1/N) + Var(yhat(x) - sum_j w_j yhat(x_j)); the last term is
+    # statsmodels' t_test of that contrast of the model rows.
     import statsmodels.api as sm
 
     from demcal import doe
-    from demcal.calibrate.stages import confirmation
+    from demcal.calibrate.stages import Offset, confirmation
 
     rs, _, y = _surface()
-    chosen, prev = {"a": 0.65, "b": 0.8, "c": 0.5}, {"a": 0.6, "b": 1.1, "c": 0.3}
+    chosen = {"a": 0.65, "b": 0.8, "c": 0.5}
+    earlier = [({"a": 0.6, "b": 1.1, "c": 0.3}, 12), ({"a": 0.7, "b": 0.9, "c": 0.6}, 4)]
     ols = sm.OLS(y, rs.model_matrix).fit()
-    rows = doe.model_matrix(np.array([[0.3, -0.2, 0.5], [0.2, 0.1, 0.3]]), rs.terms)
-    contrast = ols.t_test(rows[0] - rows[1])
-    offset, n, n_prev = -1.3, 6, 12
-    se = math.sqrt(ols.mse_resid * (1 / n + 1 / n_prev) + float(contrast.sd[0, 0]) ** 2)
+    rows = doe.model_matrix(np.array([[0.3, -0.2, 0.5], [0.2, 0.1, 0.3], [0.4, -0.1, 0.6]]),
+                            rs.terms)
+    contrast = ols.t_test(rows[0] - 0.75 * rows[1] - 0.25 * rows[2])
+    offset, n = -1.3, 6
+    se = math.sqrt(ols.mse_resid * (1 / n + 1 / 16) + float(contrast.sd[0, 0]) ** 2)
     pred = float(ols.predict(rows[:1])[0]) + offset
     half = stats.t.ppf(0.975, ols.df_resid) * se
     piles = np.full(n, pred) + np.array([-0.3, 0.3, -0.1, 0.1, 0.2, -0.2])
-    out = confirmation(rs, chosen, piles, offset=(offset, prev, n_prev))
+    measured = Offset(offset, earlier, [1, 2])
+    out = confirmation(rs, chosen, piles, offset=measured)
     assert out["confirm_pi_low_deg"] == pytest.approx(pred - half, rel=1e-10)
     assert out["confirm_pi_high_deg"] == pytest.approx(pred + half, rel=1e-10)
     assert out["confirmed"] is True
-    out = confirmation(rs, chosen, piles + half + 0.1, offset=(offset, prev, n_prev))
+    out = confirmation(rs, chosen, piles + half + 0.1, offset=measured)
     assert out["confirmed"] is False
+
+
+def test_the_offset_pools_the_rounds_that_agreed_and_restarts_after_one_that_did_not():
+    from demcal.calibrate.stages import Rounds
+
+    rs, _, _ = _surface()
+    pts = [{"a": 0.6, "b": 1.1, "c": 0.3}, {"a": 0.7, "b": 0.9, "c": 0.6},
+           {"a": 0.65, "b": 0.8, "c": 0.5}]
+    pred = rs.predict({k: [p[k] for p in pts] for k in "abc"}, units="actual")
+    rounds = Rounds(optimize=[{"chosen": p} for p in pts],
+                    verification=[{"aor_mean_deg": float(pred[0]) - 2.0, "n_piles": 12,
+                                   "confirmed": False, "round": 1},
+                                  {"aor_mean_deg": float(pred[1]) - 1.0, "n_piles": 4,
+                                   "confirmed": True, "round": 2}])
+    both = rounds.offset(rs)
+    assert both.rounds == [1, 2] and both.deg == pytest.approx((12 * -2.0 + 4 * -1.0) / 16)
+    rounds.verification[1]["confirmed"] = False  # round 2 disagreed: its offset alone
+    assert rounds.offset(rs).rounds == [2] and rounds.offset(rs).deg == pytest.approx(-1.0)
+    rounds.verification.append({"aor_mean_deg": float(pred[2]) + 0.5, "n_piles": 6,
+                                "confirmed": True, "round": 3})
+    three = rounds.offset(rs)
+    assert three.rounds == [2, 3] and three.deg == pytest.approx((4 * -1.0 + 6 * 0.5) / 10)
+    assert Rounds().offset(rs).at == []

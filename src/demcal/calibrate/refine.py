@@ -6,7 +6,8 @@ When the verification does not confirm the surface (its mean lies outside the su
 prediction interval for the mean of that many runs, Design-Expert's confirmation) or the
 target lies outside the piles' own 95 % interval, and ``stages.verification.max_rounds``
 allows, the next round corrects the surface by the offset the piles measured (their mean
-less the surface's prediction at that optimum), reads the optimum where the corrected
+less the surface's prediction at that optimum; pooled with the earlier rounds' while they
+agree, :meth:`~demcal.calibrate.stages.Rounds.offset`), reads the optimum where the corrected
 surface meets the target, starting from the previous one, and verifies it on seeds of its
 own: a Newton step on the real test with the surface's slopes. It is what an engineer does by
 hand after a failed confirmation ("the model reads 1.4 deg high here: aim 1.4 deg higher"),

@@ -42,15 +42,45 @@ class Rounds:
     verification: list[dict[str, Any]] = field(default_factory=list)
     stored: dict[int, dict[str, Any]] | None = None
 
-    def offset(self, model: Any) -> tuple[float, dict[str, float] | None, int]:
-        """The surface's offset (deg) measured by the last finished round, where and on how
-        many piles: (mean of its piles - the surface's prediction there, its optimum, its
-        number of piles); (0, None, 0) in round 1."""
-        if not self.verification:
-            return 0.0, None, 0
-        ver, at = self.verification[-1], self.optimize[-1]["chosen"]
-        pred = float(model.predict({n: [at[n]] for n in model.names}, units="actual")[0])
-        return float(ver["aor_mean_deg"]) - pred, dict(at), int(ver["n_piles"])
+    def offset(self, model: Any) -> Offset:
+        """The surface's offset measured by the finished rounds (:class:`Offset`).
+
+        Each round's piles measure the offset at its optimum (their mean less the surface's
+        prediction there). The estimate pools, weighted by their piles, the last round and
+        the rounds before it back to the last one whose mean was not confirmed: a confirmed
+        round agreed with the offset it was aimed by, so the offsets are one (the
+        confirmation is that consistency test); a round that disagreed starts a new
+        estimate, so an offset that changes along the way (a curved response) is followed.
+        """
+        pool: list[int] = []
+        for j in range(len(self.verification) - 1, -1, -1):
+            pool.insert(0, j)
+            if self.verification[j].get("confirmed") is not True:
+                break
+        at = [(dict(self.optimize[j]["chosen"]), int(self.verification[j]["n_piles"]))
+              for j in pool]
+        if not at:
+            return Offset()
+        y = np.array([float(self.verification[j]["aor_mean_deg"]) for j in pool])
+        x = {n: [p[n] for p, _ in at] for n in model.names}
+        pred = np.asarray(model.predict(x, units="actual"), dtype=float)
+        w = np.array([n for _, n in at], dtype=float)
+        return Offset(float(np.sum(w * (y - pred)) / w.sum()), at,
+                      [int(self.verification[j].get("round", 1)) for j in pool])
+
+
+@dataclass(frozen=True)
+class Offset:
+    """A surface offset (deg) and the optimum piles it was measured on.
+
+    ``deg``: the pooled offset (piles' means less the surface, weighted by the piles);
+    ``at``: [(the optimum's factor values, its number of piles)]; ``rounds``: their round
+    numbers. Round 1 has none: ``Offset()``.
+    """
+
+    deg: float = 0.0
+    at: list[tuple[dict[str, float], int]] = field(default_factory=list)
+    rounds: list[int] = field(default_factory=list)
 
 
 @dataclass
@@ -711,15 +741,16 @@ def optimize(ctx: Context) -> dict[str, Any]:
     """Settings whose predicted AoR equals the target, ranked; only inside the pile region.
 
     In a refinement round (``ctx.rounds.number`` > 1, :mod:`demcal.calibrate.refine`) the
-    surface is corrected by the offset the previous round measured at its optimum (its piles'
-    mean minus the surface's prediction there): the optimum is where the surface reads the
+    surface is corrected by the offset the earlier rounds measured at their optima
+    (:meth:`Rounds.offset`): the optimum is where the surface reads the
     target minus that offset, searched from the previous optimum, so it moves along the
     target contour instead of jumping to another branch of it.
     """
     opts = ctx.study.stages.optimize
     model = ctx.results["_rsm_model"]
     k = ctx.rounds.number
-    offset, _, _ = ctx.rounds.offset(model)
+    measured = ctx.rounds.offset(model)
+    offset = measured.deg
     aim = ctx.target - offset
     opts_json = opts.model_dump(mode="json")
     if ctx.rounds.stored is None:  # before begin() marks the stage running
@@ -765,7 +796,7 @@ def optimize(ctx: Context) -> dict[str, Any]:
                "chosen": cands[0]["params"], "predicted_aor_deg": cands[0]["predicted_aor_deg"],
                "classifier": clf.describe(), "opts": opts_json}
     if k > 1:
-        summary.update(round=k, surface_offset_deg=offset)
+        summary.update(round=k, surface_offset_deg=offset, offset_from_rounds=measured.rounds)
     return _store_optimum(ctx, summary, h)
 
 
@@ -844,9 +875,7 @@ def compare_to_target(values: np.ndarray, target: float, target_std: float | Non
 
 
 def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
-                 alpha: float = 0.05,
-                 offset: tuple[float, Mapping[str, float] | None, int] = (0.0, None, 0)
-                 ) -> dict[str, Any]:
+                 alpha: float = 0.05, offset: Offset | None = None) -> dict[str, Any]:
     """Did the optimum give what the response surface promised? (deg)
 
     Design-Expert's confirmation: the mean of the n verification piles against the surface's
@@ -854,10 +883,10 @@ def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
     (``predict_interval(..., n_new=n)``). Keys ``confirm_pi_low_deg``, ``confirm_pi_high_deg``
     and ``confirmed`` (the mean inside that interval); None without a surface or a pile.
 
-    In a refinement round the promise is the surface corrected by ``offset`` = (b, x_prev,
-    n_prev): b measured as the mean of n_prev piles at x_prev less the surface there. Then the
-    prediction is yhat(x) + b and its variance s^2 (1/n + 1/n_prev + d' (X'X)^-1 d), with d
-    the difference of the model rows at x and x_prev (the two predictions share their
+    In a refinement round the promise is the surface corrected by ``offset``: b = sum_j w_j
+    (ybar_j - yhat(x_j)) over earlier optima x_j with n_j piles (w_j = n_j / N). Then the
+    prediction is yhat(x) + b and its variance s^2 (1/n + 1/N + d' (X'X)^-1 d), with d the
+    model row at x less the w-weighted rows at the x_j (the predictions share their
     coefficients' error; s^2 the residual mean square, t on its df).
     """
     out: dict[str, Any] = {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None,
@@ -865,19 +894,20 @@ def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
     if model is None or values.size == 0 or model.df_resid <= 0:
         return out
     at = {n: [chosen[n]] for n in model.names}
-    b, prev, n_prev = offset
-    if prev is None:
+    if offset is None or not offset.at:
         iv = model.predict_interval(at, units="actual", alpha=alpha, n_new=int(values.size))
         lo, hi = float(iv["pi_low"].iloc[0]), float(iv["pi_high"].iloc[0])
     else:
         from scipy import stats
 
         space = model.factors.subset(model.names)
-        rows = [doe.model_matrix(space.to_coded(np.array([[p[n] for n in model.names]])),
-                                 model.terms)[0] for p in (chosen, prev)]
-        d = rows[0] - rows[1]
-        var = model.mse * (1 / values.size + 1 / n_prev + float(d @ model.xtx_inv @ d))
-        pred = float(model.predict(at, units="actual")[0]) + b
+        pts = [chosen, *[p for p, _ in offset.at]]
+        rows = doe.model_matrix(space.to_coded(np.array([[p[n] for n in model.names]
+                                                         for p in pts])), model.terms)
+        n_at = np.array([n for _, n in offset.at], dtype=float)
+        d = rows[0] - (n_at / n_at.sum()) @ rows[1:]
+        var = model.mse * (1 / values.size + 1 / n_at.sum() + float(d @ model.xtx_inv @ d))
+        pred = float(model.predict(at, units="actual")[0]) + offset.deg
         half = float(stats.t.ppf(1 - alpha / 2, model.df_resid)) * math.sqrt(var)
         lo, hi = pred - half, pred + half
     out.update(confirm_pi_low_deg=lo, confirm_pi_high_deg=hi,
@@ -978,7 +1008,7 @@ def verification(ctx: Context) -> dict[str, Any]:
                **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)}
     model = ctx.results.get("_rsm_model")
     summary.update(confirmation(model, ctx.results["optimize"]["chosen"], vals,
-                                offset=ctx.rounds.offset(model) if k > 1 else (0.0, None, 0)))
+                                offset=ctx.rounds.offset(model)))
     if k > 1:
         summary["round"] = k
     summary = _with_rounds(summary, ctx.rounds.verification)
