@@ -29,6 +29,7 @@ def test_calibrate_cli_json_layout(study_file, tmp_path):
                                          "half_width_deg", "half_width_goal_deg",
                                          "half_width_reached", "confirm_pi_low_deg",
                                          "confirm_pi_high_deg", "confirmed",
+                                         "tolerance_percent", "within_tolerance",
                                          "target_in_interval", "aor_deg"}
     v = data["verification"]
     assert v["ci_low_deg"] < v["aor_mean_deg"] < v["ci_high_deg"] and 0 <= v["p_value"] <= 1

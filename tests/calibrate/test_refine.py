@@ -82,6 +82,23 @@ def test_a_verification_without_every_pile_is_no_reason_for_a_round():
     assert not needs_another_round({**base, "confirmed": True})
     assert not needs_another_round({**base, "confirmed": None, "target_in_interval": None})
     assert not needs_another_round({**base, "aor_deg": [40.0, None, 39.0], "n_piles": 2})
+    agreed = {**base, "confirmed": True, "relative_error_percent": 2.5}
+    assert needs_another_round(agreed, tolerance_percent=2.0)
+    assert not needs_another_round(agreed, tolerance_percent=3.0)
+
+
+def test_an_acceptance_tolerance_asks_for_rounds_and_the_result_says_if_it_was_met(
+        curved_study):
+    # a straight surface confirms round 1, but its mean misses the target by more than a
+    # 0.01 % tolerance: a second round runs, and the result says whether it met it
+    text = curved_study.read_text().replace(CUBIC + "\n", "").replace(
+        "max_rounds = 3\n", "max_rounds = 2\ntolerance_percent = 0.01\n")
+    curved_study.write_text(text)
+    res = calibrate(curved_study, workers=1)
+    first, v = res["rounds"][0], res["verification"]
+    assert first["confirmed"] is True and first["within_tolerance"] is False
+    assert len(res["rounds"]) == 2 and v["tolerance_percent"] == 0.01
+    assert v["within_tolerance"] is (v["relative_error_percent"] <= 0.01)
 
 
 def test_the_command_line_and_the_report_show_every_round(curved_study, tmp_path):

@@ -4,7 +4,8 @@ Round 1 reads the optimum off the response surface of the rsm stage and verifies
 seeds (:func:`demcal.calibrate.stages.optimize`, :func:`~demcal.calibrate.stages.verification`).
 When the verification does not confirm the surface (its mean lies outside the surface's 95 %
 prediction interval for the mean of that many runs, Design-Expert's confirmation) or the
-target lies outside the piles' own 95 % interval, and ``stages.verification.max_rounds``
+target lies outside the piles' own 95 % interval, or (with ``tolerance_percent``, the study's
+acceptance criterion) the mean misses the target by more than it, and ``max_rounds``
 allows, the next round corrects the surface by the offset the piles measured (their mean
 less the surface's prediction at that optimum; pooled with the earlier rounds' while they
 agree, :meth:`~demcal.calibrate.stages.Rounds.offset`), reads the optimum where the corrected
@@ -25,17 +26,21 @@ from demcal.calibrate import stages as st
 __all__ = ["needs_another_round", "round_row", "run_rounds"]
 
 
-def needs_another_round(verification: dict[str, Any]) -> bool:
+def needs_another_round(verification: dict[str, Any],
+                        tolerance_percent: float | None = None) -> bool:
     """Does a verification summary call for a refinement round?
 
     Yes when every run formed a pile and either the surface's confirmation failed
-    (``confirmed`` False) or the target lies outside the piles' 95 % interval
-    (``target_in_interval`` False). Runs without a pile are a problem of the region, not of
-    the surface: no round.
+    (``confirmed`` False), the target lies outside the piles' 95 % interval
+    (``target_in_interval`` False), or the mean misses the target by more than
+    ``tolerance_percent`` (the study's acceptance criterion, when it sets one). Runs without a
+    pile are a problem of the region, not of the surface: no round.
     """
     if verification.get("n_piles", 0) < len(verification.get("aor_deg") or []):
         return False
-    return verification.get("confirmed") is False or \
+    rel = verification.get("relative_error_percent")
+    missed = tolerance_percent is not None and rel is not None and rel > tolerance_percent
+    return missed or verification.get("confirmed") is False or \
         verification.get("target_in_interval") is False
 
 
@@ -43,7 +48,8 @@ def round_row(optimum: dict[str, Any], verification: dict[str, Any]) -> dict[str
     """One round in a few numbers: its optimum, prediction and verification (deg)."""
     keys = ("n_piles", "aor_mean_deg", "aor_std_deg", "relative_error_percent",
             "half_width_deg", "ci_low_deg", "ci_high_deg", "confirm_pi_low_deg",
-            "confirm_pi_high_deg", "confirmed", "target_in_interval", "p_value")
+            "confirm_pi_high_deg", "confirmed", "target_in_interval", "within_tolerance",
+            "p_value")
     return {"round": int(verification.get("round", 1)), "optimum": optimum["chosen"],
             "predicted_aor_deg": optimum["predicted_aor_deg"],
             **{k: verification.get(k) for k in keys}}
@@ -57,11 +63,12 @@ def run_rounds(ctx: st.Context) -> dict[str, Any]:
     so a round never reuses a pile of another. Everything is keyed like any other run: a
     resumed study finds every round's runs and re-runs none.
     """
-    max_rounds = ctx.study.stages.verification.max_rounds
+    opts = ctx.study.stages.verification
     while True:
         st.optimize(ctx)
         ver = st.verification(ctx)
-        if ctx.rounds.number >= max_rounds or not needs_another_round(ver):
+        if ctx.rounds.number >= opts.max_rounds or \
+                not needs_another_round(ver, opts.tolerance_percent):
             return ver
         ctx.rounds.optimize.append({k: v for k, v in ctx.results["optimize"].items()
                                     if k != "rounds"})

@@ -1007,6 +1007,9 @@ def verification(ctx: Context) -> dict[str, Any]:
                "sized_with_std_deg": sigma, "sized_with_df": sigma_df,
                **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)}
     model = ctx.results.get("_rsm_model")
+    tol = opts.tolerance_percent
+    summary["tolerance_percent"] = tol
+    summary["within_tolerance"] = None if tol is None or rel is None else bool(rel <= tol)
     summary.update(confirmation(model, ctx.results["optimize"]["chosen"], vals,
                                 offset=ctx.rounds.offset(model)))
     if k > 1:

@@ -257,6 +257,10 @@ class VerificationOptions(_M):
         "confirmed by the surface, or the target lies outside its 95 % interval, refit the "
         "surface with its piles, re-optimise and verify again on fresh seeds "
         "(demcal.calibrate.refine; 1: no refinement)")
+    tolerance_percent: float | None = Field(
+        None, gt=0, le=100, description="acceptance criterion: a round whose mean misses the "
+        "target by more than this (% of the target) also calls for another round, within "
+        "max_rounds; the result says whether it was met")
 
 
 class Stages(_M):
@@ -550,7 +554,8 @@ n_solutions = 5
 n = 3                     # runs to start with, on fresh seeds
 half_width_deg = 1.5      # add runs until the 95 % interval is +/- this (deg) ...
 max_n = 12                # ... or this many runs
-max_rounds = 1            # > 1: refine the optimum while the verification disagrees
+max_rounds = 1            # > 1: refine the optimum while the verification disagrees ...
+# tolerance_percent = 2.0 # ... or misses the target by more than this (% of the target)
 
 [executor]
 # workers = 2             # local process pool (default: CPU count)

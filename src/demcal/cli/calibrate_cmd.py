@@ -101,6 +101,13 @@ def _print_verification(result: dict) -> None:
             f" predicted {result['predicted_aor_deg']:.2f} "
             f"deg, 95 % interval for the mean of {v['n']} runs "
             f"{v['confirm_pi_low_deg']:.2f}-{v['confirm_pi_high_deg']:.2f}: ", word))
+    if v.get("within_tolerance") is False:
+        console.print(styled(("note:", "yellow"), f" the verification misses the target by "
+                             f"{v['relative_error_percent']:.2f} %, more than the study's "
+                             f"tolerance of {v['tolerance_percent']:g} % (after "
+                             f"{len(result.get('rounds') or [1])} round(s); raise "
+                             "stages.verification.max_rounds to refine further)"),
+                      highlight=False)
     if v.get("target_in_interval") is False:
         off = v["aor_mean_deg"] - result["target_aor_deg"]
         console.print(styled(("note:", "yellow"), f" the target {result['target_aor_deg']:.2f} "
