@@ -80,7 +80,7 @@ def _print_rounds(result: dict) -> None:
         console.print(f"round {r['round']}: {params}: verification {mean} on {r['n_piles']} "
                       f"piles, {word}", highlight=False)
     console.print(f"the optimum above is round {rounds[-1]['round']}'s: each later round aimed "
-                  "the surface by the offset the previous round's piles measured "
+                  "the surface by the offset the earlier rounds' piles measured "
                   "(stages.verification.max_rounds)", highlight=False)
 
 
