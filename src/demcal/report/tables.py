@@ -453,7 +453,7 @@ def verification_rounds_table(optimize: Mapping[str, Any], verification: Mapping
     cols = ["round", *[symbols.get(n, n) for n in names], "surface offset (deg)", "piles",
             "mean AoR (deg)", "std (deg)", "relative error %", "confirmation"]
     return Table("verification_rounds", "Verification rounds: each later round aims the "
-                 "surface by the offset the previous round's piles measured; the study's "
+                 "surface by the offset the earlier rounds' piles measured; the study's "
                  "answer is the last round's", _frame(rows, cols))
 
 
