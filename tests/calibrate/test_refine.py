@@ -99,6 +99,14 @@ def test_an_acceptance_tolerance_asks_for_rounds_and_the_result_says_if_it_was_m
     assert first["confirmed"] is True and first["within_tolerance"] is False
     assert len(res["rounds"]) == 2 and v["tolerance_percent"] == 0.01
     assert v["within_tolerance"] is (v["relative_error_percent"] <= 0.01)
+    # 0.01 % of 40 deg is far inside the piles' interval: the command line says so
+    from typer.testing import CliRunner
+
+    from demcal.cli import app
+
+    out = CliRunner().invoke(app, ["calibrate", str(curved_study), "--workers", "1",
+                                   "--no-report"]).output
+    assert "is narrower than the verification's 95 % interval" in " ".join(out.split())
 
 
 def test_the_command_line_and_the_report_show_every_round(curved_study, tmp_path):

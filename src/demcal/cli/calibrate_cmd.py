@@ -108,6 +108,12 @@ def _print_verification(result: dict) -> None:
                              f"{len(result.get('rounds') or [1])} round(s); raise "
                              "stages.verification.max_rounds to refine further)"),
                       highlight=False)
+    tol, hw = v.get("tolerance_percent"), v.get("half_width_deg")
+    if tol is not None and hw is not None and tol * result["target_aor_deg"] / 100 < hw:
+        console.print(styled(("note:", "yellow"), f" the tolerance ({tol:g} % = "
+                             f"{tol * result['target_aor_deg'] / 100:.2f} deg) is narrower "
+                             f"than the verification's 95 % interval (+/- {hw:.2f} deg): "
+                             "whether a round meets it is partly chance"), highlight=False)
     if v.get("target_in_interval") is False:
         off = v["aor_mean_deg"] - result["target_aor_deg"]
         console.print(styled(("note:", "yellow"), f" the target {result['target_aor_deg']:.2f} "
