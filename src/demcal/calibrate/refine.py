@@ -70,7 +70,6 @@ def run_rounds(ctx: st.Context) -> dict[str, Any]:
         if ctx.rounds.number >= opts.max_rounds or \
                 not needs_another_round(ver, opts.tolerance_percent):
             return ver
-        ctx.rounds.optimize.append({k: v for k, v in ctx.results["optimize"].items()
-                                    if k != "rounds"})
-        ctx.rounds.verification.append({k: v for k, v in ver.items() if k != "rounds"})
+        ctx.rounds.optimize.append(ctx.results["optimize"])  # their history is dropped
+        ctx.rounds.verification.append(ver)                 # when they are stored again
         ctx.rounds.number += 1

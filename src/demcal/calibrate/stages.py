@@ -729,9 +729,9 @@ def stored_rounds(record: Any) -> dict[int, dict[str, Any]]:
 
 
 def _with_rounds(summary: dict[str, Any], earlier: list[dict[str, Any]]) -> dict[str, Any]:
-    """``summary`` of the current round as stored: its round number and, when there were
-    earlier rounds, their summaries (without their own history)."""
-    out = dict(summary)
+    """``summary`` of the current round as stored (any history it carried dropped) and, when
+    there were earlier rounds, their summaries (without their own history)."""
+    out = {k: v for k, v in summary.items() if k != "rounds"}
     if earlier:
         out["rounds"] = [{k: v for k, v in e.items() if k != "rounds"} for e in earlier]
     return out
@@ -767,7 +767,6 @@ def optimize(ctx: Context) -> dict[str, Any]:
     kept = _stored_optimum(ctx.rounds.stored.get(k), (ctx.target, aim), model, constraint,
                            opts_json)
     if kept is not None:  # a resume (on this or another machine): the decision stands
-        kept = {kk: v for kk, v in kept.items() if kk != "rounds"}
         return _store_optimum(ctx, kept, h)
     prev = ctx.rounds.optimize[-1]["chosen"] if ctx.rounds.optimize else None
     near = prev or {n: ctx.results["steepest"]["levels"][n][1] for n in names}

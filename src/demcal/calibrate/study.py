@@ -254,9 +254,9 @@ class VerificationOptions(_M):
     max_n: int = Field(12, ge=1, le=200, description="most verification runs")
     max_rounds: int = Field(
         1, ge=1, le=5, description="verification rounds: while a round's mean is not "
-        "confirmed by the surface, or the target lies outside its 95 % interval, refit the "
-        "surface with its piles, re-optimise and verify again on fresh seeds "
-        "(demcal.calibrate.refine; 1: no refinement)")
+        "confirmed by the surface, or the target lies outside its 95 % interval, aim the "
+        "surface by the offset its piles measured, re-optimise and verify again on fresh "
+        "seeds (demcal.calibrate.refine; 1: no refinement)")
     tolerance_percent: float | None = Field(
         None, gt=0, le=100, description="acceptance criterion: a round whose mean misses the "
         "target by more than this (% of the target) also calls for another round, within "
