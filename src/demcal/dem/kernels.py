@@ -225,37 +225,49 @@ def pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags):
         rx = 0.0
         ry = 0.0
         rz = 0.0
+        pix = s_pos[i, 0]
+        piy = s_pos[i, 1]
+        piz = s_pos[i, 2]
+        ri = s_radius[i]
         n_nb = nb_count[i]
         if n_nb > cap:
             n_nb = cap
         for k in range(n_nb):
             j = nb_index[i, k]
-            # canonical orientation: a = lower index, b = higher index
-            if i < j:
-                a = i
-                b = j
-            else:
-                a = j
-                b = i
-            dx = s_pos[b, 0] - s_pos[a, 0]
-            dy = s_pos[b, 1] - s_pos[a, 1]
-            dz = s_pos[b, 2] - s_pos[a, 2]
-            ra = s_radius[a]
-            rb = s_radius[b]
-            rsum = ra + rb
-            dist2 = dx * dx + dy * dy + dz * dz
+            # from i to j; most candidates are out of reach and end here
+            ex = s_pos[j, 0] - pix
+            ey = s_pos[j, 1] - piy
+            ez = s_pos[j, 2] - piz
+            rj = s_radius[j]
+            rsum = ri + rj
+            dist2 = ex * ex + ey * ey + ez * ez
             reach = rsum + contact_margin
-            # the clump of j is looked up only for pairs within reach
             cj = s_clump[j] if dist2 < reach * reach else ci
             if dist2 >= reach * reach or c_state[cj] != ACTIVE:
                 zero3(nb_hist, i, k)
                 if use_c:
                     zero3(nb_rhist, i, k)
                 continue
+            # canonical orientation: a = lower index, b = higher index; d = b - a is the
+            # same on both sides bitwise (x - y == -(y - x) in IEEE arithmetic)
             if i < j:
+                a = i
+                b = j
+                ra = ri
+                rb = rj
+                dx = ex
+                dy = ey
+                dz = ez
                 ca = ci
                 cb = cj
             else:
+                a = j
+                b = i
+                ra = rj
+                rb = ri
+                dx = -ex
+                dy = -ey
+                dz = -ez
                 ca = cj
                 cb = ci
             dist = math.sqrt(dist2)
@@ -375,6 +387,10 @@ def wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags):
             for k in range(n_walls):
                 zero3(s_wall_force, i, k)
             continue
+        near = walls_near[i]
+        if near == 0:
+            # no candidate wall: the sums of pair_contacts stand (most spheres)
+            continue
         w = clu_world[ci]
         dt = worlds_dt[w]
         spin = load2(c_omega, ci)
@@ -397,8 +413,7 @@ def wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags):
         viy = clu_veval[ci, 1]
         viz = clu_veval[ci, 2]
         mass_i = clu_mass[ci]
-        near = walls_near[i]
-        for k in range(n_walls if near != 0 else 0):
+        for k in range(n_walls):
             if ((near >> k) & 1) == 0:
                 continue
             wt = wall_type[w, k]  # never WALL_NONE: wall_candidates marks none of those
