@@ -81,6 +81,7 @@ class Clumps(NamedTuple):
     state: np.ndarray  #: (n_c,) int32 INACTIVE / ACTIVE / REMOVED
     first: np.ndarray  #: (n_c,) int32 index of its first sphere
     n_spheres: np.ndarray  #: (n_c,) int32 number of its spheres
+    scratch: np.ndarray  #: (n_c, 6) within a step: body-frame angular momentum, torque (N m)
 
 
 class Neighbors(NamedTuple):
@@ -171,7 +172,7 @@ KEYS: dict[type, tuple[str, ...]] = {
     Spheres: ("s_pos", "s_ref", "s_radius", "s_clump", "s_material", "s_offset", "s_cellkey",
               "s_force", "s_torque", "s_roll"),
     Clumps: ("c_pos", "c_quat", "c_vel", "c_veval", "c_angmom", "c_omega", "c_mass",
-             "c_inertia", "c_world", "c_state", "c_first", "c_count"),
+             "c_inertia", "c_world", "c_state", "c_first", "c_count", "c_scratch"),
     Walls: ("wall_type", "wall_origin", "wall_geom", "wall_vel", "wall_material", "wall_ref",
             "s_wall_near", "w_hist", "w_rhist", "s_wall_force"),
     Grid: ("grid_lo", "bucket_count", "bucket_members"),

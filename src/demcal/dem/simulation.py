@@ -215,6 +215,7 @@ class Simulation:
         omega = np.asarray(c_omega, dtype=np.float64).reshape(n_clu, 3)
         a["c_omega"] = omega
         a["c_angmom"] = self._angmom_from_omega(a["c_quat"], a["c_inertia"], omega)
+        a["c_scratch"] = np.zeros((n_clu, 6))  # within a step only (kernels.clump_step)
         a["s_pos"] = np.zeros((n_sph, 3))
         self._place_all_spheres()
         a["s_ref"] = a["s_pos"].copy()
