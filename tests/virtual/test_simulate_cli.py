@@ -64,6 +64,23 @@ def test_summary_spread_leaves_out_rejected_flanks():
     assert out["aor_std_deg"] == pytest.approx(1.0)
 
 
+def test_summary_outcome_of_a_tie_is_the_first_runs_in_every_process():
+    """Two replicates, two outcomes: the summary names the first run's, whatever the order in
+    which this process hashes strings (it once took a set's order: 'column' in one process,
+    'unsettled' in the next, for the same runs)."""
+    from types import SimpleNamespace
+
+    from demcal.cli.simulate_cmd import summarize_runs
+
+    common = {"aor_deg": None, "n_particles": 150, "particles_lost": 0, "settled": False,
+              "time_step_s": 1e-6, "sim_time_s": 1.0, "wall_time_s": 1.0, "params": {}}
+    column = SimpleNamespace(outcome="column", **common)
+    unsettled = SimpleNamespace(outcome="unsettled", **common)
+    assert summarize_runs([column, unsettled])["outcome"] == "column"
+    assert summarize_runs([unsettled, column])["outcome"] == "unsettled"
+    assert summarize_runs([unsettled, column, column])["outcome"] == "column"
+
+
 def test_summary_line_gives_the_standard_error_and_the_seed_scatter():
     from demcal.cli.simulate_cmd import summary_line
 

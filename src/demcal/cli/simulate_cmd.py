@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import collections
 import json
 import math
 from pathlib import Path
@@ -50,7 +51,9 @@ def summarize_runs(results: list) -> dict:
     if len(piles) == len(results):
         outcome = "pile"
     else:
-        outcome = max(set(outcomes), key=outcomes.count)
+        # the most frequent; a tie goes to the first run's (not to the order of a set of
+        # strings, which changes from one process to the next)
+        outcome = collections.Counter(outcomes).most_common(1)[0][0]
     out: dict = {"outcome": outcome, "outcomes": outcomes, "n_runs": len(results),
                  "n_piles": len(piles)}
     if piles and outcome == "pile":
