@@ -687,22 +687,21 @@ def free_rotation_pair(dt_a, dt_b, a, b):
 
 
 @njit(cache=True)
-def _rotation_input(clu, c):
-    """``(l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)`` of clump ``c`` after its kick."""
-    sc = clu.scratch
-    inertia = clu.inertia
-    q = clu.quat
+def _rotation_input(sc, inertia, q, c):
+    """``(l0, l1, l2, i0, i1, i2, qw, qx, qy, qz)`` of clump ``c`` after its kick (from the
+    arrays ``clu.scratch``, ``clu.inertia``, ``clu.quat``)."""
     return (sc[c, 0], sc[c, 1], sc[c, 2], inertia[c, 0], inertia[c, 1], inertia[c, 2],
             q[c, 0], q[c, 1], q[c, 2], q[c, 3])
 
 
 @njit(cache=True)
-def _rotation_output(clu, c, r):
-    """Store a rotation's result ``(l0, l1, l2, qw, qx, qy, qz)`` for clump ``c``."""
+def _rotation_output(sc, q, c, r):
+    """Store a rotation's result ``(l0, l1, l2, qw, qx, qy, qz)`` for clump ``c`` in
+    ``clu.scratch`` and ``clu.quat``."""
     for k in range(3):
-        clu.scratch[c, k] = r[k]
+        sc[c, k] = r[k]
     for k in range(4):
-        clu.quat[c, k] = r[3 + k]
+        q[c, k] = r[3 + k]
 
 
 @njit(cache=True)
@@ -710,23 +709,25 @@ def clump_rotate(lo, hi, clu, worlds):
     """Step part 2 of clumps ``lo`` to ``hi - 1``: the free-rotor splitting of each kicked
     clump (:func:`free_rotation`), two clumps at a time; the new body-frame momentum goes back
     to ``clu.scratch``, the orientation to ``clu.quat``."""
+    sc, inertia, q = clu.scratch, clu.inertia, clu.quat
+    c_state, c_world, w_active, w_dt = clu.state, clu.world, worlds.active, worlds.dt
     c = lo
     while c < hi:
-        w = clu.world[c]
-        if clu.state[c] != ACTIVE or worlds.active[w] == 0:
+        w = c_world[c]
+        if c_state[c] != ACTIVE or w_active[w] == 0:
             c += 1
             continue
         d = c + 1
-        while d < hi and (clu.state[d] != ACTIVE or worlds.active[clu.world[d]] == 0):
+        while d < hi and (c_state[d] != ACTIVE or w_active[c_world[d]] == 0):
             d += 1
         if d < hi:
-            ra, rb = free_rotation_pair(worlds.dt[w], worlds.dt[clu.world[d]],
-                                        _rotation_input(clu, c), _rotation_input(clu, d))
-            _rotation_output(clu, c, ra)
-            _rotation_output(clu, d, rb)
+            ra, rb = free_rotation_pair(w_dt[w], w_dt[c_world[d]],
+                                        _rotation_input(sc, inertia, q, c),
+                                        _rotation_input(sc, inertia, q, d))
+            _rotation_output(sc, q, c, ra)
+            _rotation_output(sc, q, d, rb)
         else:
-            a = _rotation_input(clu, c)
-            _rotation_output(clu, c, free_rotation(worlds.dt[w], *a))
+            _rotation_output(sc, q, c, free_rotation(w_dt[w], *_rotation_input(sc, inertia, q, c)))
         c = d + 1
 
 
