@@ -23,6 +23,7 @@ import time
 
 import numba
 import numpy as np
+from bed import contacts_per_sphere
 
 import demcal.virtual.aor as aor
 from demcal.dem import _config
@@ -33,20 +34,6 @@ from demcal.virtual.presets import preset_parameters
 
 class _Reached(Exception):
     """The test reached the phase to time."""
-
-
-def contacts_per_sphere(sim: Simulation) -> float:
-    """Sphere-sphere contacts (overlapping neighbour pairs, both sides) per live sphere."""
-    a = sim.arrays
-    side = sim.runner.neighbor_side
-    pos, radius = a["s_pos"], a["s_radius"]
-    index, count = a[f"nb_index_{side}"], a[f"nb_count_{side}"]
-    live = a["c_state"][a["s_clump"]] == 1
-    n = 0
-    for i in np.nonzero(count)[0]:
-        js = index[i, :count[i]]
-        n += int(np.sum(np.linalg.norm(pos[js] - pos[i], axis=1) < radius[js] + radius[i]))
-    return n / max(1, int(live.sum()))
 
 
 def main() -> None:
