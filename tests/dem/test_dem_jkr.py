@@ -15,7 +15,16 @@ import pytest
 from scipy.optimize import minimize_scalar
 from worlds import PARTICLE, STEEL, estar_of, spheres_world, table
 
-from demcal.dem.contact import jkr_contact_radius, normal_contact
+from demcal.dem.contact import (
+    P_ESTAR,
+    P_GAMMA,
+    P_JKR_C,
+    P_JKR_K,
+    jkr_contact_radius,
+    jkr_critical_overlap,
+    jkr_normal_pair,
+    normal_contact,
+)
 from demcal.dem.materials import Interaction
 from demcal.dem.simulation import Simulation
 from demcal.dem.walls import PlaneWall
@@ -136,3 +145,29 @@ def test_closed_form_contact_radius_matches_a_bracketing_root_finder(gamma):
     for d in np.concatenate([near_break, [0.0], compressive]):
         got = jkr_contact_radius(d, rstar, estar, gamma)
         assert got == pytest.approx(naive.jkr_radius(d, rstar, estar, gamma), rel=1e-12), d
+
+
+def test_pair_table_holds_the_jkr_constants_the_law_uses():
+    """The table's ``P_JKR_C``/``P_JKR_K`` are sqrt(4 pi gamma / E*) and 4 sqrt(pi gamma E*)
+    (independently computed), and the law fed from a table row gives the law's numbers bit for
+    bit (the kernels read the constants from the table instead of taking square roots)."""
+    mats = table(Interaction(0.3, 0.5), Interaction(0.3, 0.5, surface_energy=GAMMA))
+    pt = mats.pair_table()
+    for ia in range(pt.shape[0]):
+        for ib in range(pt.shape[1]):
+            estar, gamma = pt[ia, ib, P_ESTAR], pt[ia, ib, P_GAMMA]
+            if np.isnan(gamma):  # no interaction (wall-wall): the whole row stays NaN
+                assert np.isnan(pt[ia, ib]).all()
+                continue
+            assert pt[ia, ib, P_JKR_C] == pytest.approx(np.sqrt(4 * np.pi * gamma / estar),
+                                                        rel=1e-15, abs=0.0)
+            assert pt[ia, ib, P_JKR_K] == pytest.approx(4 * np.sqrt(np.pi * gamma * estar),
+                                                        rel=1e-15, abs=0.0)
+    row = pt[0, 1]  # particle-wall: the cohesive pair
+    assert row[P_GAMMA] == GAMMA
+    rstar, mstar, beta = 0.5 * R, 0.5 * MASS, -0.3
+    d_c = jkr_critical_overlap(rstar, row[P_ESTAR], GAMMA)
+    for delta in np.linspace(0.9 * d_c, 0.05 * R, 41):
+        pair = (row[P_ESTAR], beta, GAMMA, row[P_JKR_C], row[P_JKR_K])
+        assert jkr_normal_pair(delta, 0.01, rstar, mstar, pair) == normal_contact(
+            delta, 0.01, rstar, row[P_ESTAR], mstar, beta, GAMMA)

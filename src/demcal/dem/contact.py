@@ -35,6 +35,8 @@ __all__ = [
     "P_ESTAR",
     "P_GAMMA",
     "P_GSTAR",
+    "P_JKR_C",
+    "P_JKR_K",
     "P_MU_R",
     "P_MU_S",
     "ROLLING_A",
@@ -45,11 +47,14 @@ __all__ = [
     "contact_response",
     "effective_radius",
     "hertz_normal",
+    "jkr_constants",
     "jkr_contact_radius",
+    "jkr_contact_radius_c",
     "jkr_critical_contact_radius",
     "jkr_critical_overlap",
     "jkr_force",
     "jkr_normal",
+    "jkr_normal_pair",
     "jkr_pull_off_force",
     "normal_contact",
     "pair_modulus",
@@ -73,7 +78,9 @@ P_BETA = 2  #: damping ratio (<= 0)
 P_MU_S = 3  #: static friction coefficient
 P_MU_R = 4  #: rolling friction coefficient
 P_GAMMA = 5  #: JKR surface energy, J/m^2
-N_PAIR_FIELDS = 6
+P_JKR_C = 6  #: sqrt(4 pi gamma / E*), m^0.5 (see :func:`jkr_constants`)
+P_JKR_K = 7  #: 4 sqrt(pi gamma E*), N/m^1.5 (see :func:`jkr_constants`)
+N_PAIR_FIELDS = 8
 
 # rolling friction models (``Simulation(rolling_friction=...)``: "none", "A", "C")
 ROLLING_NONE = 0  #: no rolling resistance
@@ -157,6 +164,19 @@ def hertz_normal(delta: float, v_n: float, eff_radius: float, eff_modulus: float
 
 
 @njit(cache=True)
+def jkr_constants(eff_modulus: float, gamma: float):
+    """The pair constants of the JKR law: ``c = sqrt(4 pi gamma / E*)`` (m^0.5) and
+    ``k = 4 sqrt(pi gamma E*)`` (N/m^1.5).
+
+    ``MaterialTable.pair_table`` stores them per pair (``P_JKR_C``, ``P_JKR_K``) so that a
+    contact does not take their square roots at every step; the laws below compute them the
+    same way, so both give the same numbers bit for bit.
+    """
+    return math.sqrt(4.0 * math.pi * gamma / eff_modulus), 4.0 * math.sqrt(
+        math.pi * gamma * eff_modulus)
+
+
+@njit(cache=True)
 def jkr_critical_contact_radius(eff_radius: float, eff_modulus: float, gamma: float) -> float:
     """Contact radius at break-off of EDEM's JKR law (version 1), m.
 
@@ -192,7 +212,14 @@ def jkr_contact_radius(delta: float, eff_radius: float, eff_modulus: float, gamm
     (tests/dem/test_dem_jkr.py) at less than half the cost of Newton's method. Valid for
     ``delta >= jkr_critical_overlap``.
     """
-    cr = math.sqrt(4.0 * math.pi * gamma / eff_modulus) * eff_radius
+    return jkr_contact_radius_c(delta, eff_radius, jkr_constants(eff_modulus, gamma)[0])
+
+
+@njit(cache=True)
+def jkr_contact_radius_c(delta: float, eff_radius: float, c: float):
+    """:func:`jkr_contact_radius` with ``c = sqrt(4 pi gamma / E*)`` (m^0.5) given, as the
+    pair table holds it (``P_JKR_C``), m."""
+    cr = c * eff_radius
     p = eff_radius * delta
     q = -0.125 * cr * cr
     disc = 0.25 * q * q + p * p * p / 27.0
@@ -243,12 +270,24 @@ def jkr_normal(delta: float, v_n: float, eff_radius: float, eff_modulus: float,
     """
     if gamma <= 0.0:
         return hertz_normal(delta, v_n, eff_radius, eff_modulus, eff_mass, beta)
+    c, k = jkr_constants(eff_modulus, gamma)
+    return jkr_normal_pair(delta, v_n, eff_radius, eff_mass, (eff_modulus, beta, gamma, c, k))
+
+
+@njit(cache=True)
+def jkr_normal_pair(delta: float, v_n: float, eff_radius: float, eff_mass: float, pair):
+    """:func:`jkr_normal` with the pair's constants given as
+    ``pair = (E*, beta, gamma, c, k)`` (``c``, ``k`` from :func:`jkr_constants`, as the pair
+    table holds them). Same returns, bit for bit."""
+    eff_modulus, beta, gamma, c, k = pair
+    if gamma <= 0.0:
+        return hertz_normal(delta, v_n, eff_radius, eff_modulus, eff_mass, beta)
     # d_c <= 0: an overlapping pair is always in contact (skips d_c's cube root)
     if delta <= 0.0 and delta <= jkr_critical_overlap(eff_radius, eff_modulus, gamma):
         return 0.0, 0.0, 0.0
-    a = jkr_contact_radius(delta, eff_radius, eff_modulus, gamma)
+    a = jkr_contact_radius_c(delta, eff_radius, c)
     repulsive = 4.0 * eff_modulus * a * a * a / (3.0 * eff_radius)
-    f = repulsive - 4.0 * math.sqrt(math.pi * gamma * eff_modulus) * a * math.sqrt(a)
+    f = repulsive - k * a * math.sqrt(a)
     stiffness = 2.0 * eff_modulus * a
     damping = -DAMPING_FACTOR * beta * math.sqrt(stiffness * eff_mass) * v_n
     return f - damping, repulsive, a
@@ -432,7 +471,8 @@ def pair_row(pair_params, w: int, mat_a: int, mat_b: int):
     cost a reference count per contact)."""
     return (pair_params[w, mat_a, mat_b, P_ESTAR], pair_params[w, mat_a, mat_b, P_GSTAR],
             pair_params[w, mat_a, mat_b, P_BETA], pair_params[w, mat_a, mat_b, P_MU_S],
-            pair_params[w, mat_a, mat_b, P_MU_R], pair_params[w, mat_a, mat_b, P_GAMMA])
+            pair_params[w, mat_a, mat_b, P_MU_R], pair_params[w, mat_a, mat_b, P_GAMMA],
+            pair_params[w, mat_a, mat_b, P_JKR_C], pair_params[w, mat_a, mat_b, P_JKR_K])
 
 
 @njit(cache=True)
@@ -454,7 +494,7 @@ def contact_response(overlap: float, normal, velocity, params, eff_radius: float
     velocity : tuple of 3 floats
         Velocity of *b* relative to *a* at the contact point, m/s.
     params : tuple of N_PAIR_FIELDS floats
-        The pair's row of ``pair_params`` (indexed by ``P_ESTAR`` ... ``P_GAMMA``), from
+        The pair's row of ``pair_params`` (indexed by ``P_ESTAR`` ... ``P_JKR_K``), from
         :func:`pair_row`.
     eff_radius, eff_mass : float
         R* (m) and m* (kg).
@@ -492,8 +532,9 @@ def contact_response(overlap: float, normal, velocity, params, eff_radius: float
     beta = params[P_BETA]
     mu_r = params[P_MU_R]
     vn = vx * nx + vy * ny + vz * nz
-    fn, frep, arad = normal_contact(overlap, vn, eff_radius, estar, eff_mass, beta,
-                                    params[P_GAMMA])
+    fn, frep, arad = jkr_normal_pair(overlap, vn, eff_radius, eff_mass,
+                                     (estar, beta, params[P_GAMMA], params[P_JKR_C],
+                                      params[P_JKR_K]))
     if arad <= 0.0:
         return arad, ZERO3, ZERO3, ZERO3, ZERO3
     vtx = vx - vn * nx

@@ -19,9 +19,12 @@ from demcal.dem.contact import (
     P_ESTAR,
     P_GAMMA,
     P_GSTAR,
+    P_JKR_C,
+    P_JKR_K,
     P_MU_R,
     P_MU_S,
     beta_from_restitution,
+    jkr_constants,
     jkr_critical_overlap,
     pair_modulus,
     pair_shear_modulus,
@@ -158,7 +161,8 @@ class MaterialTable:
 
     def pair_table(self) -> np.ndarray:
         """Pair parameters, ``(n_mat, n_mat, N_PAIR_FIELDS)`` float64 (E*, G*, beta, mu_s,
-        mu_r, gamma); pairs without an interaction get NaN (never touched if unused)."""
+        mu_r, gamma and the JKR constants of :func:`~demcal.dem.contact.jkr_constants`);
+        pairs without an interaction get NaN (never touched if unused)."""
         n = len(self.materials)
         table = np.full((n, n, N_PAIR_FIELDS), np.nan)
         for (a, b), inter in self.interactions.items():
@@ -173,6 +177,7 @@ class MaterialTable:
             row[P_MU_S] = inter.static_friction
             row[P_MU_R] = inter.rolling_friction
             row[P_GAMMA] = inter.surface_energy
+            row[P_JKR_C], row[P_JKR_K] = jkr_constants(row[P_ESTAR], row[P_GAMMA])
             table[ia, ib] = row
             table[ib, ia] = row
         return table

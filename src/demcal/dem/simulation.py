@@ -22,7 +22,7 @@ import numpy as np
 
 from demcal.dem import _config
 from demcal.dem.backends import Backend, make_backend, resolve_backend
-from demcal.dem.contact import rayleigh_time_step
+from demcal.dem.contact import N_PAIR_FIELDS, rayleigh_time_step
 from demcal.dem.containers import Params, alloc_neighbors
 from demcal.dem.kernels import (
     ACTIVE,
@@ -114,7 +114,7 @@ class Simulation:
         c_pos, c_quat, c_vel, c_omega = [], [], [], []
         self.clump_range = np.zeros((n_worlds, 2), dtype=np.int64)
         self.sphere_range = np.zeros((n_worlds, 2), dtype=np.int64)
-        pair = np.full((n_worlds, n_mat, n_mat, 6), np.nan)
+        pair = np.full((n_worlds, n_mat, n_mat, N_PAIR_FIELDS), np.nan)
         world_dt = np.zeros(n_worlds)
         r_max = 0.0
         margin = 0.0
