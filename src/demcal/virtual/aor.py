@@ -117,6 +117,9 @@ class _Run:
     phase_times: dict[str, float] = field(default_factory=dict)
     wall_time: float = 0.0
     sphere_steps: int = 0
+    steps: int = 0  #: engine steps of this world so far
+    check_every: int = 1  #: steps between its checks (the check interval in its own steps)
+    next_check: int = 1  #: step count of its next check
     plot_path: str | Path | None = None
     pile_path: str | Path | None = None
 
@@ -223,15 +226,18 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
     for run in runs:
         _start_fill(sim, run, config, template)
     snap = _Snapshots(vtk_dir) if vtk_dir is not None else None
+    for run in runs:  # each world is checked every interval of its own time step
+        run.check_every = max(1, round(config.phases.check_interval / float(sim.dt[run.index])))
+        run.next_check = run.check_every
     while not all(r.done for r in runs):
         live = [r for r in runs if not r.done]
-        dt = min(float(sim.dt[r.index]) for r in live)
-        n = max(1, round(config.phases.check_interval / dt))
-        sim.advance(n)
+        _advance_to_next_check(sim, live, n_template)
         times = sim.time
         for run in live:
+            if run.steps < run.next_check:
+                continue  # not this world's check yet: its run goes on as if it ran alone
+            run.next_check += run.check_every
             w = run.index
-            run.sphere_steps += n * sim.n_active(w) * n_template
             t = float(times[w])
             if sim.world_errors[w] is not None:
                 _finish(sim, run, config, Outcome.UNSTABLE, t, reason=sim.world_errors[w])
@@ -249,6 +255,22 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
             if progress is not None:
                 progress(w, run.phase, t, run.wall_time)
     return [r.result for r in runs]  # type: ignore[misc]
+
+
+def _advance_to_next_check(sim: Simulation, live: list[_Run], n_template: int) -> None:
+    """Advance the live worlds to the nearest of their next checks.
+
+    Each world is checked (settle detection, the lift's start and end, ...) every
+    ``check_every`` of its own steps, as it would be if it ran alone: the worlds of a batch
+    have their own time steps (their particle sizes are drawn per seed), and checking all of
+    them at the interval of the smallest step made a run's pile depend on the runs batched
+    with it (a study's results on its worker count, a resumed run on what ended before).
+    """
+    n = min(r.next_check - r.steps for r in live)
+    sim.advance(n)
+    for run in live:
+        run.steps += n
+        run.sphere_steps += n * sim.n_active(run.index) * n_template
 
 
 def _required() -> list[str]:
