@@ -120,6 +120,62 @@ def test_the_pool_s_chunks_leave_no_worker_idle(study_file, monkeypatch):
             assert sorted(sizes) == want, n
 
 
+def test_spread_runs_lone_runs_in_full_rounds_and_batches_the_rest_here(study_file,
+                                                                        monkeypatch):
+    """The CPU's default (``spread``): one run per task on the pool in full rounds of the
+    workers, the rest as one batch in this process (``workers=1``: every thread); a study
+    with ``executor.chunk`` unset on the CPU gets it, one with a chunk keeps its chunks."""
+    import demcal.calibrate.runner as runner_mod
+    from demcal.calibrate.pipeline import test_def
+
+    calls: list[tuple[int, list[int]]] = []
+
+    def fake_local(chunks, on_result, *, workers=1, threads_per_worker=1):
+        calls.append((workers, [len(c) for c in chunks]))
+        for c in chunks:
+            for r in REAL_RUN_CHUNK(c):
+                on_result(r)
+
+    monkeypatch.setattr(runner_mod, "run_local", fake_local)
+    study = parse_study(tomllib.loads(study_file.read_text()))
+    full = preset_parameters("corn_stalk")
+    with RunStore(study_file.parent) as store:
+        runner = Runner(store, test_def(study), workers=2, chunk=3, spread=True)
+        for n, want in ((4, [(2, [1, 1, 1, 1])]), (3, [(2, [1, 1]), (1, [1])]),
+                        (5, [(2, [1, 1, 1, 1]), (1, [1])]), (1, [(2, [1])])):
+            calls.clear()
+            points = [Point(point=i, replicate=0, seed=7000 * n + i,
+                            params={**full, "pp.static_friction": 0.3 + 0.01 * i})
+                      for i in range(n)]
+            runner.run("rsm", points)
+            assert calls == want, n
+
+
+def test_a_study_spreads_on_the_cpu_unless_it_sets_a_chunk(two_fidelity_study, monkeypatch):
+    """An engine study on the CPU spreads its runs (``executor.chunk`` unset); with a chunk
+    set it keeps its chunks."""
+    import demcal.calibrate.pipeline as pipeline_mod
+
+    path, _ = two_fidelity_study
+    seen: list[tuple[int, bool]] = []
+    real = pipeline_mod.Runner
+
+    def spy(*args, **kw):
+        seen.append((kw["chunk"], kw["spread"]))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(pipeline_mod, "Runner", spy)
+    monkeypatch.setattr("demcal.dem.backends.resolve_backend", lambda backend: "cpu")
+    text = path.read_text()
+    for body, want in ((text, (1, True)),  # the example's replicates = 1
+                       (text.replace("[executor]\n", "[executor]\nchunk = 3\n"), (3, False))):
+        path.write_text(body)
+        seen.clear()
+        ctx = pipeline_mod.open_study(path)
+        ctx.store.close()
+        assert seen == [want]
+
+
 def test_a_lammps_study_refuses_a_stage_at_the_factory_fill(example_data):
     """LAMMPS runs the packing fill only: a stage at 'paper' is refused naming that stage."""
     data = dict(example_data)

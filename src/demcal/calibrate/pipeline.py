@@ -22,7 +22,7 @@ from demcal.calibrate import stages as st
 from demcal.calibrate.runner import Runner
 from demcal.calibrate.study import Study, load_study, study_folder
 from demcal.errors import InputError
-from demcal.execute.local import default_chunk, default_workers
+from demcal.execute.local import GPU_CHUNK, default_chunk, default_workers
 from demcal.execute.tasks import TestDef
 from demcal.store import RunStore
 
@@ -151,12 +151,14 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
                                 "numpy": np.__version__, "engine_backend": study.backend,
                                 "engine": study.executor.engine})
     ex = study.executor
-    chunk = ex.chunk or (1 if study.test.kind != "aor" or study.engine is not None else
-                         default_chunk(study.backend, study.replicates))
+    batched = study.test.kind == "aor" and study.engine is None  # worlds of demcal's engine
+    chunk = ex.chunk or (default_chunk(study.backend, study.replicates) if batched else 1)
+    # the CPU's default on a local pool: lone runs in full rounds, the rest batched here
+    spread = batched and ex.chunk is None and chunk < GPU_CHUNK
     test = test_def(study, folder)
     runner = Runner(store, test,
                     workers=workers or ex.workers or default_workers(),
-                    dask=dask if dask is not None else ex.dask, chunk=chunk,
+                    dask=dask if dask is not None else ex.dask, chunk=chunk, spread=spread,
                     progress=progress, external=external,
                     figures_dir=folder / "figures" / "runs",
                     stage_tests={name: replace(test, fidelity=fid)

@@ -70,6 +70,11 @@ class Runner:
         A Dask scheduler; replaces the local pool.
     chunk : int
         Runs per task (batched worlds of one engine).
+    spread : bool
+        On the local pool (``workers`` > 1), run one run per task in full rounds of the
+        workers and the rest in this process on every thread, instead of chunks of
+        ``chunk`` (the CPU's default: a single-thread worker runs a lone test as fast as a
+        batch, `small` tests 8 % faster, and no worker waits while a last chunk runs).
     progress : callable, optional
         ``progress(stage, done, total)`` after each run.
     external : bool
@@ -82,7 +87,7 @@ class Runner:
     def __init__(self, store: RunStore, test: TestDef, *, workers: int = 1, dask: Any = None,
                  chunk: int = 1, progress: Callable[[str, int, int], None] | None = None,
                  external: bool = False, figures_dir: str | Path | None = None,
-                 stage_tests: dict[str, TestDef] | None = None) -> None:
+                 stage_tests: dict[str, TestDef] | None = None, spread: bool = False) -> None:
         self.store = store
         self.test = test
         self.test_hash = params_hash(test.identity())
@@ -91,6 +96,7 @@ class Runner:
         self.workers = workers
         self.dask = dask
         self.chunk = max(1, chunk)
+        self.spread = spread
         self.progress = progress
         self.external = external
         self.figures_dir = None if figures_dir is None else Path(figures_dir)
@@ -177,12 +183,7 @@ class Runner:
         test = self.test_for(stage)
         tasks = [RunTask(k, test, p.params, p.seed, dt_scale, self._plot_path(stage, k))
                  for k, p in by_key.items()]
-        size = self.chunk
-        if self.dask is None and self.workers > 1 and len(tasks) > size:
-            # several tasks on the pool: even them out so no worker idles while runs wait
-            # (one task runs in this process on every thread instead)
-            size = max(1, min(size, -(-len(tasks) // self.workers)))
-        chunks = [tasks[i:i + size] for i in range(0, len(tasks), size)]
+        chunks, rest = self._plan(tasks)
         retry: list[Point] = []
         started = time.time()
         count = [done0]
@@ -203,7 +204,23 @@ class Runner:
             run_dask(chunks, on_result, address=self.dask, idle_timeout=self.dask_timeout)
         else:
             run_local(chunks, on_result, workers=self.workers)
+            if rest:  # after the pool's rounds: one batch here, on every thread
+                run_local([rest], on_result, workers=1)
         return retry
+
+    def _plan(self, tasks: list[RunTask]) -> tuple[list[list[RunTask]], list[RunTask]]:
+        """The chunks of a stage's runs for the pool (or Dask), and the runs left to batch in
+        this process afterwards (``spread``)."""
+        local = self.dask is None and self.workers > 1
+        if local and self.spread and len(tasks) > 1:
+            full = len(tasks) // self.workers * self.workers
+            return [[t] for t in tasks[:full]], tasks[full:]
+        size = self.chunk
+        if local and len(tasks) > size:
+            # several tasks on the pool: even them out so no worker idles while runs wait
+            # (one task runs in this process on every thread instead)
+            size = max(1, min(size, -(-len(tasks) // self.workers)))
+        return [tasks[i:i + size] for i in range(0, len(tasks), size)], []
 
     def run(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:
         """Make sure every point has a stored run; return the runs in ``points`` order.
