@@ -91,40 +91,9 @@ def test_a_stage_fidelity_needs_the_engine_s_test(example_data):
         parse_study(data)
 
 
-def test_the_pool_s_chunks_leave_no_worker_idle(study_file, monkeypatch):
-    """4 verification runs of one design point on 2 workers: two tasks of 2, not 3 + 1; 3 runs
-    stay one task (it runs in this process on every thread)."""
-    import demcal.calibrate.runner as runner_mod
-
-    sizes: list[int] = []
-
-    def fake_local(chunks, on_result, *, workers=1, threads_per_worker=1):
-        for c in chunks:
-            sizes.append(len(c))
-            for r in REAL_RUN_CHUNK(c):
-                on_result(r)
-
-    monkeypatch.setattr(runner_mod, "run_local", fake_local)
-    study = parse_study(tomllib.loads(study_file.read_text()))
-    from demcal.calibrate.pipeline import test_def
-
-    full = preset_parameters("corn_stalk")
-    with RunStore(study_file.parent) as store:
-        runner = Runner(store, test_def(study), workers=2, chunk=3)
-        for n, want in ((4, [2, 2]), (3, [3]), (12, [3, 3, 3, 3])):
-            sizes.clear()
-            points = [Point(point=i, replicate=0, seed=1000 * n + i,
-                            params={**full, "pp.static_friction": 0.3 + 0.01 * i})
-                      for i in range(n)]
-            runner.run("rsm", points)
-            assert sorted(sizes) == want, n
-
-
-def test_spread_runs_lone_runs_in_full_rounds_and_batches_the_rest_here(study_file,
-                                                                        monkeypatch):
-    """The CPU's default (``spread``): one run per task on the pool in full rounds of the
-    workers, the rest as one batch in this process (``workers=1``: every thread); a study
-    with ``executor.chunk`` unset on the CPU gets it, one with a chunk keeps its chunks."""
+def _pool_calls(study_file, monkeypatch, counts, **runner_kw):
+    """Run ``n`` new points of the stage "rsm" for each n in ``counts`` through a Runner on 2
+    workers; return, per n, the local pool's calls as (workers, chunk sizes)."""
     import demcal.calibrate.runner as runner_mod
     from demcal.calibrate.pipeline import test_def
 
@@ -139,16 +108,34 @@ def test_spread_runs_lone_runs_in_full_rounds_and_batches_the_rest_here(study_fi
     monkeypatch.setattr(runner_mod, "run_local", fake_local)
     study = parse_study(tomllib.loads(study_file.read_text()))
     full = preset_parameters("corn_stalk")
+    out = {}
     with RunStore(study_file.parent) as store:
-        runner = Runner(store, test_def(study), workers=2, chunk=3, spread=True)
-        for n, want in ((4, [(2, [1, 1, 1, 1])]), (3, [(2, [1, 1]), (1, [1])]),
-                        (5, [(2, [1, 1, 1, 1]), (1, [1])]), (1, [(2, [1])])):
+        runner = Runner(store, test_def(study), workers=2, **runner_kw)
+        for n in counts:
             calls.clear()
-            points = [Point(point=i, replicate=0, seed=7000 * n + i,
+            points = [Point(point=i, replicate=0, seed=1000 * n + i,
                             params={**full, "pp.static_friction": 0.3 + 0.01 * i})
                       for i in range(n)]
             runner.run("rsm", points)
-            assert calls == want, n
+            out[n] = list(calls)
+    return out
+
+
+def test_the_pool_s_chunks_leave_no_worker_idle(study_file, monkeypatch):
+    """4 verification runs of one design point on 2 workers: two tasks of 2, not 3 + 1; 3 runs
+    stay one task (it runs in this process on every thread)."""
+    calls = _pool_calls(study_file, monkeypatch, (4, 3, 12), chunk=3)
+    for n, want in ((4, [2, 2]), (3, [3]), (12, [3, 3, 3, 3])):
+        assert sorted(size for _, sizes in calls[n] for size in sizes) == want, n
+
+
+def test_spread_runs_lone_runs_in_full_rounds_and_batches_the_rest_here(study_file,
+                                                                        monkeypatch):
+    """The CPU's default (``spread``): one run per task on the pool in full rounds of the
+    workers, the rest as one batch in this process (``workers=1``: every thread)."""
+    calls = _pool_calls(study_file, monkeypatch, (4, 3, 5, 1), chunk=3, spread=True)
+    assert calls == {4: [(2, [1, 1, 1, 1])], 3: [(2, [1, 1]), (1, [1])],
+                     5: [(2, [1, 1, 1, 1]), (1, [1])], 1: [(2, [1])]}
 
 
 def test_a_study_spreads_on_the_cpu_unless_it_sets_a_chunk(two_fidelity_study, monkeypatch):
