@@ -268,9 +268,7 @@ def jkr_normal(delta: float, v_n: float, eff_radius: float, eff_modulus: float,
     contact_radius : float
         ``a``, m (0 when out of contact).
     """
-    if gamma <= 0.0:
-        return hertz_normal(delta, v_n, eff_radius, eff_modulus, eff_mass, beta)
-    c, k = jkr_constants(eff_modulus, gamma)
+    c, k = jkr_constants(eff_modulus, gamma)  # (0, 0) without cohesion: Hertz, below
     return jkr_normal_pair(delta, v_n, eff_radius, eff_mass, (eff_modulus, beta, gamma, c, k))
 
 
