@@ -6,7 +6,8 @@ rows, so a launcher may run them in any order or in parallel:
 - :func:`sphere_forces` gathers the contact forces on sphere ``i`` from its neighbour slots and
   its world's walls. Each pair is evaluated from both sides with identical arithmetic in a
   canonical order (lower sphere index first), so the two sides agree bitwise and no atomics
-  are needed; results do not depend on the thread count.
+  are needed; results do not depend on the thread count. (This is the GPU's pass; the CPU
+  evaluates each pair once, :mod:`demcal.dem.half_pairs`, with the same sums bit for bit.)
 - :func:`clump_step` sums a clump's sphere forces, integrates it (leapfrog for translation,
   symmetric free-rotor splitting for rotation) and places its spheres, in three parts
   (:func:`clump_kick`, :func:`clump_rotate`, :func:`clump_place`).
@@ -172,10 +173,13 @@ def store3(arr, i, k, v):
 
 
 @njit(cache=True)
-def pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags):
+def pair_contacts(lo, hi, below, sph, clu, nb, worlds, prm, flags):
     """Sphere-sphere part of :func:`sphere_forces`: for spheres ``lo`` to ``hi - 1``, the
-    forces of their neighbour slots, written to ``sph.force``/``torque``/``roll`` (zero for
-    an inactive sphere); updates the slots' histories.
+    forces of their neighbour slots with a partner below index ``below``, written to
+    ``sph.force``/``torque``/``roll`` (zero for an inactive sphere); updates those slots'
+    histories. ``below`` is the sphere count for every slot (the two-sided pass: CUDA), ``lo``
+    for the partners below the block (the start of the CPU's one-sided pass,
+    :mod:`demcal.dem.half_pairs`).
 
     Containers are passed per block, never per sphere: numba counts references to each array
     of a container at every call, which per sphere cost more than the contacts.
@@ -235,6 +239,8 @@ def pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags):
             n_nb = cap
         for k in range(n_nb):
             j = nb_index[i, k]
+            if j >= below:  # the slots are sorted by partner
+                break
             # from i to j; most candidates are out of reach and end here
             ex = s_pos[j, 0] - pix
             ey = s_pos[j, 1] - piy
@@ -312,7 +318,7 @@ def pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags):
                 py = pay
                 pz = paz
             params = pair_row(pair_params, w, s_material[a], s_material[b])
-            arad, fb, xi, roll_a, roll_c = contact_response(
+            arad, fb, xi, roll_a, roll_c, _rep = contact_response(
                 overlap, (nx, ny, nz), (vx, vy, vz), params,
                 reff, meff, dt, load3(nb_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
                 (wbx - wax, wby - way, wbz - waz), load3(nb_rhist, i, k) if use_c else ZERO3)
@@ -445,7 +451,7 @@ def wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags):
             vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
             vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
             params = pair_row(pair_params, w, wall_material[w, k], mat_i)
-            arad, fb, xi, roll_a, roll_c = contact_response(
+            arad, fb, xi, roll_a, roll_c, _rep = contact_response(
                 overlap, (nx, ny, nz), (vx, vy, vz), params,
                 ri, mass_i, dt, load3(w_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
                 spin, load3(w_rhist, i, k) if use_c else ZERO3)
@@ -497,7 +503,7 @@ def sphere_forces(lo, hi, sph, clu, nb, walls, worlds, prm, flags):
     the next build. Each contact's response comes from
     :func:`~demcal.dem.contact.contact_response`.
     """
-    pair_contacts(lo, hi, sph, clu, nb, worlds, prm, flags)
+    pair_contacts(lo, hi, sph.pos.shape[0], sph, clu, nb, worlds, prm, flags)
     wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags)
 
 

@@ -14,6 +14,8 @@ from __future__ import annotations
 # a worker that spins a few ms after a run takes no core from anything else for long.
 from numba import njit, prange
 
+from demcal.dem.contact import ROLLING_C
+from demcal.dem.half_pairs import pair_contacts_half, sync_histories
 from demcal.dem.kernels import (
     ACTIVE,
     advance_world,
@@ -22,8 +24,9 @@ from demcal.dem.kernels import (
     cell_key,
     clump_step,
     neighbor_search,
-    sphere_forces,
+    pair_contacts,
     wall_candidates,
+    wall_contacts,
 )
 
 #: fewest elements per call of a kernel body
@@ -107,13 +110,32 @@ def candidates_pass(sph, clu, walls, prm):
 
 @njit(parallel=True, cache=True)
 def force_pass(sph, clu, nb, walls, worlds, prm, flags):
-    """Contact forces on every sphere (:func:`~demcal.dem.kernels.sphere_forces`)."""
+    """Contact forces on every sphere: the sums of :func:`~demcal.dem.kernels.sphere_forces`
+    bit for bit, with each pair inside a block evaluated once (:mod:`demcal.dem.half_pairs`:
+    the partners below the block from this side, those above each sphere once, then the
+    walls). The higher sphere's copy of such a pair's histories is left for
+    :func:`history_sync_pass`."""
     n = sph.pos.shape[0]
     size = block_size(n, prm.threads)
     n_blocks = (n + size - 1) // size
     for blk in prange(n_blocks):
-        sphere_forces(blk * size, min(blk * size + size, n), sph, clu, nb, walls, worlds,
-                      prm, flags)
+        lo = blk * size
+        hi = min(lo + size, n)
+        pair_contacts(lo, hi, lo, sph, clu, nb, worlds, prm, flags)
+        pair_contacts_half(lo, hi, (sph, clu, nb, worlds, prm, flags))
+        wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags)
+
+
+@njit(parallel=True, cache=True)
+def history_sync_pass(nb, prm):
+    """Both copies of every pair's histories equal again (:func:`~demcal.dem.half_pairs.
+    sync_histories`), as after the two-sided pass."""
+    n = nb.found.shape[0]
+    size = block_size(n, prm.threads)
+    n_blocks = (n + size - 1) // size
+    use_c = prm.rolling_model == ROLLING_C
+    for blk in prange(n_blocks):
+        sync_histories(blk * size, min(blk * size + size, n), nb, use_c)
 
 
 @njit(parallel=True, cache=True)
@@ -164,17 +186,20 @@ def run_chunk(n_steps, parity, st):
     neighbour or bucket overflow the function returns before the step's forces are
     computed, with the needed size in ``stats`` (0: largest neighbour count, 1: fullest
     bucket); the host grows the arrays and calls again, losing nothing. ``stats[2]`` counts
-    neighbour rebuilds.
+    neighbour rebuilds. Before it returns, both copies of every pair's histories agree
+    (:func:`history_sync_pass`): outside a chunk the state is that of the two-sided pass.
     """
     n_worlds = st.worlds.dt.shape[0]
     for step in range(n_steps):
         if st.flags.rebuild[0] != 0:
             status, parity = rebuild(parity, st)
             if status != STATUS_OK:
+                history_sync_pass(st.nb_a if parity == 0 else st.nb_b, st.params)
                 return step, status, parity
         nb = st.nb_a if parity == 0 else st.nb_b
         force_pass(st.spheres, st.clumps, nb, st.walls, st.worlds, st.params, st.flags)
         clump_pass(st.clumps, st.spheres, st.worlds, st.params, st.flags)
         for w in range(n_worlds):
             advance_world(w, st.worlds, st.walls, st.params, st.flags)
+    history_sync_pass(st.nb_a if parity == 0 else st.nb_b, st.params)
     return n_steps, STATUS_OK, parity
