@@ -49,21 +49,18 @@ __all__ = ["pair_contacts_half", "sync_histories"]
 
 
 @njit(cache=True)
-def _first_above(partner, n_slots, i):
-    """The first of sphere ``i``'s ``n_slots`` slots (sorted by partner) whose partner is
-    above ``i``."""
-    k = 0
-    while k < n_slots and partner[i, k] < i:
-        k += 1
-    return k
+def _rolling_history(rhist, i, k, use_c):
+    """The slot's type-C rolling history (``use_c``), else zeros."""
+    if use_c:
+        return load3(rhist, i, k)
+    return ZERO3
 
 
 @njit(cache=True)
-def _zero_slot(hist, rhist, i, k, use_c):
-    """A slot out of contact: its tangential history (and type-C rolling history) zero."""
-    zero3(hist, i, k)
+def _store_rolling(rhist, i, k, value, use_c):
+    """Store the slot's new type-C rolling history (``use_c``); nothing else."""
     if use_c:
-        zero3(rhist, i, k)
+        store3(rhist, i, k, value)
 
 
 @njit(cache=True)
@@ -184,8 +181,10 @@ def pair_contacts_half(lo, hi, st):
         sums = _sums(s_force, s_torque, s_roll, i)
         ri = s_radius[i]
         n_slots = min(found[i], partner.shape[1])
-        for k in range(_first_above(partner, n_slots, i), n_slots):
+        for k in range(n_slots):
             j = partner[i, k]
+            if j < i:  # a partner below: its side came with the partner (or the first step)
+                continue
             ex, ey, ez = (s_pos[j, 0] - body_i[0][0], s_pos[j, 1] - body_i[0][1],
                           s_pos[j, 2] - body_i[0][2])
             rj = s_radius[j]
@@ -203,15 +202,15 @@ def pair_contacts_half(lo, hi, st):
             arad, fb, xi, roll_a, roll_c, frep, lever_i, lever_j, overlap = _pair_response(
                 ((ex, ey, ez), dist2, ri, rj, rsum), body_i, body_j,
                 (params, w_dt[w], model),
-                (load3(hist, i, k), load3(rhist, i, k) if use_c else ZERO3))
+                (load3(hist, i, k), _rolling_history(rhist, i, k, use_c)))
             if arad <= 0.0:
-                _zero_slot(hist, rhist, i, k, use_c)
+                zero3(hist, i, k)
+                _store_rolling(rhist, i, k, ZERO3, use_c)
                 continue
             if overlap > max_overlap * min(ri, rj):
                 overlap_flag[w] = 1
             store3(hist, i, k, xi)
-            if use_c:
-                store3(rhist, i, k, roll_c)
+            _store_rolling(rhist, i, k, roll_c, use_c)
             sums = _add_side(sums, -1.0, fb, lever_i, (roll_a, roll_c, use_c))
             if j < hi:
                 roll_j = _partner_rolling(body_j[2], lever_j, params[P_MU_R], frep, model)

@@ -211,7 +211,9 @@ def pair_contacts(lo, hi, below, sph, clu, nb, worlds, prm, flags):
     cap = nb_index.shape[1]
     for i in range(lo, hi):
         ci = s_clump[i]
-        if c_state[ci] != ACTIVE or worlds_active[clu_world[ci]] == 0:
+        # an inactive sphere, or no slot below ``below`` (most spheres of the CPU's blocks)
+        if (c_state[ci] != ACTIVE or worlds_active[clu_world[ci]] == 0 or nb_count[i] == 0
+                or nb_index[i, 0] >= below):
             store2(sph_force, i, ZERO3)
             store2(sph_torque, i, ZERO3)
             store2(sph_roll, i, ZERO3)
