@@ -193,7 +193,8 @@ FIDELITIES: dict[str, dict] = {
     # photos: 1.74 deg) at cohesive points as well. Measured (benchmarks/precision.py): 1.50
     # deg over 12 seeds at the corn stalk's calibrated point (small: 4.16), 2.64 over 18 at a
     # steeper one (x8 0.0005, x4 0.2, x3 0.6; small: 4.81 over 24), 2.39 over 6 at a third;
-    # 2.28 pooled; ~380-450 CPU-s per test (small: ~61-80). Its 3 replicates give a design
+    # 2.28 pooled; ~380-450 CPU-s per test (small: ~61-80) before the engine's one-sided
+    # pair pass (2026-11-27: ~15 % less on one core, the same piles). Its 3 replicates give a design
     # point a standard error of ~1.3 deg; for the same standard error the small test needs
     # ~10-18 replicates, about the same CPU. 9.8 s per test batched on an H100. (Called
     # "large" before 2026-11-27.)
