@@ -25,7 +25,10 @@ Histories: a pair inside a block keeps its tangential (and type-C rolling) histo
 lower sphere's slot; the higher sphere's copy is not updated. :func:`sync_histories` copies
 the lower copies into the higher ones at the end of every chunk
 (:func:`demcal.dem.backends.cpu.run_chunk`), so that outside a chunk both copies agree as
-after the two-sided pass (snapshots, the GPU, another thread count read either).
+after the two-sided pass (snapshots, the GPU, another thread count read either). One
+exception, never read: a slot whose partner's clump was removed (left the domain) until the
+next neighbour build drops it (the two-sided pass zeroes the active sphere's copy and leaves
+the removed sphere's; here both take the lower sphere's).
 """
 
 from __future__ import annotations
