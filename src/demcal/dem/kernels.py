@@ -209,11 +209,17 @@ def pair_contacts(lo, hi, below, sph, clu, nb, worlds, prm, flags):
     rolling_model = prm.rolling_model
     use_c = rolling_model == ROLLING_C
     cap = nb_index.shape[1]
+    if below == 0:  # no partner below index 0 (the CPU's first block): zero sums
+        for i in range(lo, hi):
+            store2(sph_force, i, ZERO3)
+            store2(sph_torque, i, ZERO3)
+            store2(sph_roll, i, ZERO3)
+        return
     for i in range(lo, hi):
         ci = s_clump[i]
-        # an inactive sphere, or no slot below ``below`` (most spheres of the CPU's blocks)
-        if (c_state[ci] != ACTIVE or worlds_active[clu_world[ci]] == 0 or nb_count[i] == 0
-                or nb_index[i, 0] >= below):
+        # no slot below ``below`` (most spheres of the CPU's blocks), or an inactive sphere
+        if (nb_count[i] == 0 or nb_index[i, 0] >= below or c_state[ci] != ACTIVE
+                or worlds_active[clu_world[ci]] == 0):
             store2(sph_force, i, ZERO3)
             store2(sph_torque, i, ZERO3)
             store2(sph_roll, i, ZERO3)
