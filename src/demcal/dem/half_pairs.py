@@ -18,8 +18,8 @@ block, then those of the block below it (added when they are evaluated, in index
 those above it. The same numbers in the same order: the same bits, for any thread count
 (``tests/dem/test_half_pairs.py``). A pair inside a block is evaluated once; a pair across two
 blocks from both sides, by each block's thread (every thread writes its own spheres' rows
-only: no atomics). On the benchmark's 1k bed the force pass takes ~0.91 of the two-sided
-pass's time on one thread, ~0.93 on two (docs/engine.md).
+only: no atomics). The benchmark's 1k bed steps ~13-15 % faster than with the two-sided
+pass, the `standard` AoR test ~15 % on one thread (docs/engine.md).
 
 Histories: a pair inside a block keeps its tangential (and type-C rolling) history in the
 lower sphere's slot; the higher sphere's copy is not updated. :func:`sync_histories` copies
