@@ -561,17 +561,13 @@ def contact_response(overlap: float, normal, velocity, params, eff_radius: float
         Type-A rolling torque magnitude along ``spin`` (to subtract), N m; zeros otherwise.
     roll_c : tuple of 3 floats
         Type C: new rolling history = rolling torque on *b*, N m; zeros otherwise.
-    repulsive : float
-        The repulsive part of the normal force, N (what limits friction and rolling
-        resistance): the CPU's one-sided pair pass takes the partner's type-A rolling torque
-        from it (:func:`rolling_a` with the partner's spin and lever).
     """
     arad, force, xi, roll_c, frep = contact_forces(
         overlap, (normal, velocity, rel_spin), params, (eff_radius, eff_mass, dt, rolling_model),
         (hist, rhist))
     if arad <= 0.0:
-        return arad, ZERO3, ZERO3, ZERO3, ZERO3, 0.0
+        return arad, ZERO3, ZERO3, ZERO3, ZERO3
     roll_a = ZERO3
     if rolling_model == ROLLING_A:
         roll_a = rolling_a(spin, spin_rate, lever, params[P_MU_R], frep)
-    return arad, force, xi, roll_a, roll_c, frep
+    return arad, force, xi, roll_a, roll_c

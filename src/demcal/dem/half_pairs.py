@@ -46,7 +46,7 @@ from demcal.dem.contact import (
     pair_row,
     rolling_a,
 )
-from demcal.dem.kernels import ACTIVE, load2, load3, store2, store3, zero3
+from demcal.dem.kernels import ACTIVE, load2, load3, slot_at_least, store2, store3, zero3
 
 __all__ = ["pair_contacts_half", "sync_histories"]
 
@@ -224,20 +224,6 @@ def pair_contacts_half(lo, hi, st):
 
 
 @njit(cache=True)
-def _lower_slot(partner, n_slots, i, m):
-    """The slot of partner ``m`` in sphere ``i``'s row (sorted; ``m`` is in it)."""
-    a = 0
-    b = n_slots
-    while a < b:
-        mid = (a + b) >> 1
-        if partner[i, mid] < m:
-            a = mid + 1
-        else:
-            b = mid
-    return a
-
-
-@njit(cache=True)
 def sync_histories(lo, hi, nb, use_c):
     """For spheres ``lo`` to ``hi - 1``: each slot whose partner lies below the sphere takes
     the partner's copy of the pair's histories (type-C rolling ones when ``use_c``), the copy
@@ -249,7 +235,7 @@ def sync_histories(lo, hi, nb, use_c):
             i = partner[m, k]
             if i >= m:
                 break
-            q = _lower_slot(partner, min(found[i], cap), i, m)
+            q = slot_at_least(partner, i, min(found[i], cap), m)  # m is in i's row
             store3(hist, m, k, load3(hist, i, q))
             if use_c:
                 store3(rhist, m, k, load3(rhist, i, q))

@@ -173,6 +173,21 @@ def store3(arr, i, k, v):
 
 
 @njit(cache=True)
+def slot_at_least(partner, i, n_slots, j):
+    """The first of sphere ``i``'s ``n_slots`` neighbour slots (sorted by partner) whose
+    partner is ``>= j`` (``n_slots`` if none): binary search in row ``i`` of ``partner``."""
+    lo = 0
+    hi = n_slots
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if partner[i, mid] < j:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
 def pair_contacts(lo, hi, below, sph, clu, nb, worlds, prm, flags):
     """Sphere-sphere part of :func:`sphere_forces`: for spheres ``lo`` to ``hi - 1``, the
     forces of their neighbour slots with a partner below index ``below``, written to
@@ -326,7 +341,7 @@ def pair_contacts(lo, hi, below, sph, clu, nb, worlds, prm, flags):
                 py = pay
                 pz = paz
             params = pair_row(pair_params, w, s_material[a], s_material[b])
-            arad, fb, xi, roll_a, roll_c, _rep = contact_response(
+            arad, fb, xi, roll_a, roll_c = contact_response(
                 overlap, (nx, ny, nz), (vx, vy, vz), params,
                 reff, meff, dt, load3(nb_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
                 (wbx - wax, wby - way, wbz - waz), load3(nb_rhist, i, k) if use_c else ZERO3)
@@ -459,7 +474,7 @@ def wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags):
             vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
             vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
             params = pair_row(pair_params, w, wall_material[w, k], mat_i)
-            arad, fb, xi, roll_a, roll_c, _rep = contact_response(
+            arad, fb, xi, roll_a, roll_c = contact_response(
                 overlap, (nx, ny, nz), (vx, vy, vz), params,
                 ri, mass_i, dt, load3(w_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
                 spin, load3(w_rhist, i, k) if use_c else ZERO3)
@@ -965,14 +980,7 @@ def neighbor_search(lo, hi, sph, clu, grid, prm, old, new):
             n_old = old_index.shape[1]
         for p in range(stored):
             j = new_index[i, p]
-            lo = 0
-            hi = n_old
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if old_index[i, mid] < j:
-                    lo = mid + 1
-                else:
-                    hi = mid
+            lo = slot_at_least(old_index, i, n_old, j)
             if lo < n_old and old_index[i, lo] == j:
                 new_hist[i, p, 0] = old_hist[i, lo, 0]
                 new_hist[i, p, 1] = old_hist[i, lo, 1]

@@ -14,7 +14,6 @@ from __future__ import annotations
 # a worker that spins a few ms after a run takes no core from anything else for long.
 from numba import njit, prange
 
-from demcal.dem.contact import ROLLING_C
 from demcal.dem.half_pairs import pair_contacts_half, sync_histories
 from demcal.dem.kernels import (
     ACTIVE,
@@ -133,9 +132,8 @@ def history_sync_pass(nb, prm):
     n = nb.found.shape[0]
     size = block_size(n, prm.threads)
     n_blocks = (n + size - 1) // size
-    use_c = prm.rolling_model == ROLLING_C
     for blk in prange(n_blocks):
-        sync_histories(blk * size, min(blk * size + size, n), nb, use_c)
+        sync_histories(blk * size, min(blk * size + size, n), nb, prm.carry_rolling)
 
 
 @njit(parallel=True, cache=True)
