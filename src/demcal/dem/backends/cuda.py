@@ -30,13 +30,9 @@ from __future__ import annotations
 
 import logging
 import os
+import warnings
 
 import numpy as np
-
-if not hasattr(np, "row_stack"):  # numba-cuda 0.30 calls np.row_stack, gone in numpy 2.4+
-    setattr(np, "row_stack", np.vstack)  # noqa: B010
-
-from numba import cuda
 
 from demcal.dem.containers import alloc_buckets, alloc_neighbors, neighbor_keys, pack
 from demcal.dem.kernels import (
@@ -52,6 +48,15 @@ from demcal.dem.kernels import (
     sphere_forces,
     wall_candidates,
 )
+
+if not hasattr(np, "row_stack"):  # numba-cuda 0.30 calls np.row_stack, gone in numpy 2.4+
+    setattr(np, "row_stack", np.vstack)  # noqa: B010
+
+with warnings.catch_warnings():
+    # numba-cuda 0.30 on numpy >= 2.5 warns at import (np.timedelta64("nat")); a process
+    # that makes warnings errors (a test suite) would fail to import it and see no GPU
+    warnings.simplefilter("ignore", DeprecationWarning)
+    from numba import cuda
 
 log = logging.getLogger("demcal.dem")
 
@@ -100,6 +105,12 @@ GRAPH_STEPS = 20
 _KERNELS = None
 #: optional register cap of the force kernel (``DEMCAL_CUDA_MAXREG``), for tuning
 _MAXREG = int(os.environ.get("DEMCAL_CUDA_MAXREG", "0"))
+#: compiled kernels kept in numba's on-disk cache (``__pycache__`` beside this file), so a
+#: new process loads them (~3 s to the first steps on an H100) instead of compiling them (~17 s);
+#: ``DEMCAL_CUDA_CACHE=0`` turns it off.
+#: A register cap is a tuning run: not cached (numba's cache key does not hold it). Stale
+#: kernels are purged with the CPU's when an engine source changes (:mod:`demcal.dem._jit_cache`).
+_CACHE = os.environ.get("DEMCAL_CUDA_CACHE", "1") != "0" and not _MAXREG
 
 
 def _build_kernels():
@@ -108,7 +119,7 @@ def _build_kernels():
     if _KERNELS is not None:
         return _KERNELS
 
-    @cuda.jit
+    @cuda.jit(cache=_CACHE)
     def k_bin(halt, sph, clu, grid, prm, flags):
         if halt[0] != 0 or flags.rebuild[0] == 0:
             return
@@ -132,7 +143,7 @@ def _build_kernels():
             grid.bucket_members[b, n] = i
         cuda.atomic.max(flags.stats, 1, n + 1)
 
-    @cuda.jit
+    @cuda.jit(cache=_CACHE)
     def k_search(halt, sph, clu, grid, prm, old, new, walls, flags):
         if halt[0] != 0 or flags.rebuild[0] == 0:
             return
@@ -145,7 +156,7 @@ def _build_kernels():
         cuda.atomic.max(flags.stats, 0, new.found[i])
         wall_candidates(i, i + 1, sph, clu, walls, prm)
 
-    @cuda.jit
+    @cuda.jit(cache=_CACHE)
     def k_commit(halt, flags, bucket_cap, src, dst, sph, grid, prm):
         if halt[0] != 0 or flags.rebuild[0] == 0:
             return
@@ -176,7 +187,7 @@ def _build_kernels():
                 dst.rhist[i, k, 1] = src.rhist[i, k, 1]
                 dst.rhist[i, k, 2] = src.rhist[i, k, 2]
 
-    @cuda.jit
+    @cuda.jit(cache=_CACHE)
     def k_finish(halt, flags, nb_cap, bucket_cap, walls):
         if halt[0] != 0 or flags.rebuild[0] == 0:
             return
@@ -197,7 +208,7 @@ def _build_kernels():
             stats[0] = 0
             stats[1] = 0
 
-    @cuda.jit(**({"max_registers": _MAXREG} if _MAXREG else {}))
+    @cuda.jit(cache=_CACHE, **({"max_registers": _MAXREG} if _MAXREG else {}))
     def k_forces(halt, sph, clu, nb, walls, worlds, prm, flags):
         if halt[0] != 0:
             return
@@ -206,7 +217,7 @@ def _build_kernels():
             return
         sphere_forces(i, i + 1, sph, clu, nb, walls, worlds, prm, flags)
 
-    @cuda.jit
+    @cuda.jit(cache=_CACHE)
     def k_clumps(halt, clu, sph, walls, worlds, prm, flags):
         if halt[0] != 0:
             return
