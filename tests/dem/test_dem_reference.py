@@ -173,6 +173,9 @@ def test_cuda_kernels_under_the_simulator_equal_the_naive_reference(rolling):
 
 
 @pytest.mark.gpu
+# a few clumps launch grids far smaller than the GPU: numba warns (the suite makes warnings
+# errors), the kernels are right all the same
+@pytest.mark.filterwarnings("ignore:.*will likely result in GPU under-utilization")
 @pytest.mark.parametrize("rolling", ["A", "C"])
 def test_cuda_kernels_on_a_gpu_equal_the_naive_reference(rolling):
     from demcal.dem.backends import cuda_available
