@@ -12,6 +12,10 @@ writes the JSON after every stage (a stage cut off by a time limit loses only it
    stalks) at a steep cohesive point (x8 0.0005
    J/m^2, x4 0.2, x3 0.6) with ``--standard-seeds`` / ``--small-seeds`` replicates batched as
    worlds of one engine (``benchmarks/precision.py``'s measurement: seed scatter, phases);
+   ``fourth``: the standard test at the fourth cohesive point (``FOURTH``, seeds from 9501,
+   ``--fourth-seeds``), against its 6 CPU piles (the CPU/GPU offset);
+   ``pile1600``: 1600 stalks in a 62 mm tube (the standard fill's aspect) at the steep point,
+   seeds from 501 (``--standard-seeds``): would a bigger standard pile scatter <= 2 deg?
 4. ``paper``: the paper's fill at the dry reference point (optional);
 5. ``bigbench``: a 100 000-stalk bed;
 6. ``study``: a whole calibration (``--study``, default the corn stalk's standard study),
@@ -49,7 +53,14 @@ import precision
 
 #: a steep cohesive point at the top of the corn-stalk calibration region
 STEEP = {"pp.surface_energy": 0.0005, "pp.rolling_friction": 0.2, "pp.static_friction": 0.6}
-STAGES = ("check", "bench", "standard", "small", "paper", "bigbench", "study")
+#: the fourth cohesive point of docs/precision.md (6 CPU piles, seeds 9501-9506: 47.40 +/- 1.80
+#: deg; benchmarks/results/standard_fourth_point_cpu.json): the same seeds and more on the GPU
+#: measure the CPU/GPU offset
+FOURTH = {"pp.surface_energy": 0.00022, "pp.rolling_friction": 0.18,
+          "pp.static_friction": 0.6, "pw.static_friction": 0.5, "pp.restitution": 0.35,
+          "pw.rolling_friction": 0.1}
+STAGES = ("check", "bench", "standard", "fourth", "pile1600", "small", "paper", "bigbench",
+          "study")
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
@@ -59,6 +70,7 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--backend", default="cuda", choices=["cuda", "cpu"])
     ap.add_argument("--stages", nargs="+", default=list(STAGES), choices=STAGES)
     ap.add_argument("--standard-seeds", type=int, default=12)
+    ap.add_argument("--fourth-seeds", type=int, default=12)
     ap.add_argument("--small-seeds", type=int, default=18)
     ap.add_argument("--paper-seeds", type=int, default=6)
     ap.add_argument("--bench-steps", type=int, default=1000)
@@ -114,6 +126,8 @@ def stage_functions(args: argparse.Namespace) -> dict:
         "check": checks,
         "bench": lambda: bench([(1000, 1), (10000, 1), (1000, 16)]),
         "standard": lambda: aor("1200:0.056", args.standard_seeds, 501, STEEP),
+        "fourth": lambda: aor("1200:0.056", args.fourth_seeds, 9501, FOURTH),
+        "pile1600": lambda: aor("1600:0.062", args.standard_seeds, 501, STEEP),
         "small": lambda: aor("300:0.035", args.small_seeds, 501, STEEP),
         "paper": lambda: aor("paper", args.paper_seeds, 101, {}),
         "bigbench": lambda: bench([(100000, 1)]),
@@ -139,9 +153,9 @@ def main() -> None:
     report: dict = {"argv": sys.argv, "backend": args.backend, **versions(args.backend)}
     t_start = time.perf_counter()
     print(report, flush=True)
-    for name, work in stage_functions(args).items():
-        if name not in args.stages:
-            continue
+    stages = stage_functions(args)
+    for name in args.stages:  # in the order given
+        work = stages[name]
         t = time.perf_counter()
         try:
             report[name] = work()

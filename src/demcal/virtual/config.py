@@ -196,8 +196,10 @@ FIDELITIES: dict[str, dict] = {
     # 2.28 pooled; ~380-450 CPU-s per test (small: ~61-80) before the engine's one-sided
     # pair pass (2026-11-27: ~15 % less on one core, the same piles). Its 3 replicates give a design
     # point a standard error of ~1.3 deg; for the same standard error the small test needs
-    # ~10-18 replicates, about the same CPU. 9.8 s per test batched on an H100. (Called
-    # "large" before 2026-11-27.)
+    # ~10-18 replicates, about the same CPU. 9.8 s per test batched on an H100. 1600 stalks
+    # (62 mm) at the steep point: 2.16 over 12 (1200: 2.66 over 30), 1.34x the time: not
+    # under 2 there either, so not worth it (docs/precision.md). (Called "large" before
+    # 2026-11-27.)
     "standard": {"geometry": {"cylinder_inner_diameter": 0.056},
                  "fill": {"method": "packing", "count": 1200}},
 }
