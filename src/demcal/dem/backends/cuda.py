@@ -395,9 +395,13 @@ class CudaBackend:
     def _launch_step(self) -> None:
         sim = self.sim
         st = pack(self.dev, sim.params())
-        for name, blocks, threads, args in launch_plan(st, self.dev["halt"], sim.n_clumps,
-                                                       sim.n_worlds):
-            getattr(self.k, name)[blocks, threads, self.stream](*args)
+        with warnings.catch_warnings():
+            # a small batch launches small grids by design (docs/gpu.md): numba's warning for
+            # each new grid size would only clutter a user's output
+            warnings.filterwarnings("ignore", message=".*will likely result in GPU under-util")
+            for name, blocks, threads, args in launch_plan(st, self.dev["halt"], sim.n_clumps,
+                                                           sim.n_worlds):
+                getattr(self.k, name)[blocks, threads, self.stream](*args)
 
     def _capture(self):
         """Capture GRAPH_STEPS steps into an executable CUDA graph (driver API)."""
