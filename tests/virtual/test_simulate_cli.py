@@ -92,27 +92,3 @@ def test_summary_line_gives_the_standard_error_and_the_seed_scatter():
     line = summary_line(three)
     assert line.startswith("AoR = 44.63 +/- 1.17 deg (mean of 3 piles")
     assert "seed-to-seed std 2.02" in line and "flank views' spread 4.42" in line
-
-
-def test_replicates_on_the_cpu_run_as_lone_tests_with_the_batchs_piles(tmp_path, monkeypatch):
-    """On the CPU ``--seeds N`` runs lone single-thread tests in worker processes; each pile
-    is the one the same seed gives as a world of an in-process batch, bit for bit."""
-    from demcal.execute import replicates
-    from demcal.virtual import fidelity_config, preset_parameters, run_aor
-
-    monkeypatch.setattr(replicates, "default_workers", lambda: 2)  # two processes anywhere
-    out = tmp_path / "r.json"
-    res = CliRunner().invoke(app, ["simulate", "aor", *TINY, "--seeds", "2", "--seed", "3",
-                                   "--json", str(out)])
-    assert res.exit_code == 0, res.output
-    data = json.loads(out.read_text())
-    assert data["processes"] == 2
-    params = preset_parameters("corn_stalk", {"pp.surface_energy": 0.0,
-                                              "pp.static_friction": 0.2,
-                                              "pp.rolling_friction": 0.02})
-    config = fidelity_config("quick", fill={"count": 80}, phases={"pile_settle_max_time": 1.0})
-    batch = run_aor([params] * 2, config=config, seeds=[3, 4], backend="cpu")
-    assert [r["seed"] for r in data["runs"]] == [3, 4]
-    assert [r["outcome"] for r in data["runs"]] == [r.outcome for r in batch]
-    assert [r["aor_deg"] for r in data["runs"]] == [r.aor_deg for r in batch]
-    assert [r["sphere_steps"] for r in data["runs"]] == [r.sphere_steps for r in batch]

@@ -170,9 +170,8 @@ def simulate_aor(
         "geometry.cylinder_inner_diameter=0.05 or fill.count=300 (SI units), repeatable.")]
     = None,
     seeds: Annotated[int | None, typer.Option(
-        help="Replicates with seeds SEED..SEED+N-1: on a GPU batched as worlds of one engine, "
-        "on the CPU lone tests, one process per core (the same piles either way; default: "
-        "the fidelity's replicates, e.g. 3 for standard).")] = None,
+        help="Replicates with seeds SEED..SEED+N-1, batched as worlds of one engine "
+        "(default: the fidelity's replicates, e.g. 3 for standard).")] = None,
     seed0: Annotated[int, typer.Option("--seed", help="First seed.")] = 0,
     vtk: Annotated[Path | None, typer.Option(help="Write VTK snapshots to this folder.")] = None,
     plot: Annotated[Path | None, typer.Option(help="Save a side view of the pile (PNG).")]
@@ -195,7 +194,6 @@ def simulate_aor(
     = None,
 ) -> None:
     """Run the cylinder-lifting angle-of-repose test and report the angle (degrees)."""
-    from demcal.execute.replicates import lone_test_workers
     from demcal.virtual import (
         FIDELITY_REPLICATES,
         fidelity_config,
@@ -245,7 +243,6 @@ def simulate_aor(
     except ValueError as exc:
         raise InputError(f"--test: {exc}") from None
     seed_list = [seed0 + k for k in range(seeds)]
-    workers = 1 if engine != "demcal" or vtk is not None else lone_test_workers(backend, seeds)
     # one row per run up to PROGRESS_ROWS runs; beyond, one row for the batch (the display
     # redraws every row at each update: rows x updates grows with the square of the runs)
     rows = seeds if seeds <= PROGRESS_ROWS else 1
@@ -274,14 +271,6 @@ def simulate_aor(
                                      options=options,
                                      reporting=RunReporting(plot_paths=plots,
                                                             progress=on_progress))
-        elif workers > 1:  # the CPU: lone single-thread tests, one process per core
-            from demcal.execute.replicates import run_lone_tests
-            from demcal.execute.tasks import TestDef
-
-            results = run_lone_tests(
-                params, TestDef(fidelity=fidelity, overrides=test_overrides, backend="cpu"),
-                list(zip(seed_list, plots or [None] * seeds, strict=True)), workers=workers,
-                on_result=lambda k, r: on_progress(k, r.outcome, r.sim_time_s, r.wall_time_s))
         else:
             results = run_aor([params] * seeds, config=config, seeds=seed_list,
                               backend=backend, progress=on_progress, vtk_dir=vtk,
@@ -292,7 +281,6 @@ def simulate_aor(
     summary["engine"] = engine
     summary["preset"] = preset
     summary["material"] = None if material is None else str(material)
-    summary["processes"] = workers  # > 1: lone single-thread tests (the CPU), else one batch
     table = Table(title=f"angle of repose ({preset}, {fidelity}"
                   + (", LAMMPS)" if engine == "lammps" else ")"))
     for col in ("seed", "outcome", "AoR (deg)", "left", "right", "spread", "particles", "lost",
