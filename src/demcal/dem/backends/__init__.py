@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-__all__ = ["Backend", "cuda_available", "make_backend", "resolve_backend"]
+__all__ = ["Backend", "cuda_available", "import_numba_cuda", "make_backend", "resolve_backend"]
 
 from demcal.errors import InputError
 
@@ -54,21 +54,33 @@ def cuda_available() -> bool:
     """True when numba can use a real CUDA GPU (never under the CUDA simulator)."""
     if _simulating():
         return False
-    import warnings
-
     try:
-        with warnings.catch_warnings():
-            # numba-cuda 0.30 on numpy >= 2.5 warns at import; where warnings are errors
-            # (a test suite) the import failed and a real H100 read as "no GPU" (2026-11-27)
-            warnings.simplefilter("ignore", DeprecationWarning)
-            from numba import cuda
-
-            return bool(cuda.is_available())
+        return bool(import_numba_cuda().is_available())
     except Exception as exc:  # no driver, no numba-cuda: the CPU it is, and why
         import logging
 
         logging.getLogger("demcal.dem").info("no CUDA GPU usable: %r", exc)
         return False
+
+
+def import_numba_cuda():
+    """``numba.cuda``, imported the one way both the GPU probe and the CUDA backend use.
+
+    numba-cuda 0.30 calls ``np.row_stack`` (gone in numpy 2.4+: patched in) and, on numpy >=
+    2.5, warns at import (``np.timedelta64("nat")``): where warnings are errors (a test suite)
+    the import failed and a real H100 read as "no GPU" (2026-11-27), so that warning is
+    ignored here.
+    """
+    import warnings
+
+    import numpy as np
+
+    if not hasattr(np, "row_stack"):
+        setattr(np, "row_stack", np.vstack)  # noqa: B010
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        from numba import cuda
+    return cuda
 
 
 def _simulating() -> bool:

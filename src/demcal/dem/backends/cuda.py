@@ -34,6 +34,7 @@ import warnings
 
 import numpy as np
 
+from demcal.dem.backends import import_numba_cuda
 from demcal.dem.containers import alloc_buckets, alloc_neighbors, neighbor_keys, pack
 from demcal.dem.kernels import (
     ACTIVE,
@@ -49,14 +50,7 @@ from demcal.dem.kernels import (
     wall_candidates,
 )
 
-if not hasattr(np, "row_stack"):  # numba-cuda 0.30 calls np.row_stack, gone in numpy 2.4+
-    setattr(np, "row_stack", np.vstack)  # noqa: B010
-
-with warnings.catch_warnings():
-    # numba-cuda 0.30 on numpy >= 2.5 warns at import (np.timedelta64("nat")); a process
-    # that makes warnings errors (a test suite) would fail to import it and see no GPU
-    warnings.simplefilter("ignore", DeprecationWarning)
-    from numba import cuda
+cuda = import_numba_cuda()  # numba.cuda, with its import-time fixes
 
 log = logging.getLogger("demcal.dem")
 
@@ -395,13 +389,9 @@ class CudaBackend:
     def _launch_step(self) -> None:
         sim = self.sim
         st = pack(self.dev, sim.params())
-        with warnings.catch_warnings():
-            # a small batch launches small grids by design (docs/gpu.md): numba's warning for
-            # each new grid size would only clutter a user's output
-            warnings.filterwarnings("ignore", message=".*will likely result in GPU under-util")
-            for name, blocks, threads, args in launch_plan(st, self.dev["halt"], sim.n_clumps,
-                                                           sim.n_worlds):
-                getattr(self.k, name)[blocks, threads, self.stream](*args)
+        for name, blocks, threads, args in launch_plan(st, self.dev["halt"], sim.n_clumps,
+                                                       sim.n_worlds):
+            getattr(self.k, name)[blocks, threads, self.stream](*args)
 
     def _capture(self):
         """Capture GRAPH_STEPS steps into an executable CUDA graph (driver API)."""
@@ -426,6 +416,13 @@ class CudaBackend:
             _check(drv.cuGraphLaunch(exe, hs))
 
     def run_steps(self, n_steps: int) -> None:
+        with warnings.catch_warnings():  # once per chunk, not per launch
+            # a small batch launches small grids by design (docs/gpu.md): numba's warning for
+            # each new grid size would only clutter a user's output
+            warnings.filterwarnings("ignore", message=".*will likely result in GPU under-util")
+            self._run_steps(n_steps)
+
+    def _run_steps(self, n_steps: int) -> None:
         sim = self.sim
         a = sim.arrays
         done = 0
