@@ -58,7 +58,7 @@ def test_screening_and_path_run_at_their_fidelity_the_surface_at_the_study_s(
     monkeypatch.setattr(tasks, "run_chunk", stand_in)
     res = calibrate(path)
     assert stand_in.asked == {"rangefind": {"quick"}, "screening": {"small"},
-                              "steepest": {"small"},
+                              "steepest": {"small"}, "steepest_anchor": {"standard"},
                               "rsm": {"standard"}, "verification": {"standard"}}
     assert res["stages"]["screening"].get("fidelity") == "small"
     with RunStore(path.parent) as store:

@@ -50,7 +50,10 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
 - "steepest": {"factors": [names], "direction": {name: +1|-1},
       "steps": [{"step": int, "actual": {name: value}, "aor_deg": float|None,
                  "outcome": str, "relative_error_percent": float|None}],
-      "best_step": int, "centre": {name: value}, "levels": {name: [low, centre, high]}}
+      "best_step": int, "centre": {name: value}, "levels": {name: [low, centre, high]},
+      "anchor" (only when the path ran at its own fidelity): {"fidelity", "runs": [{"step",
+      "actual", "aor_deg", "outcome", "path_aor_deg"}], "crossing_step": float|None,
+      "centre_step": float, "offset_deg": float|None, "message"}}
 - "rsm": {"design": "box_behnken"|"ccd", "factors": [{"name","symbol","low","high","unit"}],
       "runs": [{"point","coded","actual","aor_deg" (mean of the replicates),"outcome",
                 "aor_runs_deg": [float] (each replicate), "aor_std_deg": float|None}],

@@ -195,7 +195,8 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
         elif name == "steepest" and "steps" in s:  # a disabled stage keeps only its levels
             out[name] = {"design": "steepest path", "factors": s["factors"],
                          "responses": s["steps"], "best_step": s["best_step"],
-                         "levels": s["levels"]}
+                         "levels": s["levels"],
+                         **({"anchor": s["anchor"]} if "anchor" in s else {})}
         elif name == "optimize":
             out[name] = {"candidates": s["candidates"]}
         elif name == "verification":

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from demcal import doe
+from demcal.calibrate import anchor
 from demcal.calibrate.classifier import PileClassifier
 from demcal.calibrate.runner import Point, Runner
 from demcal.calibrate.study import Study
@@ -519,7 +520,7 @@ def steepest(ctx: Context) -> dict[str, Any]:
         message = (f"after step {best} the relative error grows or no pile forms: step {best} "
                    "is the centre")
     step_actual = {n: abs(step_c) * space[n].half_range for n in selected}
-    centre = dict(path[best])
+    centre, anchored = _surface_centre(ctx, path, y, best)
     levels = {}
     for n in selected:
         lo = _clip(n, centre[n] - step_actual[n])
@@ -538,10 +539,67 @@ def steepest(ctx: Context) -> dict[str, Any]:
                           "outcome": outcomes[i], "relative_error_percent": err[i]}
                          for i in range(len(path))],
                "best_step": best, "centre": {n: levels[n][1] for n in selected},
-               "levels": levels, "message": message}
+               "levels": levels, "message": message, **anchored}
     ctx.store.set_stage("steepest", "done", summary, inputs_hash=h)
     ctx.results["steepest"] = summary
     return summary
+
+
+def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, best: int
+                    ) -> tuple[dict[str, float], dict[str, Any]]:
+    """The response surface's centre on the path, and the anchor's summary keys.
+
+    The best step of the path, unless the path ran at its own fidelity and
+    ``anchor_rounds`` > 0: then the study's own test is run at path points around it
+    (:mod:`demcal.calibrate.anchor`) and the centre is where that test crosses the target.
+    """
+    rounds = ctx.study.stages.steepest.anchor_rounds
+    if "steepest" not in ctx.study.stage_fidelities() or rounds < 1 or len(path) < 2:
+        return dict(path[best]), {}
+    got: dict[int, RunRecord] = {}
+    want: tuple[int, ...] | None = anchor.first_pair(best, len(path))
+    cross, piles = None, {}
+    for _ in range(rounds):
+        if not want:
+            break
+        pts = [Point(s, 0, ctx.full(path[s]), ctx.seed(s, 0, 0)) for s in want]
+        got.update(zip(want, ctx.run(_ANCHOR_STAGE, pts), strict=True))
+        piles = {s: float(r.aor_deg) for s, r in got.items()
+                 if r.outcome == "pile" and r.aor_deg is not None}
+        cross = anchor.crossing(piles, ctx.target)
+        if cross is not None:
+            break
+        want = anchor.next_pair([float(v) for v in y], piles, ctx.target)
+    step, message = _anchor_step(ctx, piles, cross, best)
+    centre_step = anchor.surface_centre(step, len(path))
+    runs = [{"step": s, "actual": path[s], "aor_deg": r.aor_deg if r.outcome == "pile" else None,
+             "outcome": r.outcome, "path_aor_deg": None if math.isnan(y[s]) else float(y[s])}
+            for s, r in sorted(got.items())]
+    return anchor.path_point(path, centre_step), {"anchor": {
+        "fidelity": ctx.study.test.fidelity, "runs": runs, "crossing_step": cross,
+        "centre_step": centre_step,
+        "offset_deg": anchor.offset([float(v) for v in y], piles), "message": message}}
+
+
+def _anchor_step(ctx: Context, piles: Mapping[int, float], cross: float | None, best: int
+                 ) -> tuple[float, str]:
+    """The anchored step the surface is centred on, and why."""
+    fid = ctx.study.test.fidelity
+    if cross is not None:
+        return cross, (f"the study's test ({fid}) crosses the target {ctx.target:.2f} deg at "
+                       f"step {cross:.2f} of the path")
+    if not piles:
+        return float(best), (f"no anchored point formed a pile at the study's test ({fid}): "
+                             f"the path's best step {best} is the centre")
+    near = min(piles, key=lambda s: abs(piles[s] - ctx.target))
+    return float(near), (f"the study's test ({fid}) did not reach the target {ctx.target:.2f} "
+                         f"deg at the anchored steps {sorted(piles)}: step {near} (closest, "
+                         f"{piles[near]:.2f} deg) is the centre; the target may lie beyond "
+                         "the path or the ranges")
+
+
+#: the stage name of the anchor's runs (the study's own test, in the steepest stage)
+_ANCHOR_STAGE = "steepest_anchor"
 
 
 # ------------------------------------------------------------------------------ rsm

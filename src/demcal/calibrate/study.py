@@ -213,6 +213,11 @@ class SteepestOptions(_M):
     fidelity: Literal[tuple(FIDELITIES)] | None = Field(
         None, description="run this stage at another test fidelity (e.g. screen at 'small' "
         "for a 'standard' study; default: the study's)")
+    anchor_rounds: int = Field(
+        2, ge=0, le=5, description="when the path runs at its own fidelity: rounds of the "
+        "study's own test at two path points each, which centre the response surface where "
+        "that test crosses the target (demcal.calibrate.anchor); 0: centre on the path's "
+        "best step")
 
 
 class RsmOptions(_M):
@@ -538,6 +543,9 @@ runs = 12                 # Plackett-Burman runs
 steps = 5
 max_steps = 9             # go on while the error still falls at the path's end
 step = "auto"             # or a coded step, e.g. 0.5
+# fidelity = "small"      # a cheaper test for the path; then (anchor_rounds = 2) the study's
+                          # own test is run at path points to centre the response surface
+                          # where it crosses the target
 
 [stages.rsm]
 design = "bbd"            # bbd | ccd
