@@ -125,3 +125,20 @@ def test_the_anchor_centres_the_surface_where_the_study_s_test_meets_the_target(
         monkeypatch.setattr(tasks, "run_chunk", again)
         assert _centre_truth(path, analytic, calibrate(path))[1]["centre"] == summary["centre"]
         assert again.stages == {}
+        _report_shows_the_anchor(path, a)
+
+
+def _report_shows_the_anchor(path, anchored):
+    """The report's steepest section has the anchor's runs as a table (and its text)."""
+    import json
+
+    from demcal.report import build_report
+
+    html = build_report(path.parent)
+    doc = json.loads((html.parent / "report.json").read_text("utf-8"))
+    t = doc["tables"]["steepest_anchor"]
+    rows = [dict(zip(t["columns"], row, strict=True)) for row in t["rows"]]
+    assert [r["step"] for r in rows] == [r["step"] for r in anchored["runs"]]
+    assert [r["AoR, standard (deg)"] for r in rows] == pytest.approx(
+        [r["aor_deg"] for r in anchored["runs"]])
+    assert "crosses the target" in html.read_text("utf-8")

@@ -397,6 +397,11 @@ def _screening(b: _Builder) -> str:
     return _section("screening", "Screening", view.status, _guard(b, view, render))
 
 
+def _fmt_step(step: Any) -> str:
+    """A (fractional) path step for the text, or a dash."""
+    return escape(f"{step:.2f}") if isinstance(step, int | float) else "—"
+
+
 def _steepest(b: _Builder) -> str:
     d, view = b.data, b.data.stage("steepest")
 
@@ -410,6 +415,11 @@ def _steepest(b: _Builder) -> str:
                  b.figure("steepest", "AoR (line) and relative error to the measurement (bars) "
                           "along the path.",
                           lambda: F.steepest_figure(s, d.target_aor_deg, d.symbols))]
+        if s.get("anchor"):
+            a = s["anchor"]
+            parts += [f"<p>Anchor: {escape(str(a.get('message', '')))}; the response surface "
+                      f"is centred at step {_fmt_step(a.get('centre_step'))}.</p>",
+                      b.table(T.steepest_anchor_table(s, d.symbols))]
         if s.get("levels"):
             parts.append(b.table(T.steepest_levels_table(s, d.symbols)))
         return "".join(parts)

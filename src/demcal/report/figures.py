@@ -178,6 +178,7 @@ def steepest_figure(summary: Mapping[str, Any], target_aor_deg: float | None = N
     if best is not None and best in list(s):
         i = list(s).index(best)
         ax.plot([s[i]], [a[i]], "o", ms=14, mfc="none", mec="k", label="best step")
+    _anchor_marks(ax, summary.get("anchor"))
     ax.set_xlabel("step")
     ax.set_xticks(s if len(s) else [1])
     ax.set_ylabel("AoR (°)")
@@ -188,6 +189,19 @@ def steepest_figure(summary: Mapping[str, Any], target_aor_deg: float | None = N
     ax.legend(handles + h2, labels + l2, fontsize=8, loc="upper center",
               bbox_to_anchor=(0.5, -0.2), ncol=3)
     return fig
+
+
+def _anchor_marks(ax: Any, anchor: Mapping[str, Any] | None) -> None:
+    """The anchor's runs (the study's own test at path points) and the surface's centre."""
+    if not anchor:
+        return
+    runs = [r for r in anchor.get("runs") or [] if r.get("aor_deg") is not None]
+    if runs:
+        ax.plot([r["step"] for r in runs], [r["aor_deg"] for r in runs], "s", color="#9467bd",
+                mfc="none", ms=8, label=f"AoR at {anchor.get('fidelity') or 'the study'}'s test")
+    centre = anchor.get("centre_step")
+    if centre is not None:
+        ax.axvline(centre, color="k", ls=":", lw=1, label="surface centre")
 
 
 # ------------------------------------------------------------------------------------------ rsm

@@ -311,6 +311,27 @@ def steepest_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Ta
     return Table("steepest", "Path of steepest ascent (cf. Table 6)", _frame(rows, cols))
 
 
+def steepest_anchor_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+    """The anchor's runs: the study's own test at path points, next to the path's cheaper
+    test at the same points (empty when the path ran at the study's fidelity)."""
+    a = summary.get("anchor") or {}
+    names = list(summary.get("factors") or [])
+    fid = a.get("fidelity") or "study"
+    rows = []
+    for r in a.get("runs") or []:
+        actual = r.get("actual") or {}
+        row: dict[str, Any] = {"step": r.get("step")}
+        for n in names:
+            row[symbols.get(n, n)] = _num(actual.get(n))
+        row[f"AoR, {fid} (deg)"] = _num(r.get("aor_deg"))
+        row["AoR, path's test (deg)"] = _num(r.get("path_aor_deg"))
+        row["outcome"] = r.get("outcome", "")
+        rows.append(row)
+    cols = ["step", *(symbols.get(n, n) for n in names), f"AoR, {fid} (deg)",
+            "AoR, path's test (deg)", "outcome"]
+    return Table("steepest_anchor", "The path anchored at the study's test", _frame(rows, cols))
+
+
 def steepest_levels_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
     """Levels chosen for the response-surface design from the best step."""
     rows = []
