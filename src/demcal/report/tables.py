@@ -9,7 +9,7 @@ frames with :func:`format_cell`; ``report.json`` and ``tables/*.csv`` hold the r
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -291,21 +291,30 @@ def fit_table(key: str, title: str, fit: Mapping[str, Any],
 
 
 # ------------------------------------------------------------------------------------- steepest
+def _path_rows(points: Sequence[Mapping[str, Any]], names: Sequence[str],
+               symbols: Mapping[str, str], values: Mapping[str, str]) -> list[dict[str, Any]]:
+    """One row per path point: its step, factor settings, then ``values`` (column ->
+    the point's key) and its outcome."""
+    rows = []
+    for s in points:
+        actual = s.get("actual") or {}
+        row: dict[str, Any] = {"step": s.get("step")}
+        row.update({symbols.get(n, n): _num(actual.get(n)) for n in names})
+        row.update({col: _num(s.get(key)) for col, key in values.items()})
+        row["outcome"] = s.get("outcome", "")
+        rows.append(row)
+    return rows
+
+
 def steepest_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
     """The path of steepest ascent: settings, AoR and relative error per step (cf. Table 6)."""
     names = list(summary.get("factors") or [])
     best = summary.get("best_step")
-    rows = []
-    for s in summary.get("steps") or []:
-        actual = s.get("actual") or {}
-        row: dict[str, Any] = {"step": s.get("step")}
-        for n in names:
-            row[symbols.get(n, n)] = _num(actual.get(n))
-        row["AoR (deg)"] = _num(s.get("aor_deg"))
-        row["relative error %"] = _num(s.get("relative_error_percent"))
-        row["outcome"] = s.get("outcome", "")
+    steps = summary.get("steps") or []
+    rows = _path_rows(steps, names, symbols, {"AoR (deg)": "aor_deg",
+                                               "relative error %": "relative_error_percent"})
+    for row, s in zip(rows, steps, strict=True):
         row["best"] = "best" if s.get("step") == best else ""
-        rows.append(row)
     cols = ["step", *(symbols.get(n, n) for n in names), "AoR (deg)", "relative error %",
             "outcome", "best"]
     return Table("steepest", "Path of steepest ascent (cf. Table 6)", _frame(rows, cols))
@@ -316,19 +325,11 @@ def steepest_anchor_table(summary: Mapping[str, Any], symbols: Mapping[str, str]
     test at the same points (empty when the path ran at the study's fidelity)."""
     a = summary.get("anchor") or {}
     names = list(summary.get("factors") or [])
-    fid = a.get("fidelity") or "study"
-    rows = []
-    for r in a.get("runs") or []:
-        actual = r.get("actual") or {}
-        row: dict[str, Any] = {"step": r.get("step")}
-        for n in names:
-            row[symbols.get(n, n)] = _num(actual.get(n))
-        row[f"AoR, {fid} (deg)"] = _num(r.get("aor_deg"))
-        row["AoR, path's test (deg)"] = _num(r.get("path_aor_deg"))
-        row["outcome"] = r.get("outcome", "")
-        rows.append(row)
-    cols = ["step", *(symbols.get(n, n) for n in names), f"AoR, {fid} (deg)",
-            "AoR, path's test (deg)", "outcome"]
+    own = f"AoR, {a.get('fidelity') or 'study'} (deg)"
+    rows = _path_rows(a.get("runs") or [], names, symbols,
+                      {own: "aor_deg", "AoR, path's test (deg)": "path_aor_deg"})
+    cols = ["step", *(symbols.get(n, n) for n in names), own, "AoR, path's test (deg)",
+            "outcome"]
     return Table("steepest_anchor", "The path anchored at the study's test", _frame(rows, cols))
 
 
