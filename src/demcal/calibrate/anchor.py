@@ -1,12 +1,13 @@
 """Where the study's own test meets the target along a path run at a cheaper fidelity.
 
 A study may run its path of steepest ascent at a cheaper test than its response surface
-(``stages.steepest.fidelity = "small"`` in a ``standard`` study). The cheaper test does not read
-the same angles: on the corn stalk's path the ``small`` pile read ~5 deg above the ``standard``
-one, so the step the path called best (43.9 deg small) was a ~38 deg ``standard`` point, and
-the Box-Behnken design around it (30.7-43.3 deg) did not contain the 44.1 deg target. A
-response surface then optimises at its corner, extrapolating, and the verification misses
-(3.1-3.4 % in both standard corn-stalk studies before this).
+(``stages.steepest.fidelity = "small"`` in a ``standard`` study). One cheap pile per step is a
+noisy guide (the ``small`` test scatters 4-5 deg between seeds at cohesive points) and may read
+differently from the study's test: on the corn stalk's path the step called best read 43.9 deg
+at ``small`` and ~38 deg at ``standard``, and the Box-Behnken design around it (30.7-43.3 deg)
+did not contain the 44.1 deg target. A response surface then optimises at its corner,
+extrapolating, and the verification misses (3.1-3.4 % in both standard corn-stalk studies
+before this).
 
 The *anchor* runs the study's own test at path points around the best step and puts the
 centre of the response surface where that test crosses the target, interpolated between the
