@@ -198,7 +198,7 @@ def _anchor_marks(ax: Any, anchor: Mapping[str, Any] | None) -> None:
     runs = [r for r in anchor.get("runs") or [] if r.get("aor_deg") is not None]
     if runs:
         ax.plot([r["step"] for r in runs], [r["aor_deg"] for r in runs], "s", color="#9467bd",
-                mfc="none", ms=8, label=f"AoR at {anchor.get('fidelity') or 'the study'}'s test")
+                mfc="none", ms=8, label=f"AoR, {anchor.get('fidelity') or 'study'} test")
     centre = anchor.get("centre_step")
     if centre is not None:
         ax.axvline(centre, color="k", ls=":", lw=1, label="surface centre")
