@@ -119,6 +119,8 @@ def test_the_anchor_centres_the_surface_where_the_study_s_test_meets_the_target(
         assert a["fidelity"] == "standard" and a["crossing_step"] is not None
         assert a["offset_deg"] == pytest.approx(-8.0, abs=1.0)  # the stand-in's noise: 0.3
         assert 2 <= stand_in.stages["steepest_anchor"] <= 4
+        assert summary["message"].startswith("the path's best step at its own test (small)")
+        assert f"centred at step {a['centre_step']:.2f}" in summary["message"]
         assert abs(truth - target) < 2.0
         # resumed: nothing runs again, the same centre
         again = Shifted(analytic, shift=8.0)
@@ -136,6 +138,9 @@ def _report_shows_the_anchor(path, anchored):
 
     html = build_report(path.parent)
     doc = json.loads((html.parent / "report.json").read_text("utf-8"))
+    stages = doc["tables"]["stages"]
+    path_row = next(r for r in stages["rows"] if r[0] == "Path of steepest ascent")
+    assert path_row[stages["columns"].index("runs")] == 5 + len(anchored["runs"])
     t = doc["tables"]["steepest_anchor"]
     rows = [dict(zip(t["columns"], row, strict=True)) for row in t["rows"]]
     assert [r["step"] for r in rows] == [r["step"] for r in anchored["runs"]]

@@ -575,10 +575,13 @@ def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, b
     runs = [{"step": s, "actual": path[s], "aor_deg": r.aor_deg if r.outcome == "pile" else None,
              "outcome": r.outcome, "path_aor_deg": None if math.isnan(y[s]) else float(y[s])}
             for s, r in sorted(got.items())]
+    path_fid = ctx.study.stage_fidelities()["steepest"]
     return anchor.path_point(path, centre_step), {"anchor": {
         "fidelity": ctx.study.test.fidelity, "runs": runs, "crossing_step": cross,
         "centre_step": centre_step,
-        "offset_deg": anchor.offset([float(v) for v in y], piles), "message": message}}
+        "offset_deg": anchor.offset([float(v) for v in y], piles), "message": message},
+        "message": f"the path's best step at its own test ({path_fid}) is {best}; {message}; "
+                   f"the response surface is centred at step {centre_step:.2f}"}
 
 
 def _anchor_step(ctx: Context, piles: Mapping[int, float], cross: float | None, best: int

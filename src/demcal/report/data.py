@@ -18,6 +18,10 @@ from demcal.store import STORE_NAME, RunRecord, RunStore
 __all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
 
 #: The calibration's stages in the order the report shows them, with their titles.
+#: runs stored under another name than the stage they belong to: the steepest stage's
+#: anchor runs (the study's own test at path points; demcal.calibrate.anchor)
+RUNS_OF: dict[str, str] = {"steepest_anchor": "steepest"}
+
 STAGES: dict[str, str] = {
     "rangefind": "Range finding",
     "screening": "Screening (Plackett-Burman)",
@@ -153,7 +157,7 @@ def load_report_data(study_dir: str | Path) -> ReportData:
         stored = {s.name: s for s in store.stages()}
     by_stage: dict[str, list[RunRecord]] = {}
     for r in runs:
-        by_stage.setdefault(r.stage, []).append(r)
+        by_stage.setdefault(RUNS_OF.get(r.stage, r.stage), []).append(r)
     stages: dict[str, StageView] = {}
     for name in [*STAGES, *(n for n in stored if n not in STAGES)]:
         rec = stored.get(name)
