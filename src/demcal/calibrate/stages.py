@@ -520,7 +520,7 @@ def steepest(ctx: Context) -> dict[str, Any]:
         message = (f"after step {best} the relative error grows or no pile forms: step {best} "
                    "is the centre")
     step_actual = {n: abs(step_c) * space[n].half_range for n in selected}
-    centre, anchored = _surface_centre(ctx, path, y, best)
+    centre, anchored = _surface_centre(ctx, path, y, best, message)
     levels = {}
     for n in selected:
         lo = _clip(n, centre[n] - step_actual[n])
@@ -545,17 +545,20 @@ def steepest(ctx: Context) -> dict[str, Any]:
     return summary
 
 
-def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, best: int
-                    ) -> tuple[dict[str, float], dict[str, Any]]:
+def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, best: int,
+                    path_message: str) -> tuple[dict[str, float], dict[str, Any]]:
     """The response surface's centre on the path, and the anchor's summary keys.
 
     The best step of the path, unless the path ran at its own fidelity and
     ``anchor_rounds`` > 0: then the study's own test is run at path points around it
-    (:mod:`demcal.calibrate.anchor`) and the centre is where that test crosses the target.
+    (:mod:`demcal.calibrate.anchor`) and the centre is where that test crosses the target;
+    the stage's message (``path_message``, what the path itself found) then says so too.
     """
     rounds = ctx.study.stages.steepest.anchor_rounds
-    if "steepest" not in ctx.study.stage_fidelities() or rounds < 1 or len(path) < 2:
+    path_fid = ctx.study.stage_fidelities().get("steepest")
+    if path_fid is None or rounds < 1 or len(path) < 2:
         return dict(path[best]), {}
+    path_aor = [float(v) for v in y]
     got: dict[int, RunRecord] = {}
     want: tuple[int, ...] | None = anchor.first_pair(best, len(path))
     cross, piles = None, {}
@@ -569,19 +572,20 @@ def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, b
         cross = anchor.crossing(piles, ctx.target)
         if cross is not None:
             break
-        want = anchor.next_pair([float(v) for v in y], piles, ctx.target)
+        want = anchor.next_pair(path_aor, piles, ctx.target)
     step, message = _anchor_step(ctx, piles, cross, best)
     centre_step = anchor.surface_centre(step, len(path))
     runs = [{"step": s, "actual": path[s], "aor_deg": r.aor_deg if r.outcome == "pile" else None,
-             "outcome": r.outcome, "path_aor_deg": None if math.isnan(y[s]) else float(y[s])}
+             "outcome": r.outcome,
+             "path_aor_deg": None if math.isnan(path_aor[s]) else path_aor[s]}
             for s, r in sorted(got.items())]
-    path_fid = ctx.study.stage_fidelities()["steepest"]
     return anchor.path_point(path, centre_step), {"anchor": {
         "fidelity": ctx.study.test.fidelity, "runs": runs, "crossing_step": cross,
-        "centre_step": centre_step,
-        "offset_deg": anchor.offset([float(v) for v in y], piles), "message": message},
-        "message": f"the path's best step at its own test ({path_fid}) is {best}; {message}; "
-                   f"the response surface is centred at step {centre_step:.2f}"}
+        "centre_step": centre_step, "offset_deg": anchor.offset(path_aor, piles),
+        "message": message},
+        "message": f"the path's best step at its own test ({path_fid}) is {best} "
+                   f"({path_message}); {message}; the response surface is centred at step "
+                   f"{centre_step:.2f}"}
 
 
 def _anchor_step(ctx: Context, piles: Mapping[int, float], cross: float | None, best: int

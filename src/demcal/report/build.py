@@ -397,11 +397,6 @@ def _screening(b: _Builder) -> str:
     return _section("screening", "Screening", view.status, _guard(b, view, render))
 
 
-def _fmt_step(step: Any) -> str:
-    """A (fractional) path step for the text, or a dash."""
-    return escape(f"{step:.2f}") if isinstance(step, int | float) else "—"
-
-
 def _steepest(b: _Builder) -> str:
     d, view = b.data, b.data.stage("steepest")
 
@@ -418,7 +413,7 @@ def _steepest(b: _Builder) -> str:
         if s.get("anchor"):
             a = s["anchor"]
             parts += [f"<p>Anchor: {escape(str(a.get('message', '')))}; the response surface "
-                      f"is centred at step {_fmt_step(a.get('centre_step'))}.</p>",
+                      f"is centred at step {_fmt(a.get('centre_step'))}.</p>",
                       b.table(T.steepest_anchor_table(s, d.symbols))]
         if s.get("levels"):
             parts.append(b.table(T.steepest_levels_table(s, d.symbols)))

@@ -17,11 +17,11 @@ from demcal.store import STORE_NAME, RunRecord, RunStore
 
 __all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
 
-#: The calibration's stages in the order the report shows them, with their titles.
 #: runs stored under another name than the stage they belong to: the steepest stage's
 #: anchor runs (the study's own test at path points; demcal.calibrate.anchor)
 RUNS_OF: dict[str, str] = {"steepest_anchor": "steepest"}
 
+#: The calibration's stages in the order the report shows them, with their titles.
 STAGES: dict[str, str] = {
     "rangefind": "Range finding",
     "screening": "Screening (Plackett-Burman)",
