@@ -212,3 +212,24 @@ def test_docstring_examples_run():
         result = doctest.testmod(module)
         assert result.failed == 0, module.__name__
         assert result.attempted > 0, module.__name__
+
+
+def test_std_interval_matches_the_chi_square_table_and_covers_at_its_level():
+    """The 95 % interval of a std from 6 repeats is s x (0.6242, 2.4526): sqrt(5 / 12.833)
+    and sqrt(5 / 0.8312), with chi-square quantiles from a printed table (5 degrees of
+    freedom: 12.833 at 0.975, 0.8312 at 0.025); and over many normal samples it holds the
+    true std about 95 % of the time."""
+    from demcal.physical import std_interval
+
+    lo, hi = std_interval(2.0, 6)
+    assert lo == pytest.approx(2.0 * 0.6242, abs=2e-3)
+    assert hi == pytest.approx(2.0 * 2.4526, abs=2e-3)
+    rng = np.random.default_rng(7)
+    samples = rng.normal(40.0, 1.7, size=(4000, 6))
+    covered = [lo <= 1.7 <= hi for lo, hi in (std_interval(s, 6) for s in
+                                               samples.std(axis=1, ddof=1))]
+    assert np.mean(covered) == pytest.approx(0.95, abs=0.015)
+    with pytest.raises(InputError, match="n must be an integer >= 2"):
+        std_interval(1.0, 1)
+    with pytest.raises(InputError, match="std"):
+        std_interval(-1.0, 6)

@@ -88,7 +88,31 @@ def test_summary_line_gives_the_standard_error_and_the_seed_scatter():
            "n_piles": 1}
     assert summary_line(one) == "AoR = 41.00 deg (flank views' spread 1.00), time step 7e-06 s"
     three = {"aor_deg": 44.63, "aor_std_deg": 4.42, "time_step_s": 7e-6, "n_piles": 3,
-             "aor_seed_std_deg": 2.02, "aor_sem_deg": 2.02 / 3 ** 0.5}
+             "aor_seed_std_deg": 2.02, "aor_sem_deg": 2.02 / 3 ** 0.5,
+             "aor_seed_std_ci95_deg": [1.05, 12.7]}
     line = summary_line(three)
     assert line.startswith("AoR = 44.63 +/- 1.17 deg (mean of 3 piles")
-    assert "seed-to-seed std 2.02" in line and "flank views' spread 4.42" in line
+    assert "seed-to-seed std 2.02 (95 % interval 1.05-12.70)" in line
+    assert "flank views' spread 4.42" in line
+
+
+def test_summary_of_several_piles_gives_the_seed_scatter_with_its_interval():
+    """Three piles: the seed-to-seed std of their angles, its standard error of the mean and
+    the 95 % interval of the std (chi-square, 2 degrees of freedom: s x 0.5207 to
+    s x 6.2847)."""
+    from types import SimpleNamespace
+
+    from demcal.cli.simulate_cmd import summarize_runs
+
+    def run(angle):
+        return SimpleNamespace(outcome="pile", aor_deg=angle, aor_left_deg=angle,
+                               aor_right_deg=angle, aor_profile_deg=None, views_deg=[],
+                               n_particles=1200, particles_lost=0, settled=True,
+                               time_step_s=1e-6, sim_time_s=1.0, wall_time_s=1.0, params={})
+
+    out = summarize_runs([run(42.0), run(44.0), run(46.0)])
+    assert out["aor_seed_std_deg"] == pytest.approx(2.0)
+    assert out["aor_sem_deg"] == pytest.approx(2.0 / 3 ** 0.5)
+    lo, hi = out["aor_seed_std_ci95_deg"]
+    assert lo == pytest.approx(2.0 * 0.5207, abs=2e-3)
+    assert hi == pytest.approx(2.0 * 6.2847, abs=5e-3)

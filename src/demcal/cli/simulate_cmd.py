@@ -24,6 +24,7 @@ from demcal.cli._common import (
 )
 from demcal.errors import InputError
 from demcal.limits import MAX_REPLICATES, MAX_SEED, check_test_size
+from demcal.physical.stats import std_interval
 
 PROGRESS_ROWS = 16
 
@@ -34,14 +35,17 @@ app.add_typer(simulate_app, name="simulate")
 
 def summary_line(summary: dict) -> str:
     """The result in one line: the mean angle with its standard error and the seed-to-seed
-    scatter when several piles were built, the spread of one pile's flank views otherwise."""
+    scatter (with its 95 % interval: a std from a few piles is itself uncertain) when several
+    piles were built, the spread of one pile's flank views otherwise."""
     views = f"flank views' spread {summary['aor_std_deg']:.2f}"
     step = f", time step {summary['time_step_s']:.3g} s"
     if summary.get("aor_sem_deg") is None:
         return f"AoR = {summary['aor_deg']:.2f} deg ({views}){step}"
+    interval = summary.get("aor_seed_std_ci95_deg")
+    within = "" if interval is None else f" (95 % interval {interval[0]:.2f}-{interval[1]:.2f})"
     return (f"AoR = {summary['aor_deg']:.2f} +/- {summary['aor_sem_deg']:.2f} deg (mean of "
             f"{summary['n_piles']} piles +/- its standard error; seed-to-seed std "
-            f"{summary['aor_seed_std_deg']:.2f}, {views}){step}")
+            f"{summary['aor_seed_std_deg']:.2f}{within}, {views}){step}")
 
 
 def summarize_runs(results: list) -> dict:
@@ -67,12 +71,15 @@ def summarize_runs(results: list) -> dict:
             aor_std_deg=float(np.std(views, ddof=1)) if len(views) > 1 else 0.0,
             aor_seed_std_deg=seed_std,
             aor_sem_deg=None if seed_std is None else seed_std / math.sqrt(len(means)),
+            aor_seed_std_ci95_deg=None if seed_std is None else list(
+                std_interval(seed_std, len(means))),
             aor_profile_deg=float(np.mean([r.aor_profile_deg for r in piles
                                            if r.aor_profile_deg is not None] or [math.nan])),
         )
     else:
         out.update(aor_deg=None, aor_left_deg=None, aor_right_deg=None, aor_std_deg=None,
-                   aor_seed_std_deg=None, aor_sem_deg=None, aor_profile_deg=None)
+                   aor_seed_std_deg=None, aor_seed_std_ci95_deg=None, aor_sem_deg=None,
+                   aor_profile_deg=None)
     first = results[0]
     out.update(
         n_particles=int(np.mean([r.n_particles for r in results])),

@@ -37,6 +37,7 @@ from demcal.physical.schema import Measurements, load_measurements, parse_measur
 from demcal.physical.stats import (
     RANGE_RULES,
     RepeatSummary,
+    std_interval,
     suggest_range,
     summarize,
     summarize_range,
@@ -65,6 +66,7 @@ __all__ = [
     "poisson_from_moduli",
     "rayleigh_time_step",
     "shear_modulus_from_youngs",
+    "std_interval",
     "suggest_range",
     "summarize",
     "summarize_range",
