@@ -79,3 +79,26 @@ def test_empty_plate_is_scattered():
 def test_criteria_bounds(value):
     with pytest.raises(ValueError, match="plug_mass_fraction"):
         OutcomeCriteria(plug_mass_fraction=value)
+
+
+def test_an_unsettled_test_says_when_its_material_still_stands_as_a_column():
+    """A test whose material never settles is 'unsettled'; when that material still stands
+    in the cylinder's footprint (a cohesive column creeping on), the reason says so, and
+    says nothing more for a spreading pile."""
+    from types import SimpleNamespace
+
+    from demcal.virtual.aor import _column_hint
+    from demcal.virtual.config import fidelity_config
+
+    config = fidelity_config("quick")  # a 30 mm tube: R_TUBE
+
+    def hint(pos):
+        sim = SimpleNamespace(spheres=lambda w: (pos, np.full(len(pos), 0.002), None),
+                              clump_positions=lambda w: pos,
+                              clump_masses=lambda w: np.ones(len(pos)))
+        return _column_hint(sim, SimpleNamespace(index=0, fill_height=0.06), config)
+
+    column = hint(_cloud(150, 0.9 * R_TUBE, 0.0, 0.058))
+    assert column.startswith("; the material still stands as a column, creeping (")
+    assert "outside the cylinder's footprint" in column
+    assert hint(_cloud(150, 0.05, 0.0, 0.02)) == ""

@@ -368,7 +368,31 @@ def _step_phase(sim: Simulation, run: _Run, config: AoRTestConfig, template, t: 
         elif elapsed > ph.pile_settle_max_time:
             _finish(sim, run, config, Outcome.UNSETTLED, t,
                     reason=f"the pile did not settle within {ph.pile_settle_max_time} s "
-                           f"(rms speed {rms:.3g} m/s, max {vmax:.3g} m/s)")
+                           f"(rms speed {rms:.3g} m/s, max {vmax:.3g} m/s)"
+                           + _column_hint(sim, run, config))
+
+
+def _column_hint(sim: Simulation, run: _Run, config: AoRTestConfig) -> str:
+    """For a pile that did not settle: a clause saying that the material still stands as a
+    column (:func:`~demcal.virtual.outcome.classify_settled`'s rule on the moving material),
+    or ``""``. A column that creeps on (strong cohesion holding a light material up, e.g.
+    the paper's EDEM surface energies on this engine) never settles, so the reason must say
+    what the test built, not only that it kept moving."""
+    w = run.index
+    centres, radii, _ = sim.spheres(w)
+    if len(radii) == 0 or not run.fill_height:
+        return ""
+    g = config.geometry
+    outcome, why = classify_settled(
+        sim.clump_positions(w), sim.clump_masses(w), fill_height=run.fill_height,
+        material_top=float(np.max(centres[:, 2] + radii)),
+        tube_radius=0.5 * g.cylinder_inner_diameter,
+        particle_length=config.particle.length * config.particle.size_max,
+        criteria=config.outcome)
+    if outcome != Outcome.COLUMN or why is None:
+        return ""
+    return ("; the material still stands as a column, creeping "
+            f"({why.partition(': ')[2]}): the cohesion holds it up")
 
 
 def _factory_insert_slots(sim: Simulation, run: _Run, config: AoRTestConfig, template,
