@@ -82,9 +82,9 @@ def test_criteria_bounds(value):
 
 
 def test_an_unsettled_test_says_when_its_material_still_stands_as_a_column():
-    """A test whose material never settles is 'unsettled'; when that material still stands
-    in the cylinder's footprint (a cohesive column creeping on), the reason says so, and
-    says nothing more for a spreading pile."""
+    """A test whose material never settles is 'unsettled'; the reason says what the moving
+    material is (height against the fill, mass outside the cylinder's footprint) and, when it
+    still stands in the footprint, that it is a column creeping on."""
     from types import SimpleNamespace
 
     from demcal.virtual.aor import _column_hint
@@ -99,6 +99,11 @@ def test_an_unsettled_test_says_when_its_material_still_stands_as_a_column():
         return _column_hint(sim, SimpleNamespace(index=0, fill_height=0.06), config)
 
     column = hint(_cloud(150, 0.9 * R_TUBE, 0.0, 0.058))
-    assert column.startswith("; the material still stands as a column, creeping (")
-    assert "outside the cylinder's footprint" in column
-    assert hint(_cloud(150, 0.05, 0.0, 0.02)) == ""
+    assert column.startswith("; it still stands as a column, creeping (cohesion holds the "
+                             "material up): 60 mm high (100% of the fill height), 0% of "
+                             "the mass outside the cylinder's footprint")
+    spread = hint(_cloud(150, 0.05, 0.0, 0.02))
+    assert spread.startswith("; the material is still moving: 22 mm high (37% of the fill "
+                             "height), ")
+    outside = float(spread.split("), ")[1].split("%")[0])
+    assert 70 < outside < 90  # uniform over a 50 mm disc: 1 - (20 mm / 50 mm)^2 = 84 %

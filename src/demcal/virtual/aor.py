@@ -37,7 +37,7 @@ from demcal.virtual.factory import (
     pack_cylinder,
     place_in_cylinder,
 )
-from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled
+from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled, mass_outside
 from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 from demcal.virtual.settle import settle_state
@@ -373,26 +373,27 @@ def _step_phase(sim: Simulation, run: _Run, config: AoRTestConfig, template, t: 
 
 
 def _column_hint(sim: Simulation, run: _Run, config: AoRTestConfig) -> str:
-    """For a pile that did not settle: a clause saying that the material still stands as a
-    column (:func:`~demcal.virtual.outcome.classify_settled`'s rule on the moving material),
-    or ``""``. A column that creeps on (strong cohesion holding a light material up, e.g.
-    the paper's EDEM surface energies on this engine) never settles, so the reason must say
-    what the test built, not only that it kept moving."""
+    """For a pile that did not settle: a clause saying what the moving material is (its
+    height against the fill's, its mass outside the cylinder's footprint) and, when it meets
+    :func:`~demcal.virtual.outcome.classify_settled`'s column rule, that it is a column
+    creeping on, or ``""``. Strong cohesion can hold a light material up as a mound or
+    column that creeps on and never settles (the paper's EDEM surface energies on this
+    engine), so the reason must say what the test built, not only that it kept moving."""
     w = run.index
     centres, radii, _ = sim.spheres(w)
     if len(radii) == 0 or not run.fill_height:
         return ""
-    g = config.geometry
-    outcome, why = classify_settled(
-        sim.clump_positions(w), sim.clump_masses(w), fill_height=run.fill_height,
-        material_top=float(np.max(centres[:, 2] + radii)),
-        tube_radius=0.5 * g.cylinder_inner_diameter,
-        particle_length=config.particle.length * config.particle.size_max,
-        criteria=config.outcome)
-    if outcome != Outcome.COLUMN or why is None:
-        return ""
-    return ("; the material still stands as a column, creeping "
-            f"({why.partition(': ')[2]}): the cohesion holds it up")
+    g, p = config.geometry, config.particle
+    top = float(np.max(centres[:, 2] + radii))
+    pos, mass = sim.clump_positions(w), sim.clump_masses(w)
+    outside = mass_outside(pos, mass, 0.5 * g.cylinder_inner_diameter + 0.5 * p.length * p.size_max)
+    outcome, _ = classify_settled(pos, mass, fill_height=run.fill_height, material_top=top,
+                                  tube_radius=0.5 * g.cylinder_inner_diameter,
+                                  particle_length=p.length * p.size_max, criteria=config.outcome)
+    what = ("it still stands as a column, creeping (cohesion holds the material up)"
+            if outcome == Outcome.COLUMN else "the material is still moving")
+    return (f"; {what}: {top * 1e3:.0f} mm high ({top / run.fill_height:.0%} of the fill "
+            f"height), {outside:.0%} of the mass outside the cylinder's footprint")
 
 
 def _factory_insert_slots(sim: Simulation, run: _Run, config: AoRTestConfig, template,

@@ -22,7 +22,7 @@ import numpy as np
 
 from demcal.virtual.config import OutcomeCriteria
 
-__all__ = ["Outcome", "classify_after_lift", "classify_settled"]
+__all__ = ["Outcome", "classify_after_lift", "classify_settled", "mass_outside"]
 
 
 class Outcome(StrEnum):
@@ -69,6 +69,16 @@ def classify_after_lift(positions: np.ndarray, masses: np.ndarray, *, tube_botto
     return None, None
 
 
+def mass_outside(positions: np.ndarray, masses: np.ndarray, radius: float) -> float:
+    """Fraction of the mass (0-1) whose clump centres lie farther than ``radius`` (m) from
+    the cylinder's axis (the z axis); ``positions`` (n, 3) m, ``masses`` (n,) kg."""
+    total = float(np.sum(masses))
+    if total <= 0:
+        return 0.0
+    rho = np.hypot(positions[:, 0], positions[:, 1])
+    return float(np.sum(masses[rho > radius])) / total
+
+
 def classify_settled(positions: np.ndarray, masses: np.ndarray, *, fill_height: float,
                      material_top: float, tube_radius: float, particle_length: float,
                      criteria: OutcomeCriteria) -> tuple[Outcome, str | None]:
@@ -93,11 +103,9 @@ def classify_settled(positions: np.ndarray, masses: np.ndarray, *, fill_height: 
     criteria : OutcomeCriteria
         Thresholds.
     """
-    total = float(np.sum(masses))
-    if total <= 0:
+    if float(np.sum(masses)) <= 0:
         return Outcome.SCATTERED, "no material left on the plate"
-    rho = np.hypot(positions[:, 0], positions[:, 1])
-    outside = float(np.sum(masses[rho > tube_radius + 0.5 * particle_length])) / total
+    outside = mass_outside(positions, masses, tube_radius + 0.5 * particle_length)
     standing = fill_height > 0 and material_top >= criteria.column_height_fraction * fill_height
     if outside < criteria.column_outside_fraction and standing:
         return Outcome.COLUMN, (
