@@ -41,11 +41,11 @@ def summary_line(summary: dict) -> str:
     step = f", time step {summary['time_step_s']:.3g} s"
     if summary.get("aor_sem_deg") is None:
         return f"AoR = {summary['aor_deg']:.2f} deg ({views}){step}"
-    interval = summary.get("aor_seed_std_ci95_deg")
-    within = "" if interval is None else f" (95 % interval {interval[0]:.2f}-{interval[1]:.2f})"
+    lo, hi = summary["aor_seed_std_ci95_deg"]
     return (f"AoR = {summary['aor_deg']:.2f} +/- {summary['aor_sem_deg']:.2f} deg (mean of "
             f"{summary['n_piles']} piles +/- its standard error; seed-to-seed std "
-            f"{summary['aor_seed_std_deg']:.2f}{within}, {views}){step}")
+            f"{summary['aor_seed_std_deg']:.2f} (95 % interval {lo:.2f}-{hi:.2f}), "
+            f"{views}){step}")
 
 
 def summarize_runs(results: list) -> dict:

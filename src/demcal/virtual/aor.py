@@ -372,6 +372,13 @@ def _step_phase(sim: Simulation, run: _Run, config: AoRTestConfig, template, t: 
                            + _column_hint(sim, run, config))
 
 
+def _footprint(config: AoRTestConfig) -> dict[str, float]:
+    """The cylinder's inner radius and the longest particle, m: the footprint of the column
+    rule (:func:`~demcal.virtual.outcome.classify_settled`, ``mass_outside``)."""
+    return {"tube_radius": 0.5 * config.geometry.cylinder_inner_diameter,
+            "particle_length": config.particle.length * config.particle.size_max}
+
+
 def _column_hint(sim: Simulation, run: _Run, config: AoRTestConfig) -> str:
     """For a pile that did not settle: a clause saying what the moving material is (its
     height against the fill's, its mass outside the cylinder's footprint) and, when it meets
@@ -383,13 +390,11 @@ def _column_hint(sim: Simulation, run: _Run, config: AoRTestConfig) -> str:
     centres, radii, _ = sim.spheres(w)
     if len(radii) == 0 or not run.fill_height:
         return ""
-    g, p = config.geometry, config.particle
     top = float(np.max(centres[:, 2] + radii))
     pos, mass = sim.clump_positions(w), sim.clump_masses(w)
-    outside = mass_outside(pos, mass, 0.5 * g.cylinder_inner_diameter + 0.5 * p.length * p.size_max)
+    outside = mass_outside(pos, mass, **_footprint(config))
     outcome, _ = classify_settled(pos, mass, fill_height=run.fill_height, material_top=top,
-                                  tube_radius=0.5 * g.cylinder_inner_diameter,
-                                  particle_length=p.length * p.size_max, criteria=config.outcome)
+                                  criteria=config.outcome, **_footprint(config))
     what = ("it still stands as a column, creeping (cohesion holds the material up)"
             if outcome == Outcome.COLUMN else "the material is still moving")
     return (f"; {what}: {top * 1e3:.0f} mm high ({top / run.fill_height:.0%} of the fill "
@@ -440,7 +445,6 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
             t: float, reason: str | None = None) -> None:
     """Classify (if not yet), measure a pile, and store the result."""
     w = run.index
-    g = config.geometry
     run.phase_times[run.phase] = t
     centres, radii, _clump_ids = sim.spheres(w)
     pos = sim.clump_positions(w)
@@ -450,9 +454,7 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
         outcome, reason = classify_settled(
             pos, mass, fill_height=run.fill_height or 0.0,
             material_top=float(np.max(centres[:, 2] + radii)) if len(radii) else 0.0,
-            tube_radius=0.5 * g.cylinder_inner_diameter,
-            particle_length=config.particle.length * config.particle.size_max,
-            criteria=config.outcome)
+            criteria=config.outcome, **_footprint(config))
     measured: dict[str, Any] = {}
     if outcome == Outcome.PILE:
         figure = run.plot_path

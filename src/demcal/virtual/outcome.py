@@ -69,14 +69,16 @@ def classify_after_lift(positions: np.ndarray, masses: np.ndarray, *, tube_botto
     return None, None
 
 
-def mass_outside(positions: np.ndarray, masses: np.ndarray, radius: float) -> float:
-    """Fraction of the mass (0-1) whose clump centres lie farther than ``radius`` (m) from
-    the cylinder's axis (the z axis); ``positions`` (n, 3) m, ``masses`` (n,) kg."""
+def mass_outside(positions: np.ndarray, masses: np.ndarray, *, tube_radius: float,
+                 particle_length: float) -> float:
+    """Fraction of the mass (0-1) outside the cylinder's footprint: clump centres farther
+    than ``tube_radius + particle_length / 2`` (m) from its axis (the z axis);
+    ``positions`` (n, 3) m, ``masses`` (n,) kg."""
     total = float(np.sum(masses))
     if total <= 0:
         return 0.0
     rho = np.hypot(positions[:, 0], positions[:, 1])
-    return float(np.sum(masses[rho > radius])) / total
+    return float(np.sum(masses[rho > tube_radius + 0.5 * particle_length])) / total
 
 
 def classify_settled(positions: np.ndarray, masses: np.ndarray, *, fill_height: float,
@@ -105,7 +107,8 @@ def classify_settled(positions: np.ndarray, masses: np.ndarray, *, fill_height: 
     """
     if float(np.sum(masses)) <= 0:
         return Outcome.SCATTERED, "no material left on the plate"
-    outside = mass_outside(positions, masses, tube_radius + 0.5 * particle_length)
+    outside = mass_outside(positions, masses, tube_radius=tube_radius,
+                           particle_length=particle_length)
     standing = fill_height > 0 and material_top >= criteria.column_height_fraction * fill_height
     if outside < criteria.column_outside_fraction and standing:
         return Outcome.COLUMN, (
