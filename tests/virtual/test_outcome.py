@@ -107,3 +107,17 @@ def test_an_unsettled_test_says_when_its_material_still_stands_as_a_column():
                              "height), ")
     outside = float(spread.split("), ")[1].split("%")[0])
     assert 70 < outside < 90  # uniform over a 50 mm disc: 1 - (20 mm / 50 mm)^2 = 84 %
+
+
+def test_footprint_is_the_tube_radius_and_the_longest_particle():
+    from demcal.virtual import fidelity_config
+    from demcal.virtual.outcome import footprint, mass_outside
+
+    config = fidelity_config("standard")
+    fp = footprint(config)
+    assert fp["tube_radius"] == pytest.approx(0.5 * config.geometry.cylinder_inner_diameter)
+    assert fp["particle_length"] == pytest.approx(
+        config.particle.length * config.particle.size_max)
+    edge = fp["tube_radius"] + 0.5 * fp["particle_length"]
+    pos = np.array([[0.99 * edge, 0.0, 0.0], [1.01 * edge, 0.0, 0.0]])
+    assert mass_outside(pos, np.array([3.0, 1.0]), **fp) == pytest.approx(0.25)

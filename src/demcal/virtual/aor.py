@@ -37,7 +37,13 @@ from demcal.virtual.factory import (
     pack_cylinder,
     place_in_cylinder,
 )
-from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled, mass_outside
+from demcal.virtual.outcome import (
+    Outcome,
+    classify_after_lift,
+    classify_settled,
+    footprint,
+    mass_outside,
+)
 from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 from demcal.virtual.settle import settle_state
@@ -372,13 +378,6 @@ def _step_phase(sim: Simulation, run: _Run, config: AoRTestConfig, template, t: 
                            + _column_hint(sim, run, config))
 
 
-def _footprint(config: AoRTestConfig) -> dict[str, float]:
-    """The cylinder's inner radius and the longest particle, m: the footprint of the column
-    rule (:func:`~demcal.virtual.outcome.classify_settled`, ``mass_outside``)."""
-    return {"tube_radius": 0.5 * config.geometry.cylinder_inner_diameter,
-            "particle_length": config.particle.length * config.particle.size_max}
-
-
 def _column_hint(sim: Simulation, run: _Run, config: AoRTestConfig) -> str:
     """For a pile that did not settle: a clause saying what the moving material is (its
     height against the fill's, its mass outside the cylinder's footprint) and, when it meets
@@ -392,9 +391,9 @@ def _column_hint(sim: Simulation, run: _Run, config: AoRTestConfig) -> str:
         return ""
     top = float(np.max(centres[:, 2] + radii))
     pos, mass = sim.clump_positions(w), sim.clump_masses(w)
-    outside = mass_outside(pos, mass, **_footprint(config))
+    outside = mass_outside(pos, mass, **footprint(config))
     outcome, _ = classify_settled(pos, mass, fill_height=run.fill_height, material_top=top,
-                                  criteria=config.outcome, **_footprint(config))
+                                  criteria=config.outcome, **footprint(config))
     what = ("it still stands as a column, creeping (cohesion holds the material up)"
             if outcome == Outcome.COLUMN else "the material is still moving")
     return (f"; {what}: {top * 1e3:.0f} mm high ({top / run.fill_height:.0%} of the fill "
@@ -454,7 +453,7 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
         outcome, reason = classify_settled(
             pos, mass, fill_height=run.fill_height or 0.0,
             material_top=float(np.max(centres[:, 2] + radii)) if len(radii) else 0.0,
-            criteria=config.outcome, **_footprint(config))
+            criteria=config.outcome, **footprint(config))
     measured: dict[str, Any] = {}
     if outcome == Outcome.PILE:
         figure = run.plot_path

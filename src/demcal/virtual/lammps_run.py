@@ -35,7 +35,7 @@ from demcal.virtual.aor import AoRResult
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.lammps_aor import FINAL, INPUT, LIFTED, LammpsCase, write_case
 from demcal.virtual.lammps_options import LammpsOptions
-from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled
+from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled, footprint
 from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 
@@ -179,9 +179,7 @@ def _result(case: LammpsCase, config: AoRTestConfig, wall: float,
     outcome, reason = classify_settled(
         com, mass, fill_height=fill_height or 0.0,
         material_top=float(np.max(centres[:, 2] + radii)) if len(radii) else 0.0,
-        tube_radius=0.5 * g.cylinder_inner_diameter,
-        particle_length=config.particle.length * config.particle.size_max,
-        criteria=config.outcome)
+        criteria=config.outcome, **footprint(config))
     measured: dict[str, Any] = {}
     artefacts: dict[str, str] = {}
     if outcome == Outcome.PILE:

@@ -20,9 +20,9 @@ from enum import StrEnum
 
 import numpy as np
 
-from demcal.virtual.config import OutcomeCriteria
+from demcal.virtual.config import AoRTestConfig, OutcomeCriteria
 
-__all__ = ["Outcome", "classify_after_lift", "classify_settled", "mass_outside"]
+__all__ = ["Outcome", "classify_after_lift", "classify_settled", "footprint", "mass_outside"]
 
 
 class Outcome(StrEnum):
@@ -67,6 +67,14 @@ def classify_after_lift(positions: np.ndarray, masses: np.ndarray, *, tube_botto
         return Outcome.PLUG, (f"{frac:.0%} of the mass rose with the cylinder (plug threshold "
                               f"{criteria.plug_mass_fraction:.0%})")
     return None, None
+
+
+def footprint(config: AoRTestConfig) -> dict[str, float]:
+    """The cylinder's inner radius and the longest particle of a test, m: the footprint
+    arguments (``tube_radius``, ``particle_length``) of :func:`classify_settled` and
+    :func:`mass_outside`, the same for every engine."""
+    return {"tube_radius": 0.5 * config.geometry.cylinder_inner_diameter,
+            "particle_length": config.particle.length * config.particle.size_max}
 
 
 def mass_outside(positions: np.ndarray, masses: np.ndarray, *, tube_radius: float,
