@@ -45,7 +45,7 @@ def run_point(params: dict[str, float], out: Path, seeds: int, first_seed: int) 
     """``demcal simulate aor --fidelity standard --seeds N`` at ``params``; JSON to ``out``."""
     cmd = [sys.executable, "-m", "demcal", "simulate", "aor", "--fidelity", "standard",
            "--seeds", str(seeds), "--seed", str(first_seed), "--json", str(out),
-           "--set", *[f"{k}={v!r}" for k, v in params.items()]]
+           *[a for k, v in params.items() for a in ("--set", f"{k}={v!r}")]]
     subprocess.run(cmd, check=False)  # an unstable run exits 1 and still writes its JSON
     if out.exists():
         d = json.loads(out.read_text())
