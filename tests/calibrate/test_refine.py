@@ -44,6 +44,9 @@ def test_rounds_move_the_optimum_towards_the_truth_on_fresh_seeds(curved_study):
     assert len(rounds) == 3 and [r["round"] for r in rounds] == [1, 2, 3]
     first, last = rounds[0], rounds[-1]
     assert first["confirmed"] is False and first["target_in_interval"] is False
+    # after an unconfirmed round the whole measured offset is applied
+    assert rounds[1]["offset_weight"] == 1.0
+    assert rounds[1]["surface_offset_deg"] == rounds[1]["measured_offset_deg"]
     miss = [abs(_truth(curved_study, res, r) - 40.0) for r in rounds]
     assert miss[0] > 4.0 and miss[2] < 0.5 * miss[0] and miss[1] < miss[0]
     # the study's answer is the last round's
@@ -98,6 +101,11 @@ def test_an_acceptance_tolerance_asks_for_rounds_and_the_result_says_if_it_was_m
     first, v = res["rounds"][0], res["verification"]
     assert first["confirmed"] is True and first["within_tolerance"] is False
     assert len(res["rounds"]) == 2 and v["tolerance_percent"] == 0.01
+    # round 1 kept the surface's promise: round 2 applies the piles' share of its offset
+    second = res["rounds"][1]
+    assert 0.0 < second["offset_weight"] < 1.0
+    assert second["surface_offset_deg"] == pytest.approx(
+        second["offset_weight"] * second["measured_offset_deg"])
     assert v["within_tolerance"] is (v["relative_error_percent"] <= 0.01)
     # 0.01 % of 40 deg is far inside the piles' interval: the command line says so
     from typer.testing import CliRunner

@@ -135,3 +135,92 @@ def test_the_offset_pools_the_rounds_that_agreed_and_restarts_after_one_that_did
     three = rounds.offset(rs)
     assert three.rounds == [2, 3] and three.deg == pytest.approx((4 * -1.0 + 6 * 0.5) / 10)
     assert Rounds().offset(rs).at == []
+
+
+def test_the_weight_of_a_confirmed_offset_is_the_piles_share_of_the_information():
+    # w = N h / (N h + 1), h = Var(yhat at the pile-weighted optimum row) / s^2: the
+    # prediction's variance from statsmodels' t_test of that row
+    import statsmodels.api as sm
+
+    from demcal import doe
+    from demcal.calibrate.stages import offset_weight
+
+    rs, _, y = _surface()
+    earlier = [({"a": 0.6, "b": 1.1, "c": 0.3}, 12), ({"a": 0.7, "b": 0.9, "c": 0.6}, 4)]
+    ols = sm.OLS(y, rs.model_matrix).fit()
+    rows = doe.model_matrix(np.array([[0.2, 0.1, 0.3], [0.4, -0.1, 0.6]]), rs.terms)
+    h = float(ols.t_test(0.75 * rows[0] + 0.25 * rows[1]).sd[0, 0]) ** 2 / ols.mse_resid
+    assert offset_weight(rs, earlier) == pytest.approx(16 * h / (16 * h + 1), rel=1e-10)
+    assert 0.0 < offset_weight(rs, earlier[1:]) < offset_weight(rs, earlier) < 1.0
+
+
+def test_a_round_applies_a_confirmed_offset_by_its_weight_and_an_unconfirmed_one_whole():
+    from demcal.calibrate.stages import Rounds, offset_weight
+
+    rs, _, _ = _surface()
+    pts = [{"a": 0.6, "b": 1.1, "c": 0.3}, {"a": 0.7, "b": 0.9, "c": 0.6}]
+    pred = rs.predict({k: [p[k] for p in pts] for k in "abc"}, units="actual")
+    rounds = Rounds(optimize=[{"chosen": p} for p in pts],
+                    verification=[{"aor_mean_deg": float(pred[0]) - 2.0, "n_piles": 12,
+                                   "confirmed": True, "round": 1},
+                                  {"aor_mean_deg": float(pred[1]) - 1.0, "n_piles": 4,
+                                   "confirmed": True, "round": 2}])
+    both = rounds.offset(rs)
+    w = offset_weight(rs, [(pts[0], 12), (pts[1], 4)])
+    assert both.weight == pytest.approx(w) and both.applied == pytest.approx(w * both.deg)
+    rounds.verification[0]["confirmed"] = False  # round 1 disagreed: the surface is off
+    assert rounds.offset(rs).weight == 1.0 and rounds.offset(rs).applied == rounds.offset(rs).deg
+
+
+def test_a_weighted_rounds_confirmation_carries_the_weighted_offsets_error():
+    # prediction yhat(x) + c b, variance s^2 (1/n + c^2/N) + Var(yhat(x) - c sum_j w_j yhat(x_j))
+    import statsmodels.api as sm
+
+    from demcal import doe
+    from demcal.calibrate.stages import Offset, confirmation
+
+    rs, _, y = _surface()
+    chosen = {"a": 0.65, "b": 0.8, "c": 0.5}
+    earlier = [({"a": 0.6, "b": 1.1, "c": 0.3}, 12), ({"a": 0.7, "b": 0.9, "c": 0.6}, 4)]
+    ols = sm.OLS(y, rs.model_matrix).fit()
+    rows = doe.model_matrix(np.array([[0.3, -0.2, 0.5], [0.2, 0.1, 0.3], [0.4, -0.1, 0.6]]),
+                            rs.terms)
+    c, offset, n = 0.4, -1.3, 6
+    contrast = ols.t_test(rows[0] - c * (0.75 * rows[1] + 0.25 * rows[2]))
+    se = math.sqrt(ols.mse_resid * (1 / n + c * c / 16) + float(contrast.sd[0, 0]) ** 2)
+    pred = float(ols.predict(rows[:1])[0]) + c * offset
+    half = stats.t.ppf(0.975, ols.df_resid) * se
+    out = confirmation(rs, chosen, np.full(n, pred) + np.linspace(-0.3, 0.3, n),
+                       offset=Offset(offset, earlier, [1, 2], weight=c))
+    assert out["confirm_pi_low_deg"] == pytest.approx(pred - half, rel=1e-10)
+    assert out["confirm_pi_high_deg"] == pytest.approx(pred + half, rel=1e-10)
+
+
+def test_the_weight_is_what_the_surfaces_true_error_regresses_on_the_measured_offset():
+    # A world whose quadratic surface is right but for its estimation error: over many
+    # studies (a Box-Behnken with noise 0.8, then 6 piles at one optimum), the least-squares
+    # factor from the measured offset to the surface's true error there is the weight, and
+    # applying the weighted offset misses the truth by less than applying all of it.
+    from demcal import doe
+    from demcal.calibrate.stages import offset_weight
+
+    d = doe.box_behnken({"a": (0.0, 1.0), "b": (0.0, 2.0), "c": (-1.0, 1.0)}, center_points=3,
+                        randomize=False)
+    x = np.asarray(d.coded, dtype=float)
+
+    def truth(c):
+        return 40 + 3 * c[..., 0] + 2 * c[..., 1] - c[..., 2] + c[..., 0] * c[..., 1]
+
+    chosen, coded, n = {"a": 0.65, "b": 0.8, "c": 0.5}, np.array([0.3, -0.2, 0.5]), 6
+    rng = np.random.default_rng(5)
+    measured, error, weights = [], [], []
+    for _ in range(600):
+        rs = doe.fit(d, truth(x) + rng.normal(0, 0.8, len(x)), model="quadratic")
+        yhat = float(rs.predict({k: [v] for k, v in chosen.items()}, units="actual")[0])
+        error.append(float(truth(coded)) - yhat)
+        measured.append(float(truth(coded)) + rng.normal(0, 0.8, n).mean() - yhat)
+        weights.append(offset_weight(rs, [(chosen, n)]))
+    m, e, w = np.array(measured), np.array(error), float(np.mean(weights))
+    assert 0.2 < w < 0.9
+    assert float(m @ e / (m @ m)) == pytest.approx(w, abs=0.1)
+    assert np.mean((e - w * m) ** 2) < 0.85 * np.mean((e - m) ** 2)

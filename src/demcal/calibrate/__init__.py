@@ -74,9 +74,12 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
                       "p_pile": float|None}],  (ranked, best first)
       "chosen": {name: value}, "predicted_aor_deg": float,
       in a refinement round (demcal.calibrate.refine): "round": int (2, 3, ...),
-      "surface_offset_deg": float (earlier rounds' piles' means less the surface there,
-      pooled; the surface was aimed at the target less it), "offset_from_rounds": [int]
-      (the rounds pooled), "rounds": [the earlier rounds' summaries]}
+      "surface_offset_deg": float (the correction applied: the surface was aimed at the
+      target less it), "measured_offset_deg": float (earlier rounds' piles' means less the
+      surface there, pooled), "offset_weight": float (the share applied: 1 after an
+      unconfirmed round, N h / (N h + 1) when every pooled round was confirmed),
+      "offset_from_rounds": [int] (the rounds pooled), "rounds": [the earlier rounds'
+      summaries]}
 - "verification": {"params": {name: value (full set)}, "aor_deg": [float|None],
       "outcomes": [str], "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n",
       "pile_png": str|None (side view of a verification pile with fitted lines),

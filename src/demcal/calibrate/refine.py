@@ -8,7 +8,9 @@ target lies outside the piles' own 95 % interval, or (with ``tolerance_percent``
 acceptance criterion) the mean misses the target by more than it, and ``max_rounds``
 allows, the next round corrects the surface by the offset the piles measured (their mean
 less the surface's prediction at that optimum; pooled with the earlier rounds' while they
-agree, :meth:`~demcal.calibrate.stages.Rounds.offset`), reads the optimum where the corrected
+agree, :meth:`~demcal.calibrate.stages.Rounds.offset`; all of it after a round the surface
+did not confirm, the share N h / (N h + 1) that the piles' information bears against the
+surface's when it did), reads the optimum where the corrected
 surface meets the target, starting from the previous one, and verifies it on seeds of its
 own: a Newton step on the real test with the surface's slopes. It is what an engineer does by
 hand after a failed confirmation ("the model reads 1.4 deg high here: aim 1.4 deg higher"),
@@ -45,13 +47,16 @@ def needs_another_round(verification: dict[str, Any],
 
 
 def round_row(optimum: dict[str, Any], verification: dict[str, Any]) -> dict[str, Any]:
-    """One round in a few numbers: its optimum, prediction and verification (deg)."""
+    """One round in a few numbers: its optimum, prediction, the offset it was aimed by (a
+    refinement round) and verification (deg)."""
     keys = ("n_piles", "aor_mean_deg", "aor_std_deg", "relative_error_percent",
             "half_width_deg", "ci_low_deg", "ci_high_deg", "confirm_pi_low_deg",
             "confirm_pi_high_deg", "confirmed", "target_in_interval", "within_tolerance",
             "p_value")
+    aimed = ("surface_offset_deg", "measured_offset_deg", "offset_weight")
     return {"round": int(verification.get("round", 1)), "optimum": optimum["chosen"],
             "predicted_aor_deg": optimum["predicted_aor_deg"],
+            **{k: optimum[k] for k in aimed if k in optimum},
             **{k: verification.get(k) for k in keys}}
 
 

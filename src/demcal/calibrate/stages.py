@@ -52,6 +52,15 @@ class Rounds:
         round agreed with the offset it was aimed by, so the offsets are one (the
         confirmation is that consistency test); a round that disagreed starts a new
         estimate, so an offset that changes along the way (a curved response) is followed.
+
+        How much of it the next round applies (:attr:`Offset.weight`): all of it when a
+        pooled round was not confirmed (the surface is off there by more than its own
+        error: only the piles know by how much). When every pooled round was confirmed, the
+        measured offset is as likely the piles' scatter as the surface's error, and the two
+        are weighed by their variances: the piles' mean s^2 / N, the surface's prediction at
+        the pooled optima s^2 h (h = d' (X'X)^-1 d, d the pile-weighted model row), so
+        w = N h / (N h + 1), the best linear estimate of the surface's error there
+        (s^2 cancels).
         """
         pool: list[int] = []
         for j in range(len(self.verification) - 1, -1, -1):
@@ -66,8 +75,10 @@ class Rounds:
         x = {n: [p[n] for p, _ in at] for n in model.names}
         pred = np.asarray(model.predict(x, units="actual"), dtype=float)
         w = np.array([n for _, n in at], dtype=float)
+        confirmed = all(self.verification[j].get("confirmed") is True for j in pool)
         return Offset(float(np.sum(w * (y - pred)) / w.sum()), at,
-                      [int(self.verification[j].get("round", 1)) for j in pool])
+                      [int(self.verification[j].get("round", 1)) for j in pool],
+                      weight=offset_weight(model, at) if confirmed else 1.0)
 
 
 @dataclass(frozen=True)
@@ -76,12 +87,40 @@ class Offset:
 
     ``deg``: the pooled offset (piles' means less the surface, weighted by the piles);
     ``at``: [(the optimum's factor values, its number of piles)]; ``rounds``: their round
-    numbers. Round 1 has none: ``Offset()``.
+    numbers; ``weight``: the share of it the next round applies (:meth:`Rounds.offset`).
+    Round 1 has none: ``Offset()``.
     """
 
     deg: float = 0.0
     at: list[tuple[dict[str, float], int]] = field(default_factory=list)
     rounds: list[int] = field(default_factory=list)
+    weight: float = 1.0
+
+    @property
+    def applied(self) -> float:
+        """The correction the next round aims by, deg: ``weight * deg``."""
+        return self.weight * self.deg
+
+
+def _pooled_row(model: Any, chosen: Mapping[str, float],
+                at: Sequence[tuple[Mapping[str, float], int]]) -> tuple[np.ndarray, np.ndarray]:
+    """The model row at ``chosen`` and the pile-weighted mean row of the optima ``at``
+    (coded, the model's terms)."""
+    space = model.factors.subset(model.names)
+    pts = [chosen, *[p for p, _ in at]]
+    rows = doe.model_matrix(space.to_coded(np.array([[p[n] for n in model.names]
+                                                     for p in pts])), model.terms)
+    n_at = np.array([n for _, n in at], dtype=float)
+    return rows[0], (n_at / n_at.sum()) @ rows[1:]
+
+
+def offset_weight(model: Any, at: Sequence[tuple[Mapping[str, float], int]]) -> float:
+    """Share of a measured surface offset to apply when the surface kept its promise:
+    N h / (N h + 1) (:meth:`Rounds.offset`), N the piles at the optima ``at``."""
+    _, mean_row = _pooled_row(model, at[0][0], at)
+    h = float(mean_row @ model.xtx_inv @ mean_row)
+    n = float(sum(k for _, k in at))
+    return n * h / (n * h + 1.0)
 
 
 @dataclass
@@ -815,7 +854,7 @@ def optimize(ctx: Context) -> dict[str, Any]:
     model = ctx.results["_rsm_model"]
     k = ctx.rounds.number
     measured = ctx.rounds.offset(model)
-    offset = measured.deg
+    offset = measured.applied
     aim = ctx.target - offset
     opts_json = opts.model_dump(mode="json")
     if ctx.rounds.stored is None:  # before begin() marks the stage running
@@ -860,7 +899,8 @@ def optimize(ctx: Context) -> dict[str, Any]:
                "chosen": cands[0]["params"], "predicted_aor_deg": cands[0]["predicted_aor_deg"],
                "classifier": clf.describe(), "opts": opts_json}
     if k > 1:
-        summary.update(round=k, surface_offset_deg=offset, offset_from_rounds=measured.rounds)
+        summary.update(round=k, surface_offset_deg=offset, offset_from_rounds=measured.rounds,
+                       measured_offset_deg=measured.deg, offset_weight=measured.weight)
     return _store_optimum(ctx, summary, h)
 
 
@@ -948,10 +988,11 @@ def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
     and ``confirmed`` (the mean inside that interval); None without a surface or a pile.
 
     In a refinement round the promise is the surface corrected by ``offset``: b = sum_j w_j
-    (ybar_j - yhat(x_j)) over earlier optima x_j with n_j piles (w_j = n_j / N). Then the
-    prediction is yhat(x) + b and its variance s^2 (1/n + 1/N + d' (X'X)^-1 d), with d the
-    model row at x less the w-weighted rows at the x_j (the predictions share their
-    coefficients' error; s^2 the residual mean square, t on its df).
+    (ybar_j - yhat(x_j)) over earlier optima x_j with n_j piles (w_j = n_j / N), of which the
+    round applied the share c (``offset.weight``). Then the prediction is yhat(x) + c b and
+    its variance s^2 (1/n + c^2/N + d' (X'X)^-1 d), with d the model row at x less c times
+    the w-weighted rows at the x_j (the predictions share their coefficients' error; s^2 the
+    residual mean square, t on its df).
     """
     out: dict[str, Any] = {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None,
                            "confirmed": None}
@@ -964,14 +1005,12 @@ def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
     else:
         from scipy import stats
 
-        space = model.factors.subset(model.names)
-        pts = [chosen, *[p for p, _ in offset.at]]
-        rows = doe.model_matrix(space.to_coded(np.array([[p[n] for n in model.names]
-                                                         for p in pts])), model.terms)
-        n_at = np.array([n for _, n in offset.at], dtype=float)
-        d = rows[0] - (n_at / n_at.sum()) @ rows[1:]
-        var = model.mse * (1 / values.size + 1 / n_at.sum() + float(d @ model.xtx_inv @ d))
-        pred = float(model.predict(at, units="actual")[0]) + offset.deg
+        row, mean_row = _pooled_row(model, chosen, offset.at)
+        c = offset.weight
+        d = row - c * mean_row
+        n_at = float(sum(n for _, n in offset.at))
+        var = model.mse * (1 / values.size + c * c / n_at + float(d @ model.xtx_inv @ d))
+        pred = float(model.predict(at, units="actual")[0]) + offset.applied
         half = float(stats.t.ppf(1 - alpha / 2, model.df_resid)) * math.sqrt(var)
         lo, hi = pred - half, pred + half
     out.update(confirm_pi_low_deg=lo, confirm_pi_high_deg=hi,

@@ -77,11 +77,16 @@ def _print_rounds(result: dict) -> None:
         word = {True: "confirmed", False: "not confirmed", None: "no confirmation"}[
             r["confirmed"]]
         params = ", ".join(f"{k} {v:.4g}" for k, v in r["optimum"].items())
-        console.print(f"round {r['round']}: {params}: verification {mean} on {r['n_piles']} "
-                      f"piles, {word}", highlight=False)
+        aimed = "" if r.get("surface_offset_deg") is None else (
+            f" (aimed by {r['surface_offset_deg']:+.2f} deg: "
+            f"{r.get('offset_weight', 1.0):.2f} of the {r.get('measured_offset_deg', 0.0):+.2f}"
+            " measured)")
+        console.print(f"round {r['round']}: {params}{aimed}: verification {mean} on "
+                      f"{r['n_piles']} piles, {word}", highlight=False)
     console.print(f"the optimum above is round {rounds[-1]['round']}'s: each later round aimed "
-                  "the surface by the offset the earlier rounds' piles measured "
-                  "(stages.verification.max_rounds)", highlight=False)
+                  "the surface by the offset the earlier rounds' piles measured (all of it "
+                  "after an unconfirmed round, the piles' share of the information after "
+                  "confirmed ones; stages.verification.max_rounds)", highlight=False)
 
 
 def _print_verification(result: dict) -> None:

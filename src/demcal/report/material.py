@@ -119,8 +119,9 @@ def _verification_block(ver: Mapping[str, Any], opt: Mapping[str, Any],
         verification["predicted_aor_deg"] = opt["predicted_aor_deg"]
     if ver.get("round", 1) > 1:  # a refinement round's (demcal.calibrate.refine)
         verification["round"] = ver["round"]
-        if opt.get("surface_offset_deg") is not None:
-            verification["surface_offset_deg"] = opt["surface_offset_deg"]
+        for key in ("surface_offset_deg", "measured_offset_deg", "offset_weight"):
+            if opt.get(key) is not None:
+                verification[key] = opt[key]
     return verification
 
 

@@ -454,7 +454,8 @@ def verification_summary_table(summary: Mapping[str, Any], target: float | None)
 def verification_rounds_table(optimize: Mapping[str, Any], verification: Mapping[str, Any],
                               symbols: Mapping[str, str]) -> Table | None:
     """One row per verification round (demcal.calibrate.refine), None for a single round:
-    the round's optimum, the surface offset it aimed by (deg), the piles' mean and std (deg),
+    the round's optimum, the offset the earlier rounds measured, the share of it applied
+    and the surface offset it aimed by (deg), the piles' mean and std (deg),
     the relative error to the target and Design-Expert's confirmation."""
     opts = [*optimize.get("rounds", []), optimize]
     vers = [*verification.get("rounds", []), verification]
@@ -466,17 +467,23 @@ def verification_rounds_table(optimize: Mapping[str, Any], verification: Mapping
         conf = v.get("confirmed")
         rows.append({"round": v.get("round", 1),
                      **{symbols.get(n, n): _num((o.get("chosen") or {}).get(n)) for n in names},
+                     "measured offset (deg)": _num(o.get("measured_offset_deg",
+                                                         o.get("surface_offset_deg", 0.0))),
+                     "share applied": _num(o.get("offset_weight", 1.0)),
                      "surface offset (deg)": _num(o.get("surface_offset_deg", 0.0)),
                      "piles": v.get("n_piles"), "mean AoR (deg)": _num(v.get("aor_mean_deg")),
                      "std (deg)": _num(v.get("aor_std_deg")),
                      "relative error %": _num(v.get("relative_error_percent")),
                      "confirmation": "" if conf is None else
                      ("confirmed" if conf else "not confirmed")})
-    cols = ["round", *[symbols.get(n, n) for n in names], "surface offset (deg)", "piles",
+    cols = ["round", *[symbols.get(n, n) for n in names], "measured offset (deg)",
+            "share applied", "surface offset (deg)", "piles",
             "mean AoR (deg)", "std (deg)", "relative error %", "confirmation"]
     return Table("verification_rounds", "Verification rounds: each later round aims the "
-                 "surface by the offset the earlier rounds' piles measured; the study's "
-                 "answer is the last round's", _frame(rows, cols))
+                 "surface by the offset the earlier rounds' piles measured (all of it after "
+                 "an unconfirmed round; after confirmed ones the share the piles' information "
+                 "bears against the surface's); the study's answer is the last round's",
+                 _frame(rows, cols))
 
 
 def excluded_table(data: ReportData) -> Table:
