@@ -152,6 +152,15 @@ def test_the_weight_of_a_confirmed_offset_is_the_piles_share_of_the_information(
     h = float(ols.t_test(0.75 * rows[0] + 0.25 * rows[1]).sd[0, 0]) ** 2 / ols.mse_resid
     assert offset_weight(rs, earlier) == pytest.approx(16 * h / (16 * h + 1), rel=1e-10)
     assert 0.0 < offset_weight(rs, earlier[1:]) < offset_weight(rs, earlier) < 1.0
+    # a reduced (here linear) surface on the same design is weighed as the full quadratic:
+    # its own variance would ignore the terms' selection (h = 1/15 + ... is far smaller)
+    d = doe.box_behnken({"a": (0.0, 1.0), "b": (0.0, 2.0), "c": (-1.0, 1.0)}, center_points=3,
+                        randomize=False)
+    linear = doe.fit(d, y, model="linear")
+    assert offset_weight(linear, earlier) == pytest.approx(offset_weight(rs, earlier), rel=1e-10)
+    mean_row = doe.model_matrix(np.array([[0.25, 0.05, 0.375]]), linear.terms)[0]
+    h_linear = float(mean_row @ linear.xtx_inv @ mean_row)
+    assert 16 * h_linear / (16 * h_linear + 1) < 0.9 * offset_weight(rs, earlier)
 
 
 def test_a_round_applies_a_confirmed_offset_by_its_weight_and_an_unconfirmed_one_whole():

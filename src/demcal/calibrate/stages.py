@@ -58,9 +58,9 @@ class Rounds:
         error: only the piles know by how much). When every pooled round was confirmed, the
         measured offset is as likely the piles' scatter as the surface's error, and the two
         are weighed by their variances: the piles' mean s^2 / N, the surface's prediction at
-        the pooled optima s^2 h (h = d' (X'X)^-1 d, d the pile-weighted model row), so
-        w = N h / (N h + 1), the best linear estimate of the surface's error there
-        (s^2 cancels).
+        the pooled optima s^2 h (h = d' (X'X)^-1 d, d the pile-weighted row of the full
+        quadratic: :func:`offset_weight`), so w = N h / (N h + 1), the best linear estimate
+        of the surface's error there (s^2 cancels).
         """
         pool: list[int] = []
         for j in range(len(self.verification) - 1, -1, -1):
@@ -103,22 +103,37 @@ class Offset:
 
 
 def _pooled_row(model: Any, chosen: Mapping[str, float],
-                at: Sequence[tuple[Mapping[str, float], int]]) -> tuple[np.ndarray, np.ndarray]:
+                at: Sequence[tuple[Mapping[str, float], int]],
+                terms: Sequence[tuple[int, ...]] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The model row at ``chosen`` and the pile-weighted mean row of the optima ``at``
-    (coded, the model's terms)."""
+    (coded; the model's terms, or ``terms``)."""
     space = model.factors.subset(model.names)
     pts = [chosen, *[p for p, _ in at]]
     rows = doe.model_matrix(space.to_coded(np.array([[p[n] for n in model.names]
-                                                     for p in pts])), model.terms)
+                                                     for p in pts])),
+                            model.terms if terms is None else terms)
     n_at = np.array([n for _, n in at], dtype=float)
     return rows[0], (n_at / n_at.sum()) @ rows[1:]
 
 
 def offset_weight(model: Any, at: Sequence[tuple[Mapping[str, float], int]]) -> float:
     """Share of a measured surface offset to apply when the surface kept its promise:
-    N h / (N h + 1) (:meth:`Rounds.offset`), N the piles at the optima ``at``."""
-    _, mean_row = _pooled_row(model, at[0][0], at)
-    h = float(mean_row @ model.xtx_inv @ mean_row)
+    N h / (N h + 1) (:meth:`Rounds.offset`), N the piles at the optima ``at``.
+
+    h is the leverage of the pile-weighted optimum row under the *full quadratic* on the
+    model's design points, not under the fitted model: a model reduced by backward
+    elimination predicts with a variance that ignores the terms' selection, and would make
+    the surface look more certain than it is. Where the design cannot hold the full
+    quadratic (too few runs, aliased terms), the fitted model's own terms.
+    """
+    terms = doe.model_terms(len(model.names), "quadratic")
+    x = doe.model_matrix(model.coded, terms)
+    if x.shape[0] <= x.shape[1] or np.linalg.matrix_rank(x) < x.shape[1]:
+        terms, xtx_inv = model.terms, model.xtx_inv
+    else:
+        xtx_inv = np.linalg.inv(x.T @ x)
+    _, mean_row = _pooled_row(model, at[0][0], at, terms)
+    h = float(mean_row @ xtx_inv @ mean_row)
     n = float(sum(k for _, k in at))
     return n * h / (n * h + 1.0)
 
