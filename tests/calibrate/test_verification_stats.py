@@ -84,10 +84,11 @@ def test_confirmation_without_a_surface_or_an_interval():
     assert compare_to_target(np.array([44.0, 45.0]), 44.12)["target_in_interval"] is True
 
 
-def test_a_refinement_rounds_confirmation_carries_the_offsets_error():
-    # The corrected prediction yhat(x) + sum_j w_j (ybar_j - yhat(x_j)), w_j = n_j / N, has
-    # the variance s^2 (1/n + 1/N) + Var(yhat(x) - sum_j w_j yhat(x_j)); the last term is
-    # statsmodels' t_test of that contrast of the model rows.
+@pytest.mark.parametrize("c", [1.0, 0.4])
+def test_a_refinement_rounds_confirmation_carries_the_offsets_error(c):
+    # The corrected prediction yhat(x) + c b, b = sum_j w_j (ybar_j - yhat(x_j)), w_j = n_j / N,
+    # c the share applied, has the variance s^2 (1/n + c^2/N) + Var(yhat(x) - c sum_j w_j
+    # yhat(x_j)); the last term is statsmodels' t_test of that contrast of the model rows.
     import statsmodels.api as sm
 
     from demcal import doe
@@ -99,13 +100,13 @@ def test_a_refinement_rounds_confirmation_carries_the_offsets_error():
     ols = sm.OLS(y, rs.model_matrix).fit()
     rows = doe.model_matrix(np.array([[0.3, -0.2, 0.5], [0.2, 0.1, 0.3], [0.4, -0.1, 0.6]]),
                             rs.terms)
-    contrast = ols.t_test(rows[0] - 0.75 * rows[1] - 0.25 * rows[2])
+    contrast = ols.t_test(rows[0] - c * (0.75 * rows[1] + 0.25 * rows[2]))
     offset, n = -1.3, 6
-    se = math.sqrt(ols.mse_resid * (1 / n + 1 / 16) + float(contrast.sd[0, 0]) ** 2)
-    pred = float(ols.predict(rows[:1])[0]) + offset
+    se = math.sqrt(ols.mse_resid * (1 / n + c * c / 16) + float(contrast.sd[0, 0]) ** 2)
+    pred = float(ols.predict(rows[:1])[0]) + c * offset
     half = stats.t.ppf(0.975, ols.df_resid) * se
     piles = np.full(n, pred) + np.array([-0.3, 0.3, -0.1, 0.1, 0.2, -0.2])
-    measured = Offset(offset, earlier, [1, 2])
+    measured = Offset(offset, earlier, [1, 2], weight=c)
     out = confirmation(rs, chosen, piles, offset=measured)
     assert out["confirm_pi_low_deg"] == pytest.approx(pred - half, rel=1e-10)
     assert out["confirm_pi_high_deg"] == pytest.approx(pred + half, rel=1e-10)
@@ -114,18 +115,29 @@ def test_a_refinement_rounds_confirmation_carries_the_offsets_error():
     assert out["confirmed"] is False
 
 
+ROUND_OPTIMA = [{"a": 0.6, "b": 1.1, "c": 0.3}, {"a": 0.7, "b": 0.9, "c": 0.6}]
+
+
+def _two_rounds(rs, pts, *, first_confirmed):
+    """Rounds 1 and 2 at ``pts[0]``, ``pts[1]`` (12 and 4 piles) whose means read 2 and 1
+    deg below the surface; round 2 confirmed."""
+    from demcal.calibrate.stages import Rounds
+
+    pred = rs.predict({k: [p[k] for p in pts[:2]] for k in "abc"}, units="actual")
+    return Rounds(optimize=[{"chosen": p} for p in pts],
+                  verification=[{"aor_mean_deg": float(pred[0]) - 2.0, "n_piles": 12,
+                                 "confirmed": first_confirmed, "round": 1},
+                                {"aor_mean_deg": float(pred[1]) - 1.0, "n_piles": 4,
+                                 "confirmed": True, "round": 2}])
+
+
 def test_the_offset_pools_the_rounds_that_agreed_and_restarts_after_one_that_did_not():
     from demcal.calibrate.stages import Rounds
 
     rs, _, _ = _surface()
-    pts = [{"a": 0.6, "b": 1.1, "c": 0.3}, {"a": 0.7, "b": 0.9, "c": 0.6},
-           {"a": 0.65, "b": 0.8, "c": 0.5}]
+    pts = [*ROUND_OPTIMA, {"a": 0.65, "b": 0.8, "c": 0.5}]
+    rounds = _two_rounds(rs, pts, first_confirmed=False)
     pred = rs.predict({k: [p[k] for p in pts] for k in "abc"}, units="actual")
-    rounds = Rounds(optimize=[{"chosen": p} for p in pts],
-                    verification=[{"aor_mean_deg": float(pred[0]) - 2.0, "n_piles": 12,
-                                   "confirmed": False, "round": 1},
-                                  {"aor_mean_deg": float(pred[1]) - 1.0, "n_piles": 4,
-                                   "confirmed": True, "round": 2}])
     both = rounds.offset(rs)
     assert both.rounds == [1, 2] and both.deg == pytest.approx((12 * -2.0 + 4 * -1.0) / 16)
     rounds.verification[1]["confirmed"] = False  # round 2 disagreed: its offset alone
@@ -164,45 +176,16 @@ def test_the_weight_of_a_confirmed_offset_is_the_piles_share_of_the_information(
 
 
 def test_a_round_applies_a_confirmed_offset_by_its_weight_and_an_unconfirmed_one_whole():
-    from demcal.calibrate.stages import Rounds, offset_weight
+    from demcal.calibrate.stages import offset_weight
 
     rs, _, _ = _surface()
-    pts = [{"a": 0.6, "b": 1.1, "c": 0.3}, {"a": 0.7, "b": 0.9, "c": 0.6}]
-    pred = rs.predict({k: [p[k] for p in pts] for k in "abc"}, units="actual")
-    rounds = Rounds(optimize=[{"chosen": p} for p in pts],
-                    verification=[{"aor_mean_deg": float(pred[0]) - 2.0, "n_piles": 12,
-                                   "confirmed": True, "round": 1},
-                                  {"aor_mean_deg": float(pred[1]) - 1.0, "n_piles": 4,
-                                   "confirmed": True, "round": 2}])
+    pts = ROUND_OPTIMA
+    rounds = _two_rounds(rs, pts, first_confirmed=True)
     both = rounds.offset(rs)
     w = offset_weight(rs, [(pts[0], 12), (pts[1], 4)])
     assert both.weight == pytest.approx(w) and both.applied == pytest.approx(w * both.deg)
     rounds.verification[0]["confirmed"] = False  # round 1 disagreed: the surface is off
     assert rounds.offset(rs).weight == 1.0 and rounds.offset(rs).applied == rounds.offset(rs).deg
-
-
-def test_a_weighted_rounds_confirmation_carries_the_weighted_offsets_error():
-    # prediction yhat(x) + c b, variance s^2 (1/n + c^2/N) + Var(yhat(x) - c sum_j w_j yhat(x_j))
-    import statsmodels.api as sm
-
-    from demcal import doe
-    from demcal.calibrate.stages import Offset, confirmation
-
-    rs, _, y = _surface()
-    chosen = {"a": 0.65, "b": 0.8, "c": 0.5}
-    earlier = [({"a": 0.6, "b": 1.1, "c": 0.3}, 12), ({"a": 0.7, "b": 0.9, "c": 0.6}, 4)]
-    ols = sm.OLS(y, rs.model_matrix).fit()
-    rows = doe.model_matrix(np.array([[0.3, -0.2, 0.5], [0.2, 0.1, 0.3], [0.4, -0.1, 0.6]]),
-                            rs.terms)
-    c, offset, n = 0.4, -1.3, 6
-    contrast = ols.t_test(rows[0] - c * (0.75 * rows[1] + 0.25 * rows[2]))
-    se = math.sqrt(ols.mse_resid * (1 / n + c * c / 16) + float(contrast.sd[0, 0]) ** 2)
-    pred = float(ols.predict(rows[:1])[0]) + c * offset
-    half = stats.t.ppf(0.975, ols.df_resid) * se
-    out = confirmation(rs, chosen, np.full(n, pred) + np.linspace(-0.3, 0.3, n),
-                       offset=Offset(offset, earlier, [1, 2], weight=c))
-    assert out["confirm_pi_low_deg"] == pytest.approx(pred - half, rel=1e-10)
-    assert out["confirm_pi_high_deg"] == pytest.approx(pred + half, rel=1e-10)
 
 
 def test_the_weight_is_what_the_surfaces_true_error_regresses_on_the_measured_offset():
