@@ -56,7 +56,7 @@ class Rounds:
         How much of it the next round applies (:attr:`Offset.weight`): all of it when a
         pooled round was not confirmed (the surface is off there by more than its own
         error: only the piles know by how much). When every pooled round was confirmed, the
-        measured offset is as likely the piles' scatter as the surface's error, and the two
+        measured offset may be the piles' scatter as well as the surface's error, and the two
         are weighed by their variances: the piles' mean s^2 / N, the surface's prediction at
         the pooled optima s^2 h (h = d' (X'X)^-1 d, d the pile-weighted row of the full
         quadratic: :func:`offset_weight`), so w = N h / (N h + 1), the best linear estimate
