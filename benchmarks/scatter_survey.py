@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import subprocess
 import sys
 import tomllib
@@ -87,10 +88,20 @@ def main() -> None:
                 run_point(params, path, args.seeds, args.seed)
         folder = args.out
     rows = summarize(folder)
+    def fmt(x: object) -> str:
+        return "-" if x is None else f"{x:.2f}"
+
     for r in rows:
         lo, hi = r["std_ci95_deg"]
-        print(f"{r['point']}: {r['n_piles']} piles, mean {r['aor_mean_deg']}, seed std "
-              f"{r['aor_seed_std_deg']} (95 % {lo}-{hi}), <= 2 deg: {r['reads_at_most_2']}")
+        print(f"{r['point']}: {r['n_piles']} piles, mean {fmt(r['aor_mean_deg'])} deg, seed std "
+              f"{fmt(r['aor_seed_std_deg'])} (95 % {fmt(lo)}-{fmt(hi)}), <= 2 deg: "
+              f"{r['reads_at_most_2']}")
+    done = [(r["aor_seed_std_deg"], r["n_piles"] - 1) for r in rows
+            if r["aor_seed_std_deg"] is not None]
+    if done:
+        pooled = math.sqrt(sum(s * s * df for s, df in done) / sum(df for _, df in done))
+        print(f"{sum(s <= 2.0 for s, _ in done)} of {len(done)} points read <= 2 deg; pooled "
+              f"std {pooled:.2f} deg ({sum(df for _, df in done)} df)")
     if args.json:
         args.json.write_text(json.dumps({"lhs_seed": args.lhs_seed, "rows": rows}, indent=1))
 
