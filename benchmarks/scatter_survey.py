@@ -11,7 +11,7 @@ the mean angle, the seed std with its 95 % interval and whether the std reads <=
 Usage::
 
     python -m uv run python benchmarks/scatter_survey.py --points 4 --out out/survey
-    python -m uv run python benchmarks/scatter_survey.py --summarize out/survey --json out.json
+    python -m uv run python benchmarks/scatter_survey.py --summarize out/survey ... --json out.json
 
 A point costs ~15 minutes on a 2-core VM (6 standard tests, one batch on every thread).
 """
@@ -53,17 +53,20 @@ def run_point(params: dict[str, float], out: Path, seeds: int, first_seed: int) 
         out.write_text(json.dumps({**d, "survey_params": params}, indent=1))
 
 
-def summarize(folder: Path) -> list[dict[str, object]]:
-    """One row per point JSON in ``folder`` (point_*.json): mean, std, its interval."""
+def summarize(folders: list[Path]) -> list[dict[str, object]]:
+    """One row per point JSON in ``folders`` (point_*.json): mean, std, its interval, piles."""
     rows = []
-    for path in sorted(folder.glob("point_*.json")):
+    for path in [p for folder in folders for p in sorted(folder.glob("point_*.json"))]:
         d = json.loads(path.read_text())
         lo, hi = d.get("aor_seed_std_ci95_deg") or (None, None)
         std = d.get("aor_seed_std_deg")
-        rows.append({"point": path.stem, "params": d.get("survey_params"),
+        rows.append({"point": f"{path.parent.name}/{path.stem}",
+                     "params": d.get("survey_params"),
                      "n_piles": d.get("n_piles"), "aor_mean_deg": d.get("aor_deg"),
                      "aor_seed_std_deg": std, "std_ci95_deg": [lo, hi],
-                     "reads_at_most_2": None if std is None else bool(std <= 2.0)})
+                     "reads_at_most_2": None if std is None else bool(std <= 2.0),
+                     "piles": [{"seed": r.get("seed"), "outcome": r.get("outcome"),
+                                "aor_deg": r.get("aor_deg")} for r in d.get("runs", [])]})
     return rows
 
 
@@ -74,11 +77,12 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=6)
     ap.add_argument("--seed", type=int, default=0, help="first seed (the command's default)")
     ap.add_argument("--out", type=Path, help="run the points, one JSON each, here")
-    ap.add_argument("--summarize", type=Path, help="only summarize a folder of point JSONs")
+    ap.add_argument("--summarize", type=Path, nargs="+",
+                    help="only summarize folders of point JSONs")
     ap.add_argument("--json", type=Path, help="write the summary here")
     args = ap.parse_args()
-    folder = args.summarize
-    if folder is None:
+    folders = args.summarize
+    if folders is None:
         if args.out is None:
             ap.error("give --out (to run) or --summarize")
         args.out.mkdir(parents=True, exist_ok=True)
@@ -86,8 +90,8 @@ def main() -> None:
             path = args.out / f"point_{i}.json"
             if not path.exists():  # a rerun goes on where it stopped
                 run_point(params, path, args.seeds, args.seed)
-        folder = args.out
-    rows = summarize(folder)
+        folders = [args.out]
+    rows = summarize(folders)
     def fmt(x: object) -> str:
         return "-" if x is None else f"{x:.2f}"
 
@@ -103,7 +107,7 @@ def main() -> None:
         print(f"{sum(s <= 2.0 for s, _ in done)} of {len(done)} points read <= 2 deg; pooled "
               f"std {pooled:.2f} deg ({sum(df for _, df in done)} df)")
     if args.json:
-        args.json.write_text(json.dumps({"lhs_seed": args.lhs_seed, "rows": rows}, indent=1))
+        args.json.write_text(json.dumps({"rows": rows}, indent=1))
 
 
 if __name__ == "__main__":
