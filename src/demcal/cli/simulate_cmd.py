@@ -168,7 +168,7 @@ def simulate_aor(
     fidelity: Annotated[str | None, typer.Option(
         help="Test fidelity: quick (150 stalks, a demonstration), small (300 stalks, 3 "
         "seeds: a workstation calibration; 4-5 deg seed scatter when cohesive), standard "
-        "(1200 stalks, 3 seeds: seed scatter near the lab's, ~5x small's CPU per test) or "
+        "(1200 stalks, 4 seeds: seed scatter near the lab's, ~5x small's CPU per test) or "
         "paper (the paper's factory fill); default quick, or the material card's.")] = None,
     set_: Annotated[list[str] | None, typer.Option(
         "--set", help="Override a parameter: NAME=VALUE (SI units), repeatable.")] = None,
@@ -178,7 +178,7 @@ def simulate_aor(
     = None,
     seeds: Annotated[int | None, typer.Option(
         help="Replicates with seeds SEED..SEED+N-1, batched as worlds of one engine "
-        "(default: the fidelity's replicates, e.g. 3 for standard).")] = None,
+        "(default: the fidelity's replicates, e.g. 4 for standard).")] = None,
     seed0: Annotated[int, typer.Option("--seed", help="First seed.")] = 0,
     vtk: Annotated[Path | None, typer.Option(help="Write VTK snapshots to this folder.")] = None,
     plot: Annotated[Path | None, typer.Option(help="Save a side view of the pile (PNG).")]

@@ -194,9 +194,11 @@ FIDELITIES: dict[str, dict] = {
     # deg over 12 seeds at the corn stalk's calibrated point (small: 4.16), 2.64 over 18 at a
     # steeper one (x8 0.0005, x4 0.2, x3 0.6; small: 4.81 over 24), 2.39 over 6 at a third;
     # 2.28 pooled; ~380-450 CPU-s per test (small: ~61-80) before the engine's one-sided
-    # pair pass (2026-11-27: ~15 % less on one core, the same piles). Its 3 replicates give a design
-    # point a standard error of ~1.3 deg; for the same standard error the small test needs
-    # ~10-18 replicates, about the same CPU. 9.8 s per test batched on an H100. 1600 stalks
+    # pair pass (2026-11-27: ~15 % less on one core, the same piles). Its 4 default
+    # replicates give a design point a standard error of <= 1 deg where the scatter is the
+    # region's (1.88 pooled at six Latin-hypercube points, 2.01 over every standard pile: 3
+    # gave 1.09-1.16); for the same standard error the small test needs ~18-24 replicates,
+    # about the same CPU. 9.8 s per test batched on an H100. 1600 stalks
     # (62 mm) at the steep point: 2.16 over 12 (1200: 2.66 over 30), 1.34x the time: not
     # under 2 there either, so not worth it (docs/precision.md). (Called "large" before
     # 2026-11-27.)
@@ -206,7 +208,9 @@ FIDELITIES: dict[str, dict] = {
 
 #: Default replicates (seeds) per design point of each fidelity: ``simulate aor`` runs this
 #: many when ``--seeds`` is not given, and a study's ``replicates`` defaults to it.
-FIDELITY_REPLICATES: dict[str, int] = {"quick": 1, "small": 3, "standard": 3, "paper": 1}
+#: ``standard``: 4, the fewest for a standard error <= 1 deg per design point at the test's
+#: measured scatter (1.88-2.01 deg; docs/precision.md).
+FIDELITY_REPLICATES: dict[str, int] = {"quick": 1, "small": 3, "standard": 4, "paper": 1}
 
 
 def fidelity_overrides(name: str, overrides: dict) -> dict:
