@@ -102,18 +102,19 @@ class Offset:
         return self.weight * self.deg
 
 
-def _pooled_row(model: Any, chosen: Mapping[str, float],
-                at: Sequence[tuple[Mapping[str, float], int]],
-                terms: Sequence[tuple[int, ...]] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """The model row at ``chosen`` and the pile-weighted mean row of the optima ``at``
-    (coded; the model's terms, or ``terms``)."""
+def _model_rows(model: Any, points: Sequence[Mapping[str, float]],
+                terms: Sequence[tuple[int, ...]]) -> np.ndarray:
+    """Model rows (coded) of factor settings ``points`` (actual units) for ``terms``."""
     space = model.factors.subset(model.names)
-    pts = [chosen, *[p for p, _ in at]]
-    rows = doe.model_matrix(space.to_coded(np.array([[p[n] for n in model.names]
-                                                     for p in pts])),
-                            model.terms if terms is None else terms)
+    return doe.model_matrix(space.to_coded(np.array([[p[n] for n in model.names]
+                                                     for p in points])), terms)
+
+
+def _pile_mean_row(model: Any, at: Sequence[tuple[Mapping[str, float], int]],
+                   terms: Sequence[tuple[int, ...]]) -> np.ndarray:
+    """The pile-weighted mean model row of the optima ``at`` ([(settings, piles)])."""
     n_at = np.array([n for _, n in at], dtype=float)
-    return rows[0], (n_at / n_at.sum()) @ rows[1:]
+    return (n_at / n_at.sum()) @ _model_rows(model, [p for p, _ in at], terms)
 
 
 def offset_weight(model: Any, at: Sequence[tuple[Mapping[str, float], int]]) -> float:
@@ -132,7 +133,7 @@ def offset_weight(model: Any, at: Sequence[tuple[Mapping[str, float], int]]) -> 
         terms, xtx_inv = model.terms, model.xtx_inv
     else:
         xtx_inv = np.linalg.inv(x.T @ x)
-    _, mean_row = _pooled_row(model, at[0][0], at, terms)
+    mean_row = _pile_mean_row(model, at, terms)
     h = float(mean_row @ xtx_inv @ mean_row)
     n = float(sum(k for _, k in at))
     return n * h / (n * h + 1.0)
@@ -1020,9 +1021,9 @@ def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
     else:
         from scipy import stats
 
-        row, mean_row = _pooled_row(model, chosen, offset.at)
         c = offset.weight
-        d = row - c * mean_row
+        d = _model_rows(model, [chosen], model.terms)[0] - c * _pile_mean_row(
+            model, offset.at, model.terms)
         n_at = float(sum(n for _, n in offset.at))
         var = model.mse * (1 / values.size + c * c / n_at + float(d @ model.xtx_inv @ d))
         pred = float(model.predict(at, units="actual")[0]) + offset.applied

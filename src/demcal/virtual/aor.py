@@ -391,9 +391,10 @@ def _column_hint(sim: Simulation, run: _Run, config: AoRTestConfig) -> str:
         return ""
     top = float(np.max(centres[:, 2] + radii))
     pos, mass = sim.clump_positions(w), sim.clump_masses(w)
-    outside = mass_outside(pos, mass, **footprint(config))
+    rule = footprint(config)
+    outside = mass_outside(pos, mass, **rule)
     outcome, _ = classify_settled(pos, mass, fill_height=run.fill_height, material_top=top,
-                                  criteria=config.outcome, **footprint(config))
+                                  criteria=config.outcome, **rule)
     what = ("it still stands as a column, creeping (cohesion holds the material up)"
             if outcome == Outcome.COLUMN else "the material is still moving")
     return (f"; {what}: {top * 1e3:.0f} mm high ({top / run.fill_height:.0%} of the fill "
