@@ -33,6 +33,14 @@ from demcal.doe.designs import (
     sobol,
     steepest_path,
 )
+from demcal.doe.desirability import (
+    DesirabilityResult,
+    DesirabilitySolution,
+    ResponseGoal,
+    optimize_desirability,
+    overall_desirability,
+    surface_predictors,
+)
 from demcal.doe.factors import Factor, FactorSpace, as_factor_space, load_factors
 from demcal.doe.model import ResponseSurface, UnbalancedBlocksError, fit
 from demcal.doe.optimize import (
@@ -50,10 +58,13 @@ __all__ = [
     "AnovaRow",
     "AnovaTable",
     "Design",
+    "DesirabilityResult",
+    "DesirabilitySolution",
     "Factor",
     "FactorSpace",
     "FitStatistics",
     "OptimizationResult",
+    "ResponseGoal",
     "ResponseSurface",
     "Solution",
     "UnbalancedBlocksError",
@@ -68,13 +79,16 @@ __all__ = [
     "load_factors",
     "model_matrix",
     "model_terms",
+    "optimize_desirability",
     "optimize_target",
+    "overall_desirability",
     "parse_term",
     "plackett_burman",
     "screening_effects",
     "significance",
     "sobol",
     "steepest_path",
+    "surface_predictors",
     "target_desirability",
     "term_name",
 ]

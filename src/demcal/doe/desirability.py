@@ -1,0 +1,450 @@
+"""Several responses at once: Derringer-Suich desirability, as Design-Expert's numerical
+optimisation uses it.
+
+Each response gets a goal and limits, and is mapped to an individual desirability d in [0, 1]
+(Derringer & Suich 1980, J. Quality Technology 12(4) 214-219)::
+
+    maximize:  d = 0 below L, ((y - L) / (U - L)) ** w between, 1 above U
+    minimize:  d = 1 below L, ((U - y) / (U - L)) ** w between, 0 above U
+    target:    d = ((y - L) / (T - L)) ** w for L <= y <= T,
+               d = ((U - y) / (U - T)) ** w for T <= y <= U, 0 outside [L, U]
+    in_range:  d = 1 inside [L, U], 0 outside
+
+(w: the weight, Design-Expert's 0.1-10, default 1). The overall desirability is the geometric
+mean of the individual ones weighted by importance r_i (1-5, Design-Expert's "+" to "+++++")::
+
+    D = (prod_i d_i ** r_i) ** (1 / sum_i r_i)
+
+:func:`optimize_desirability` maximises D over the design region (the coded box, or given
+bounds) from many starting points by Nelder-Mead, as Design-Expert does with its downhill
+simplex, and lists the distinct solutions it finds, best first. Where D is zero (some response
+outside its limits) the search follows the summed relative distance to the limits, so a start
+outside every response's window still walks into it; a region where no setting meets every
+limit returns solutions of D = 0 and :attr:`DesirabilityResult.reachable` False.
+
+The predictors are plain callables of coded settings, so a fitted
+:class:`~demcal.doe.model.ResponseSurface` (:func:`surface_predictors`) and any other
+surrogate serve alike.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import optimize as sopt
+from scipy.stats import qmc
+
+from demcal.errors import InputError
+
+__all__ = [
+    "GOALS",
+    "DesirabilityResult",
+    "DesirabilitySolution",
+    "ResponseGoal",
+    "Search",
+    "optimize_desirability",
+    "overall_desirability",
+    "surface_predictors",
+]
+
+GOALS = ("target", "maximize", "minimize", "in_range")
+#: Design-Expert's ranges of a goal's weight (the exponent) and importance.
+WEIGHT_RANGE = (0.1, 10.0)
+IMPORTANCE_RANGE = (1, 5)
+
+Predictor = Callable[[np.ndarray], np.ndarray]
+
+
+def _finite(value: Any, field: str) -> float:
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{field} must be a number; got {value!r}") from None
+    if not math.isfinite(out):
+        raise InputError(f"{field} must be finite; got {value!r}")
+    return out
+
+
+@dataclass(frozen=True)
+class ResponseGoal:
+    """The goal of one response (units of the response).
+
+    Attributes
+    ----------
+    name : str
+        The response's name (the key a test or engine reports, or a run sheet's column).
+    goal : {"target", "maximize", "minimize", "in_range"}
+        What is wanted.
+    low, high : float
+        Desirability limits L < U.
+    target : float or None
+        T, with ``L <= T <= U``; required by the ``target`` goal, ignored by the others.
+    weight : float
+        The exponent w of the individual desirability, 0.1-10 (1: linear).
+    importance : int
+        1-5, the exponent of d in the overall desirability's weighted geometric mean.
+    """
+
+    name: str
+    goal: str
+    low: float
+    high: float
+    target: float | None = None
+    weight: float = 1.0
+    importance: int = 3
+
+    def __post_init__(self) -> None:
+        where = f"response {self.name!r}"
+        if not isinstance(self.name, str) or not self.name:
+            raise InputError(f"response name must be a non-empty string; got {self.name!r}")
+        if self.goal not in GOALS:
+            raise InputError(f"{where}: goal must be one of {', '.join(GOALS)}; "
+                             f"got {self.goal!r}")
+        low = _finite(self.low, f"{where}: low")
+        high = _finite(self.high, f"{where}: high")
+        if not low < high:
+            raise InputError(f"{where}: low must be < high; got low={low:g}, high={high:g}")
+        if self.goal == "target":
+            if self.target is None:
+                raise InputError(f"{where}: goal 'target' needs a target value")
+            t = _finite(self.target, f"{where}: target")
+            if not low <= t <= high:
+                raise InputError(f"{where}: target must be in low..high ({low:g}..{high:g}); "
+                                 f"got {t:g}")
+        w = _finite(self.weight, f"{where}: weight")
+        if not WEIGHT_RANGE[0] <= w <= WEIGHT_RANGE[1]:
+            raise InputError(f"{where}: weight must be in {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}"
+                             f"; got {w:g}")
+        imp = self.importance
+        if (isinstance(imp, bool) or not isinstance(imp, int | np.integer)
+                or not IMPORTANCE_RANGE[0] <= imp <= IMPORTANCE_RANGE[1]):
+            raise InputError(f"{where}: importance must be an integer in "
+                             f"{IMPORTANCE_RANGE[0]}..{IMPORTANCE_RANGE[1]}; got {imp!r}")
+
+    def desirability(self, y: Any) -> np.ndarray:
+        """Individual desirability d in [0, 1] of responses ``y`` (same shape)."""
+        y = np.asarray(y, dtype=float)
+        lo, hi, w = float(self.low), float(self.high), float(self.weight)
+        inside = (y >= lo) & (y <= hi)
+        if self.goal == "in_range":
+            return inside.astype(float)
+        if self.goal == "maximize":
+            return np.where(y >= hi, 1.0, np.where(inside, ((y - lo) / (hi - lo)) ** w, 0.0))
+        if self.goal == "minimize":
+            return np.where(y <= lo, 1.0, np.where(inside, ((hi - y) / (hi - lo)) ** w, 0.0))
+        t = float(self.target)  # type: ignore[arg-type]  # validated above
+        d = np.zeros_like(y)
+        below = inside & (y <= t)
+        above = inside & (y > t)
+        d[below] = 1.0 if t == lo else ((y[below] - lo) / (t - lo)) ** w
+        if t < hi:
+            d[above] = ((hi - y[above]) / (hi - t)) ** w
+        return d
+
+    def shortfall(self, y: Any) -> np.ndarray:
+        """How far ``y`` lies outside the window where d > 0, in units of ``high - low``
+        (0 inside it): the gradient the search follows where the overall desirability is 0."""
+        y = np.asarray(y, dtype=float)
+        lo, hi = float(self.low), float(self.high)
+        if self.goal == "maximize":
+            gap = np.maximum(lo - y, 0.0)
+        elif self.goal == "minimize":
+            gap = np.maximum(y - hi, 0.0)
+        else:
+            gap = np.maximum(lo - y, 0.0) + np.maximum(y - hi, 0.0)
+        return gap / (hi - lo)
+
+
+def overall_desirability(d: Any, importance: Sequence[int]) -> np.ndarray:
+    """Weighted geometric mean ``(prod_i d_i ** r_i) ** (1 / sum r_i)`` per row.
+
+    Parameters
+    ----------
+    d : array_like, shape (m, r)
+        Individual desirabilities of m points for r responses.
+    importance : sequence of int, length r
+        r_i, each 1-5.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        D in [0, 1]; 0 wherever one d_i is 0.
+    """
+    d = np.atleast_2d(np.asarray(d, dtype=float))
+    r = np.asarray(importance, dtype=float)
+    if d.shape[1] != r.size:
+        raise InputError(f"{d.shape[1]} desirabilities per point but {r.size} importances")
+    with np.errstate(divide="ignore"):
+        logs = np.log(np.clip(d, 0.0, 1.0))
+    return np.exp(logs @ r / r.sum())
+
+
+@dataclass(frozen=True)
+class DesirabilitySolution:
+    """One proposed setting.
+
+    Attributes
+    ----------
+    coded : dict str -> float
+        Factor settings, coded.
+    actual : dict str -> float or None
+        Factor settings in actual units (None without factors).
+    desirability : float
+        Overall D.
+    predicted : dict str -> float
+        Each response's prediction, by name.
+    individual : dict str -> float
+        Each response's d, by name.
+    """
+
+    coded: dict[str, float]
+    actual: dict[str, float] | None
+    desirability: float
+    predicted: dict[str, float]
+    individual: dict[str, float]
+
+
+@dataclass(frozen=True)
+class DesirabilityResult:
+    """Distinct solutions of :func:`optimize_desirability`, best first.
+
+    Attributes
+    ----------
+    solutions : tuple of DesirabilitySolution
+    goals : tuple of ResponseGoal
+    names : tuple of str
+        Factor names (coded columns, in the predictors' order).
+    n_starts : int
+        Local searches run.
+    """
+
+    solutions: tuple[DesirabilitySolution, ...]
+    goals: tuple[ResponseGoal, ...]
+    names: tuple[str, ...]
+    n_starts: int
+
+    @property
+    def best(self) -> DesirabilitySolution:
+        """The first solution."""
+        return self.solutions[0]
+
+    @property
+    def reachable(self) -> bool:
+        """True when some setting meets every response's limits (the best D > 0)."""
+        return self.best.desirability > 0.0
+
+    def unmet(self) -> tuple[str, ...]:
+        """Responses whose d is 0 at the best solution (the ones out of reach)."""
+        return tuple(n for n, d in self.best.individual.items() if d <= 0.0)
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per solution: rank, the settings (actual if known, else coded),
+        ``desirability``, then ``<response>`` (prediction) and ``d_<response>``."""
+        rows = []
+        for i, s in enumerate(self.solutions, 1):
+            row: dict[str, Any] = {"rank": i, **(s.actual or s.coded),
+                                   "desirability": s.desirability}
+            for g in self.goals:
+                row[g.name] = s.predicted[g.name]
+                row[f"d_{g.name}"] = s.individual[g.name]
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+
+def surface_predictors(models: Mapping[str, Any]) -> tuple[tuple[str, ...], dict[str, Predictor]]:
+    """Predictors of coded settings from fitted response surfaces, one per response.
+
+    Every model must be fitted over the same factors in the same order.
+
+    Returns
+    -------
+    names, predictors
+        The factor names and ``{response: f(coded (m, k)) -> (m,)}``.
+    """
+    if not models:
+        raise InputError("no response model given")
+    names = None
+    out: dict[str, Predictor] = {}
+    for response, rs in models.items():
+        if names is None:
+            names = tuple(rs.names)
+        elif tuple(rs.names) != names:
+            raise InputError(f"response {response!r}: fitted over {', '.join(rs.names)}, the "
+                             f"others over {', '.join(names)}; fit every response over the "
+                             "same factors")
+        out[response] = lambda x, rs=rs: np.asarray(rs.predict(x, units="coded"), dtype=float)
+    return names or (), out
+
+
+class _Objective:
+    """Everything a point's score needs: predictions, d, D (vectorised over points)."""
+
+    def __init__(self, predictors: Mapping[str, Predictor], goals: Sequence[ResponseGoal]):
+        self.goals = tuple(goals)
+        self.predictors = [predictors[g.name] for g in self.goals]
+        self.importance = [int(g.importance) for g in self.goals]
+
+    def evaluate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Predictions (m, r), individual d (m, r) and D (m,) at coded points (m, k)."""
+        y = np.column_stack([np.asarray(p(x), dtype=float).reshape(-1)
+                             for p in self.predictors])
+        d = np.column_stack([g.desirability(y[:, i]) for i, g in enumerate(self.goals)])
+        return y, d, overall_desirability(d, self.importance)
+
+    def score(self, x: np.ndarray) -> np.ndarray:
+        """What the search minimises: -D where D > 0, else the summed shortfall (>= 0)."""
+        y, _d, big_d = self.evaluate(x)
+        gap = sum(g.shortfall(y[:, i]) for i, g in enumerate(self.goals))
+        return np.where(big_d > 0.0, -big_d, gap)
+
+
+def _check_inputs(predictors: Mapping[str, Predictor], goals: Sequence[ResponseGoal],
+                  names: Sequence[str], n_starts: int, n_solutions: int) -> None:
+    if not goals:
+        raise InputError("no response goal given")
+    seen: set[str] = set()
+    for g in goals:
+        if g.name in seen:
+            raise InputError(f"response {g.name!r} is listed twice")
+        seen.add(g.name)
+        if g.name not in predictors:
+            raise InputError(f"response {g.name!r} has no model (models: "
+                             f"{', '.join(predictors) or 'none'})")
+    if not names:
+        raise InputError("no factor to optimise over")
+    for field, val in (("n_starts", n_starts), ("n_solutions", n_solutions)):
+        if isinstance(val, bool) or not isinstance(val, int) or val < 1:
+            raise InputError(f"{field} must be an integer >= 1; got {val!r}")
+
+
+def _box(names: Sequence[str], bounds: Mapping[str, tuple[float, float]] | None
+         ) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = -np.ones(len(names)), np.ones(len(names))
+    for name, (a, b) in (bounds or {}).items():
+        if name not in names:
+            raise InputError(f"bounds: {name!r} is not a factor ({', '.join(names)})")
+        a, b = _finite(a, f"bounds[{name!r}]"), _finite(b, f"bounds[{name!r}]")
+        if not a <= b:
+            raise InputError(f"bounds[{name!r}]: low must be <= high; got {a:g}, {b:g}")
+        j = list(names).index(name)
+        lo[j], hi[j] = a, b
+    return lo, hi
+
+
+def _local_searches(obj: _Objective, lo: np.ndarray, hi: np.ndarray, n_starts: int,
+                    rng: np.random.Generator) -> np.ndarray:
+    """Nelder-Mead from the best of a Latin hypercube (and the centre): the local optima."""
+    k = lo.size
+    free = hi > lo
+    cand = lo + qmc.LatinHypercube(k, rng=rng).random(max(4 * n_starts, 64)) * (hi - lo)
+    cand = np.vstack([np.clip(np.zeros(k), lo, hi), cand])
+    starts = cand[np.argsort(obj.score(cand), kind="stable")[:n_starts]]
+    if not free.any():
+        return starts[:1]
+    base = starts[0].copy()
+
+    def f(z: np.ndarray) -> float:
+        x = base.copy()
+        x[free] = z
+        return float(obj.score(x.reshape(1, -1))[0])
+
+    found = []
+    for x0 in starts:
+        res = sopt.minimize(f, x0[free], method="Nelder-Mead",
+                            bounds=list(zip(lo[free], hi[free], strict=True)),
+                            options={"xatol": 1e-7, "fatol": 1e-10,
+                                     "maxiter": 400 * int(free.sum())})
+        x = base.copy()
+        x[free] = np.clip(res.x, lo[free], hi[free])
+        found.append(x)
+    return np.array(found)
+
+
+@dataclass(frozen=True)
+class Search:
+    """How :func:`optimize_desirability` searches.
+
+    Attributes
+    ----------
+    bounds : mapping str -> (low, high), optional
+        Coded search range of some factors (default the box [-1, 1]); low == high holds a
+        factor at that value.
+    n_starts, n_solutions : int
+        Local searches run, and distinct solutions kept (each >= 1).
+    min_distance : float
+        Two solutions closer than this (coded, RMS over factors) count as one.
+    seed : int or None
+        Seed of the starting points.
+    """
+
+    bounds: Mapping[str, tuple[float, float]] | None = None
+    n_starts: int = 40
+    n_solutions: int = 5
+    min_distance: float = 0.1
+    seed: int | None = 0
+
+
+def optimize_desirability(
+    predictors: Mapping[str, Predictor],
+    goals: Sequence[ResponseGoal],
+    names: Sequence[str],
+    *,
+    search: Search = Search(),
+    to_actual: Callable[[np.ndarray], np.ndarray] | None = None,
+) -> DesirabilityResult:
+    """Settings that maximise the overall desirability of several responses.
+
+    Parameters
+    ----------
+    predictors : mapping str -> callable
+        ``{response: f(coded (m, k)) -> (m,)}`` (e.g. from :func:`surface_predictors`).
+    goals : sequence of ResponseGoal
+        One per response to optimise (each must have a predictor).
+    names : sequence of str
+        Factor names, the predictors' column order.
+    search : Search, optional
+        Region, starts, number of solutions, seed.
+    to_actual : callable, optional
+        Coded (m, k) -> actual (m, k), for the solutions' actual settings.
+
+    Returns
+    -------
+    DesirabilityResult
+        Solutions ranked by D (rounded to 4 decimals), then by distance to the centre.
+    """
+    names = tuple(names)
+    _check_inputs(predictors, goals, names, search.n_starts, search.n_solutions)
+    lo, hi = _box(names, search.bounds)
+    obj = _Objective(predictors, goals)
+    rng = np.random.default_rng(search.seed)
+    points = _local_searches(obj, lo, hi, search.n_starts, rng)
+    y, d, big_d = obj.evaluate(points)
+    score = obj.score(points)
+    centre_dist = np.sqrt(np.mean(points**2, axis=1))
+    order = np.lexsort((centre_dist, np.round(score, 4)))
+    chosen: list[int] = []
+    for i in order:
+        if all(np.sqrt(np.mean((points[i] - points[j]) ** 2)) >= search.min_distance
+               for j in chosen):
+            chosen.append(int(i))
+        if len(chosen) == search.n_solutions:
+            break
+    actual = to_actual(points) if to_actual is not None else None
+    sols = tuple(
+        DesirabilitySolution(
+            coded=dict(zip(names, map(float, points[i]), strict=True)),
+            actual=None if actual is None
+            else dict(zip(names, map(float, actual[i]), strict=True)),
+            desirability=float(big_d[i]),
+            predicted={g.name: float(y[i, r]) for r, g in enumerate(obj.goals)},
+            individual={g.name: float(d[i, r]) for r, g in enumerate(obj.goals)},
+        )
+        for i in chosen
+    )
+    return DesirabilityResult(solutions=sols, goals=obj.goals, names=names,
+                              n_starts=len(points))
