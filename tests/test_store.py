@@ -12,7 +12,8 @@ from demcal.store import RunRecord, RunStore, params_hash, run_key
 def _run(key="screening:x", aor=40.0, status="done", **kw):
     return RunRecord(key=key, stage="screening", point=1, replicate=0,
                      params={"pp.static_friction": 0.5}, seed=7, status=status,
-                     outcome="pile", aor_deg=aor, result={"aor_deg": aor}, **kw)
+                     outcome="pile", responses={} if aor is None else {"aor_deg": aor},
+                     result={"aor_deg": aor}, **kw)
 
 
 def test_round_trip_and_replace(tmp_path):

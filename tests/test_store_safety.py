@@ -19,7 +19,8 @@ from demcal.store import LOCK_KEY, STORE_NAME, RunRecord, RunStore, salvage
 def _run(i: int) -> RunRecord:
     return RunRecord(key=f"screening:{i}", stage="screening", point=i, replicate=0,
                      params={"pp.static_friction": 0.5 + i}, seed=i, status="done",
-                     outcome="pile", aor_deg=40.0, result={"aor_deg": 40.0, "pad": "x" * 300})
+                     outcome="pile", responses={"aor_deg": 40.0},
+                     result={"aor_deg": 40.0, "pad": "x" * 300})
 
 
 def _digest(path) -> str:

@@ -11,8 +11,13 @@ Tables
 ``runs``
     one row per simulation attempt group, keyed by :func:`run_key` (stage, parameters, seed and
     the virtual test's configuration hash): status ``done`` or ``failed``, the typed outcome,
-    the AoR, the whole result as JSON, the reason of a failure, the attempts made, timings and
-    artefact paths.
+    the whole result as JSON, the reason of a failure, the attempts made, timings and
+    artefact paths. (Its ``aor_deg`` column is schema 1's; it mirrors the ``aor_deg``
+    response for SQL readers.)
+``responses``
+    one row per measured response of a run: ``(key, name, value)``, indexed by name, so a run
+    holds any number of named responses (the lift test's angle, pile height and base
+    diameter; every number an external engine reports).
 ``stages``
     one row per stage (``rangefind``, ``screening``, ``steepest``, ``rsm``, ``optimize``,
     ``verification``): status ``running``, ``done`` or ``failed``, and a JSON summary whose keys
@@ -20,6 +25,14 @@ Tables
 ``meta``
     key -> JSON value: the validated study, the target, the physical measurements, versions;
     ``writer`` holds the study's writer lock while a calibration runs (see below).
+
+Schema versions
+---------------
+1 (until 2026-11-27) kept one response, the angle, in ``runs.aor_deg``; 2 adds the
+``responses`` table. A schema-1 store opened for writing is migrated in place in one
+transaction (its angles copied into ``responses``; nothing else changes, so every run key and
+stage summary stays as it was and a resumed study re-runs nothing); opened read-only (the
+report) it is read as it is.
 
 Safety
 ------
@@ -51,7 +64,7 @@ import sqlite3
 import sys
 import tempfile
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -63,7 +76,9 @@ __all__ = ["STORE_NAME", "RunRecord", "RunStore", "StageRecord", "params_hash", 
            "salvage"]
 
 STORE_NAME = "demcal.sqlite"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: Schemas this demcal opens: the current one, and schema 1 (migrated on a writable open).
+READABLE_SCHEMAS = (1, 2)
 LOCK_KEY = "writer"
 _SQLITE_HEADER = b"SQLite format 3\x00"
 _TABLES = {"runs", "stages", "meta"}
@@ -98,6 +113,13 @@ CREATE TABLE IF NOT EXISTS stages (
     inputs_hash TEXT,
     updated_at REAL NOT NULL
 );
+CREATE TABLE IF NOT EXISTS responses (
+    key TEXT NOT NULL,
+    name TEXT NOT NULL,
+    value REAL NOT NULL,
+    PRIMARY KEY (key, name)
+);
+CREATE INDEX IF NOT EXISTS responses_name ON responses (name);
 CREATE TABLE IF NOT EXISTS meta (
     key TEXT PRIMARY KEY,
     value_json TEXT NOT NULL
@@ -164,7 +186,7 @@ class RunRecord:
     seed: int
     status: str
     outcome: str | None = None
-    aor_deg: float | None = None
+    responses: dict[str, float] = field(default_factory=dict)
     result: dict[str, Any] = field(default_factory=dict)
     reason: str | None = None
     attempts: int = 1
@@ -178,6 +200,15 @@ class RunRecord:
     def params_hash(self) -> str:
         """Hash of the parameter set alone (equal for replicates of one design point)."""
         return params_hash(self.params)
+
+    @property
+    def aor_deg(self) -> float | None:
+        """The lift test's angle of repose (deg), if the run measured one."""
+        return self.responses.get("aor_deg")
+
+    def response(self, name: str) -> float | None:
+        """The response ``name``, or None if the run did not measure it."""
+        return self.responses.get(name)
 
 
 @dataclass
@@ -274,6 +305,8 @@ class RunStore:
             path = path / STORE_NAME
         self.path = path
         self.readonly = readonly
+        #: a schema-1 store opened read-only: responses come from ``runs.aor_deg``
+        self._legacy = False
         self._lock_value: str | None = None
         self._conn: sqlite3.Connection | None = None
         exists = path.exists()
@@ -376,12 +409,39 @@ class RunStore:
         if version is None:
             raise StoreError(f"{self.path}: not a demcal run store (no schema_version); "
                              "nothing was written")
+        if version == 1 and "responses" not in tables:
+            self._legacy = True
+            if not self.readonly:
+                self._migrate_v1()
+            return
         if version != SCHEMA_VERSION:
             newer = isinstance(version, int) and version > SCHEMA_VERSION
             raise StoreError(f"{self.path}: store schema version {version!r}, this demcal "
                              f"reads {SCHEMA_VERSION}"
                              + ("; it was written by a newer demcal: upgrade demcal"
                                 if newer else ""))
+
+    def _migrate_v1(self) -> None:
+        """Schema 1 -> 2 in one transaction: the angles of ``runs.aor_deg`` become
+        ``aor_deg`` responses; a crash leaves the store as it was."""
+        conn = self._conn
+        assert conn is not None
+        conn.execute("BEGIN IMMEDIATE")
+        try:
+            conn.execute("CREATE TABLE IF NOT EXISTS responses (key TEXT NOT NULL, name TEXT "
+                         "NOT NULL, value REAL NOT NULL, PRIMARY KEY (key, name))")
+            conn.execute("CREATE INDEX IF NOT EXISTS responses_name ON responses (name)")
+            conn.execute("INSERT OR REPLACE INTO responses SELECT key, 'aor_deg', aor_deg "
+                         "FROM runs WHERE aor_deg IS NOT NULL")
+            conn.execute("UPDATE meta SET value_json = ? WHERE key = 'schema_version'",
+                         (_dumps(SCHEMA_VERSION),))
+            conn.execute("COMMIT")
+        except BaseException:
+            conn.execute("ROLLBACK")
+            raise
+        self._legacy = False
+        log.info("%s: run store migrated from schema 1 to %d (responses by name)", self.path,
+                 SCHEMA_VERSION)
 
     # -- the writer lock -------------------------------------------------------------------
     def lock_holder(self) -> dict[str, Any] | None:
@@ -502,23 +562,44 @@ class RunStore:
         """Insert or replace one run, committed at once."""
         if run.status not in ("done", "failed"):
             raise ValueError(f"run status must be 'done' or 'failed', got {run.status!r}")
+        responses = {str(k): float(v) for k, v in run.responses.items()
+                     if v is not None and math.isfinite(float(v))}
         row = (run.key, run.stage, int(run.point), int(run.replicate), _dumps(run.params),
                run.params_hash, int(run.seed), run.engine_version, run.status, run.outcome,
-               None if run.aor_deg is None or not math.isfinite(run.aor_deg)
-               else float(run.aor_deg),
+               responses.get("aor_deg"),
                _dumps(run.result), run.reason, int(run.attempts), run.started_at,
                run.finished_at or time.time(), run.wall_time_s, _dumps(run.artefacts))
         with self._tx() as c:
             c.execute("INSERT OR REPLACE INTO runs VALUES "
                       "(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)", row)
+            c.execute("DELETE FROM responses WHERE key = ?", (run.key,))
+            c.executemany("INSERT INTO responses VALUES (?,?,?)",
+                          [(run.key, k, v) for k, v in sorted(responses.items())])
 
-    def _run_from_row(self, row: tuple) -> RunRecord:
-        (key, stage, point, replicate, params, _h, seed, engine, status, outcome, aor, result,
+    def _responses(self, where: str = "", args: Sequence[Any] = ()) -> dict[str, dict[str, float]]:
+        """Responses by run key, of the runs that ``where`` (SQL on ``runs``) selects."""
+        if self._legacy:  # schema 1, read-only: the one response is the runs' angle
+            sql = "SELECT key, 'aor_deg', aor_deg FROM runs WHERE aor_deg IS NOT NULL"
+            sql += f" AND {where}" if where else ""
+        else:
+            sql = "SELECT key, name, value FROM responses"
+            sql += f" WHERE key IN (SELECT key FROM runs WHERE {where})" if where else ""
+        out: dict[str, dict[str, float]] = {}
+        for key, name, value in self._conn.execute(sql, list(args)):
+            out.setdefault(key, {})[name] = value
+        return out
+
+    def _run_from_row(self, row: tuple, responses: Mapping[str, float] | None = None
+                      ) -> RunRecord:
+        (key, stage, point, replicate, params, _h, seed, engine, status, outcome, _aor, result,
          reason, attempts, started, finished, wall, artefacts) = row
         where = f"{self.path}: run {key!r}"
+        if responses is None:
+            responses = self._responses("key = ?", (key,)).get(key, {})
         return RunRecord(key=key, stage=stage, point=point, replicate=replicate,
                          params=_loads(params, where), seed=seed, status=status,
-                         outcome=outcome, aor_deg=aor, result=_loads(result, where),
+                         outcome=outcome, responses=dict(responses),
+                         result=_loads(result, where),
                          reason=reason, attempts=attempts, engine_version=engine,
                          started_at=started, finished_at=finished, wall_time_s=wall,
                          artefacts=_loads(artefacts, where))
@@ -538,10 +619,13 @@ class RunStore:
         if status is not None:
             where.append("status = ?")
             args.append(status)
+        clause = " AND ".join(where)
         if where:
-            sql += " WHERE " + " AND ".join(where)
+            sql += " WHERE " + clause
         sql += " ORDER BY stage, point, replicate, key"
-        return [self._run_from_row(r) for r in self._conn.execute(sql, args).fetchall()]
+        responses = self._responses(clause, args)
+        return [self._run_from_row(r, responses.get(r[0], {}))
+                for r in self._conn.execute(sql, args).fetchall()]
 
     def count(self, stage: str | None = None) -> int:
         """Number of stored runs (of one stage)."""
@@ -635,6 +719,18 @@ def _patch_header(path: Path, *, keep_wal: bool) -> None:
         fh.write(head)
 
 
+def _salvage_responses(conn: sqlite3.Connection) -> dict[str, dict[str, float]]:
+    """The readable rows of a damaged store's ``responses`` table (none in schema 1)."""
+    out: dict[str, dict[str, float]] = {}
+    try:
+        for key, name, value in _readable_rows(conn, "responses"):
+            if isinstance(value, int | float):
+                out.setdefault(key, {})[name] = float(value)
+    except (sqlite3.DatabaseError, ValueError):
+        pass  # no such table (schema 1) or unreadable: the runs' own angle column remains
+    return out
+
+
 def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
     """Copy what can still be read of a damaged store into a new store.
 
@@ -681,9 +777,13 @@ def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
     try:
         out = RunStore(dst)
         with out:
+            responses = _salvage_responses(conn)
             for row in _readable_rows(conn, "runs"):
                 try:
-                    out.record_run(out._run_from_row(row))
+                    # schema 1 kept the angle in the row itself (column 10)
+                    kept = responses.get(row[0], {} if row[10] is None
+                                         else {"aor_deg": row[10]})
+                    out.record_run(out._run_from_row(row, kept))
                     counts["runs"] += 1
                 except (StoreError, ValueError, TypeError):
                     counts["runs_skipped"] += 1

@@ -70,8 +70,9 @@ class Shifted:
             stage = t.key.partition(":")[0]
             self.stages[stage] = self.stages.get(stage, 0) + 1
             for r in REAL_RUN_CHUNK([dataclasses.replace(t, test=self.test)]):
-                if stage == "steepest" and r["aor_deg"] is not None:
-                    r = {**r, "aor_deg": r["aor_deg"] + self.shift}
+                if stage == "steepest" and r.value("aor_deg") is not None:
+                    r = dataclasses.replace(r, responses={
+                        **r.responses, "aor_deg": r.value("aor_deg") + self.shift})
                 out.append(r)
                 if on_result is not None:
                     on_result(r)

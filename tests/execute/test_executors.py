@@ -10,6 +10,7 @@ import pytest
 
 from demcal.execute import RunTask, TestDef, run_local
 from demcal.execute.analytic import analytic_aor
+from demcal.results import RunResult
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "analytic" / "study.toml"
 OPTIONS = {"base_deg": 30.0, "linear": {"pp.static_friction": 20.0}, "noise_deg": 0.5,
@@ -23,17 +24,17 @@ def _tasks(n: int) -> list[RunTask]:
 
 def test_spawn_pool_matches_inline_and_sets_one_thread():
     tasks = _tasks(10)
-    got: dict[str, dict] = {}
-    run_local([[t] for t in tasks], lambda r: got.__setitem__(r["key"], r), workers=2)
+    got: dict[str, RunResult] = {}
+    run_local([[t] for t in tasks], lambda r: got.__setitem__(r.key, r), workers=2)
     assert sorted(got) == sorted(t.key for t in tasks)
     for t in tasks:
         ref = analytic_aor(t.params, t.seed, OPTIONS)
-        assert got[t.key]["outcome"] == ref["outcome"]
-        assert got[t.key]["aor_deg"] == ref["aor_deg"]
-    workers = {r["worker"]["pid"] for r in got.values()}
+        assert got[t.key].outcome == ref["outcome"]
+        assert got[t.key].value("aor_deg") == ref["aor_deg"]
+    workers = {r.worker["pid"] for r in got.values()}
     assert os.getpid() not in workers and 1 <= len(workers) <= 2
-    assert {r["worker"]["numba_threads"] for r in got.values()} == {"1"}
-    assert got["k9"]["outcome"] == "column" and got["k9"]["aor_deg"] is None
+    assert {r.worker["numba_threads"] for r in got.values()} == {"1"}
+    assert got["k9"].outcome == "column" and got["k9"].value("aor_deg") is None
 
 
 def test_pool_study_equals_inline_study(tmp_path):
@@ -122,14 +123,14 @@ def test_engine_runs_through_run_chunk_with_a_halved_time_step():
     full, half = run_local_results([RunTask("a", test, p, 1),
                                     RunTask("b", test, p, 1, dt_scale=0.5)])
     for r in (full, half):
-        assert r["outcome"] in ("pile", "column", "plug", "scattered", "unsettled", "unstable")
-        assert (r["aor_deg"] is None) == (r["outcome"] != "pile")
-    assert half["result"]["time_step_s"] == pytest.approx(0.5 * full["result"]["time_step_s"])
+        assert r.outcome in ("pile", "column", "plug", "scattered", "unsettled", "unstable")
+        assert (r.value("aor_deg") is None) == (r.outcome != "pile")
+    assert half.detail["time_step_s"] == pytest.approx(0.5 * full.detail["time_step_s"])
 
 
-def run_local_results(tasks: list[RunTask]) -> list[dict]:
-    got: dict[str, dict] = {}
-    run_local([tasks], lambda r: got.__setitem__(r["key"], r), workers=1)
+def run_local_results(tasks: list[RunTask]) -> list[RunResult]:
+    got: dict[str, RunResult] = {}
+    run_local([tasks], lambda r: got.__setitem__(r.key, r), workers=1)
     return [got[t.key] for t in tasks]
 
 
@@ -146,8 +147,8 @@ def test_interrupt_stops_the_pool_and_keeps_finished_results():
     class Stop(BaseException):
         pass
 
-    def on_result(r: dict) -> None:
-        got.append(r["key"])
+    def on_result(r: RunResult) -> None:
+        got.append(r.key)
         if len(got) == 3:
             raise Stop
 

@@ -116,18 +116,20 @@ def test_a_run_fills_the_template_runs_the_engine_and_measures_its_pile(tmp_path
     test = _engine(tmp_path)
     res = run_template(_task(test, mu=0.9), str(tmp_path / "fig" / "pile.png"))
     planted = 30 + 15 * 0.3 - 10 * 0.09
-    assert res["outcome"] == "pile" and abs(res["aor_deg"] - planted) < 1.0, res
+    assert res.outcome == "pile" and abs(res.value("aor_deg") - planted) < 1.0, res
     run_dir = tmp_path / "runs" / "screening_0123456789abcdef"
     assert run_dir_name("screening:0123456789abcdef") == run_dir.name
     filled = (run_dir / "input.txt").read_text()
     assert "pp.static_friction = 0.9\n" in filled and "seed = 3\n" in filled
     assert "{" + "seed}" not in filled.split("\n", 3)[-1]
     assert "planted angle" in (run_dir / LOG_NAME).read_text()
-    art = res["result"]["artefacts"]
+    art = res.detail["artefacts"]
     assert art["engine_log"] == str(run_dir / LOG_NAME) and Path(art["pile_png"]).is_file()
-    assert res["result"]["engine"]["status"] == "exit code 0"
-    assert res["result"]["measured"]["n_rejected"] == 0
-    json.dumps(res)  # JSON-ready for the store
+    assert res.detail["engine"]["status"] == "exit code 0"
+    assert res.detail["measured"]["n_rejected"] == 0
+    json.dumps(res.detail)  # JSON-ready for the store
+    # the pile demcal measured from the engine's positions: its angle, height and base
+    assert set(res.responses) == {"aor_deg", "pile_height_m", "base_diameter_m"}
 
 
 @pytest.mark.parametrize(("mode", "outcome", "match"), [
@@ -136,17 +138,17 @@ def test_a_run_fills_the_template_runs_the_engine_and_measures_its_pile(tmp_path
     ("garbage", "no_result", "not a number")])
 def test_engine_failures_are_typed_with_the_log(tmp_path, mode, outcome, match):
     res = run_template(_task(_engine(tmp_path, mode)))
-    assert res["outcome"] == outcome and res["aor_deg"] is None
-    assert match in res["reason"] and LOG_NAME in res["reason"]
+    assert res.outcome == outcome and res.value("aor_deg") is None
+    assert match in res.reason and LOG_NAME in res.reason
     if mode == "crash":
-        assert "crashed on purpose" in res["reason"]  # the log's last lines are quoted
+        assert "crashed on purpose" in res.reason  # the log's last lines are quoted
 
 
 def test_a_missing_program_is_an_engine_error(tmp_path):
     test = _engine(tmp_path)
     engine = {**test.external, "command": ["no-such-dem-engine-xyz", "{input}"]}
     res = run_template(_task(TestDef(kind="template", external=engine)))
-    assert res["outcome"] == "engine_error" and "command not found" in res["reason"]
+    assert res.outcome == "engine_error" and "command not found" in res.reason
 
 
 def test_timeout_kills_the_engine_and_its_children(tmp_path):
@@ -156,8 +158,8 @@ def test_timeout_kills_the_engine_and_its_children(tmp_path):
     t0 = time.monotonic()
     res = run_template(_task(TestDef(kind="template", external=engine)))
     assert time.monotonic() - t0 < 30
-    assert res["outcome"] == "timeout" and "3 s" in res["reason"]
-    pid = int((Path(res["result"]["engine"]["run_dir"]) / "child.pid").read_text())
+    assert res.outcome == "timeout" and "3 s" in res.reason
+    pid = int((Path(res.detail["engine"]["run_dir"]) / "child.pid").read_text())
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline:
         try:
@@ -209,10 +211,10 @@ def test_a_hook_adds_placeholders(tmp_path):
     assert engine["hook_sha256"] and engine["input"] == "t.in"
     engine["runs_dir"] = str(tmp_path / "runs")
     res = run_template(_task(TestDef(kind="template", external=engine), seed=4))
-    run_dir = Path(res["result"]["engine"]["run_dir"])
+    run_dir = Path(res.detail["engine"]["run_dir"])
     assert (run_dir / "t.in").read_text() == "seed 10015\n"
     assert (run_dir / "extra.txt").is_file() and "seed 10015" in (run_dir / LOG_NAME).read_text()
-    assert res["outcome"] == "no_result"  # it wrote no aor.txt
+    assert res.outcome == "no_result"  # it wrote no aor.txt
 
 
 def test_a_terminated_worker_takes_its_engine_down(tmp_path):

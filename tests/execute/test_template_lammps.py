@@ -71,18 +71,18 @@ def _run(tmp_path: Path, mu: float, mu_r: float, seed: int = 2) -> dict:
 @pytest.mark.usefixtures("lammps")
 def test_a_lammps_template_run_gives_a_pile(tmp_path):
     res = run_template_checked(tmp_path, 0.6, 0.2)
-    assert 10.0 < res["aor_deg"] < 60.0, res
-    run_dir = Path(res["result"]["artefacts"]["run_dir"])
+    assert 10.0 < res.value("aor_deg") < 60.0, res
+    run_dir = Path(res.detail["artefacts"]["run_dir"])
     log = (run_dir / LOG_NAME).read_text()
     assert "LAMMPS (" in log and "Fix halt condition" in log  # it came to rest
     assert (run_dir / "in.pile").is_file() and (run_dir / "pile.dump").is_file()
-    assert res["result"]["measured"]["n_spheres"] == 400
+    assert res.detail["measured"]["n_spheres"] == 400
 
 
 def run_template_checked(tmp_path: Path, mu: float, mu_r: float, seed: int = 2) -> dict:
     res = _run(tmp_path, mu, mu_r, seed)
-    assert res["outcome"] == "pile", res
-    assert res["result"]["engine"]["status"] == "exit code 0"
+    assert res.outcome == "pile", res
+    assert res.detail["engine"]["status"] == "exit code 0"
     return res
 
 

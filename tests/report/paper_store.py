@@ -71,7 +71,8 @@ def _record(store: RunStore, stage: str, point: int, params: dict, aor: float | 
     seed = 1000 + point * 10 + replicate
     store.record_run(RunRecord(
         key=run_key(stage, params, seed), stage=stage, point=point, replicate=replicate,
-        params=params, seed=seed, status="done", outcome=outcome, aor_deg=aor,
+        params=params, seed=seed, status="done", outcome=outcome,
+        responses={} if aor is None else {"aor_deg": aor},
         result={"aor_deg": aor, "outcome": outcome}, reason=reason, wall_time_s=1.0))
 
 

@@ -18,6 +18,7 @@ import pandas as pd
 from demcal.calibrate.runner import ExternalPending, Point, Runner
 from demcal.errors import InputError
 from demcal.limits import MAX_INPUT_FILE_BYTES
+from demcal.results import RunResult
 from demcal.virtual import PARAMETERS
 
 __all__ = ["OUTCOMES", "import_results", "write_run_sheet"]
@@ -103,14 +104,19 @@ def import_results(csv: str | Path, runner: Runner) -> int:
                              f"got {outcome!r}")
         if outcome == "pile" and (aor is None or not 0 < aor < 90):
             raise InputError(f"{where}: aor_deg must be in (0, 90) for a pile; got {aor!r}")
-        todo.append((stage, p, {"outcome": outcome, "aor_deg": aor,
-                                "reason": "imported" if outcome != "pile" else None,
-                                "result": {"imported_from": str(path)}},
+        todo.append((stage, p, _imported(runner.key(stage, p), outcome, aor, path),
                      2 if outcome in ("unstable", "unsettled") else 1))
     with runner.store.batch():
         for stage, p, res, attempts in todo:
             runner.record(stage, p, res, attempts=attempts, started=0.0)
     return len(todo)
+
+
+def _imported(key: str, outcome: str, aor: float | None, path: Path) -> RunResult:
+    """An imported row as a run result: a pile's angle, or an outcome that measured nothing."""
+    pile = outcome == "pile"
+    return RunResult(key, outcome, responses={"aor_deg": aor} if pile else {},
+                     reason=None if pile else "imported", detail={"imported_from": str(path)})
 
 
 def _int(value: object, name: str) -> int:

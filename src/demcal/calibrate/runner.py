@@ -25,6 +25,7 @@ from demcal.errors import StudyError
 from demcal.execute.local import run_local
 from demcal.execute.tasks import RunTask, TestDef
 from demcal.execute.template_engine import ENGINE_FAILURES
+from demcal.results import RunResult
 from demcal.store import RunRecord, RunStore, params_hash, run_key
 
 __all__ = ["ENGINE_FAILURES", "RETRY_DT_SCALE", "RETRY_OUTCOMES", "ExternalPending", "Point",
@@ -127,16 +128,16 @@ class Runner:
                 out.append(p)
         return out
 
-    def record(self, stage: str, p: Point, res: dict[str, Any], attempts: int,
+    def record(self, stage: str, p: Point, res: RunResult, attempts: int,
                started: float) -> RunRecord:
-        """Store one run's result (``res`` as from :func:`demcal.execute.tasks.run_chunk`)."""
-        outcome = res.get("outcome")
+        """Store one run's result (as from :func:`demcal.execute.tasks.run_chunk`)."""
+        outcome = res.outcome
         failed = outcome in RETRY_OUTCOMES or outcome in ENGINE_FAILURES
-        reason = res.get("reason")
+        reason = res.reason
         if failed and reason is None:
             reason = f"outcome {outcome}"
         key = self.key(stage, p)
-        result = dict(res.get("result") or {})
+        result = dict(res.detail)
         if attempts > 1:
             first = self.store.get_run(key)
             if first is not None:
@@ -146,11 +147,11 @@ class Runner:
         rec = RunRecord(
             key=key, stage=stage, point=p.point, replicate=p.replicate,
             params=dict(p.params), seed=p.seed, status="failed" if failed else "done",
-            outcome=outcome, aor_deg=res.get("aor_deg") if outcome == "pile" else None,
+            outcome=outcome, responses={} if failed else dict(res.responses),
             result=result, reason=reason, attempts=attempts,
             engine_version=self._engine_version(), started_at=started,
-            finished_at=time.time(), wall_time_s=res.get("wall_time_s"),
-            artefacts=dict((res.get("result") or {}).get("artefacts") or {}))
+            finished_at=time.time(), wall_time_s=res.wall_time_s,
+            artefacts=dict(res.detail.get("artefacts") or {}))
         self.store.record_run(rec)
         return rec
 
@@ -188,8 +189,8 @@ class Runner:
         started = time.time()
         count = [done0]
 
-        def on_result(res: dict[str, Any]) -> None:
-            p = by_key[res["key"]]
+        def on_result(res: RunResult) -> None:
+            p = by_key[res.key]
             rec = self.record(stage, p, res, attempts, started)
             self.executed += 1
             count[0] += 1

@@ -1,8 +1,8 @@
 """One unit of work: a run (or a chunk of runs, batched as worlds of one engine).
 
 Tasks are plain picklable data so that any executor (a local process, a spawned pool worker,
-a Dask worker) can run them with :func:`run_chunk`; the result of every run is a JSON-ready
-dict ``{"key", "outcome", "aor_deg", "reason", "wall_time_s", "result"}``.
+a Dask worker) can run them with :func:`run_chunk`; the result of every run is a typed
+:class:`demcal.results.RunResult` (outcome, named responses, reason, wall time, details).
 """
 
 from __future__ import annotations
@@ -12,6 +12,8 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
+
+from demcal.results import RunResult
 
 __all__ = ["MEASUREMENT_VERSION", "RunTask", "TestDef", "run_chunk"]
 
@@ -78,7 +80,13 @@ class RunTask:
     plot_path: str | None = None
 
 
-def _lammps_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> None:
+def _from_aor(key: str, r: Any) -> RunResult:
+    """A lift test's :class:`~demcal.virtual.aor.AoRResult` as a run result."""
+    return RunResult(key, r.outcome, responses=r.responses(), reason=r.reason,
+                     wall_time_s=r.wall_time_s, detail=r.to_dict())
+
+
+def _lammps_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None:
     """The runs on LAMMPS, one after another (each on ``test.lammps["np"]`` MPI ranks)."""
     from demcal.virtual import fidelity_config
     from demcal.virtual.lammps_options import LammpsOptions
@@ -92,14 +100,13 @@ def _lammps_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) 
             config = config.model_copy(update={"dt_fraction": config.dt_fraction * t.dt_scale})
 
         def done(_i: int, r: Any, t: RunTask = t) -> None:
-            emit({"key": t.key, "outcome": str(r.outcome), "aor_deg": r.aor_deg,
-                  "reason": r.reason, "wall_time_s": r.wall_time_s, "result": r.to_dict()})
+            emit(_from_aor(t.key, r))
 
         run_aor_lammps([t.params], config=config, seeds=[t.seed], options=options,
                        reporting=RunReporting(plot_paths=[t.plot_path], on_result=done))
 
 
-def _aor_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> None:
+def _aor_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None:
     from demcal.errors import SimulationUnstable
     from demcal.virtual import fidelity_config, run_aor
 
@@ -119,8 +126,7 @@ def _aor_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> 
         def world_done(i: int, r: Any, group: list[RunTask] = group,
                        sent: set[int] = sent) -> None:
             sent.add(i)
-            emit({"key": group[i].key, "outcome": str(r.outcome), "aor_deg": r.aor_deg,
-                  "reason": r.reason, "wall_time_s": r.wall_time_s, "result": r.to_dict()})
+            emit(_from_aor(group[i].key, r))
 
         try:
             run_aor([t.params for t in group], config=config, seeds=[t.seed for t in group],
@@ -130,25 +136,24 @@ def _aor_chunk(tasks: list[RunTask], emit: Callable[[dict[str, Any]], None]) -> 
             wall = time.perf_counter() - t0
             for i, t in enumerate(group):
                 if i not in sent:
-                    emit({"key": t.key, "outcome": "unstable", "aor_deg": None,
-                          "reason": str(exc), "wall_time_s": wall, "result": {}})
+                    emit(RunResult(t.key, "unstable", reason=str(exc), wall_time_s=wall))
 
 
 def run_chunk(tasks: list[RunTask],
-              on_result: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
-    """Run a chunk of tasks (same test) and return one result dict per task.
+              on_result: Callable[[RunResult], None] | None = None) -> list[RunResult]:
+    """Run a chunk of tasks (same test) and return one :class:`RunResult` per task.
 
     ``on_result(result)`` (in the same process) is called the moment each run ends, before
-    the chunk ends (worlds of one batched engine end at different times). Each dict also
+    the chunk ends (worlds of one batched engine end at different times). Each result also
     names the ``worker`` that ran it: ``{"pid", "numba_threads"}``.
     """
     if not tasks:
         return []
     worker = {"pid": os.getpid(), "numba_threads": os.environ.get("NUMBA_NUM_THREADS")}
-    out: list[dict[str, Any]] = []
+    out: list[RunResult] = []
 
-    def emit(r: dict[str, Any]) -> None:
-        r = {**r, "worker": worker}
+    def emit(r: RunResult) -> None:
+        r = r.with_worker(worker)
         out.append(r)
         if on_result is not None:
             on_result(r)
@@ -159,8 +164,10 @@ def run_chunk(tasks: list[RunTask],
         for t in tasks:
             t0 = time.perf_counter()
             r = analytic_aor(t.params, t.seed, t.test.analytic, dt_scale=t.dt_scale)
-            emit({"key": t.key, "outcome": r["outcome"], "aor_deg": r["aor_deg"],
-                  "reason": r["reason"], "wall_time_s": time.perf_counter() - t0, "result": r})
+            pile = r["outcome"] == "pile"
+            emit(RunResult(t.key, r["outcome"], responses={"aor_deg": r["aor_deg"]} if pile
+                           else {}, reason=r["reason"], wall_time_s=time.perf_counter() - t0,
+                           detail=r))
     elif tasks[0].test.kind == "template":
         from demcal.execute.template_engine import run_template
 

@@ -39,6 +39,7 @@ from demcal.errors import InputError
 from demcal.execute.engine_results import ResultUnreadable, read_positions, read_value
 from demcal.execute.signals import sigterm_raises
 from demcal.execute.template_fill import fill
+from demcal.results import RunResult
 
 __all__ = ["ENGINE_FAILURES", "KILL_GRACE_S", "LOG_NAME", "run_dir_name", "run_template"]
 
@@ -170,10 +171,11 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
 
     Returns
     -------
-    dict
-        ``{"key", "outcome", "aor_deg", "reason", "wall_time_s", "result"}``; ``result``
-        holds ``engine`` (command, exit status, run folder, log), the measurement and
-        ``artefacts`` (``run_dir``, ``engine_log``, ``pile_png``).
+    RunResult
+        The outcome; the responses (``aor_deg`` for a pile, and every finite number of the
+        engine's own result JSON by its key); ``detail`` holds ``engine`` (command, exit
+        status, run folder, log), the measurement and ``artefacts`` (``run_dir``,
+        ``engine_log``, ``pile_png``).
 
     Raises
     ------
@@ -207,8 +209,12 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
     measured = result.get("measured") or {}
     result.update({k: measured[k] for k in MEASURED_KEYS if k in measured})
     result.update(outcome=out["outcome"], aor_deg=out["aor_deg"], reason=out["reason"])
-    out["wall_time_s"] = time.perf_counter() - t0
-    return out
+    responses = {} if failure is not None else dict(result.get("engine_values") or {})
+    if out["outcome"] == "pile":  # a pile demcal measured also has its height and base
+        responses.update({k: result[k] for k in ("pile_height_m", "base_diameter_m")
+                          if result.get(k) is not None}, aor_deg=out["aor_deg"])
+    return RunResult(task.key, out["outcome"], responses=responses, reason=out["reason"],
+                     wall_time_s=time.perf_counter() - t0, detail=result)
 
 
 def _fresh_run_dir(engine: dict[str, Any], key: str) -> Path:

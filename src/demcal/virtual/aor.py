@@ -29,6 +29,7 @@ from demcal.dem.simulation import Simulation
 from demcal.dem.state import ClumpGroup, World
 from demcal.dem.walls import PlaneWall, TubeWall
 from demcal.errors import InputError
+from demcal.results import finite_responses
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.factory import (
     SphereGrid,
@@ -90,6 +91,14 @@ class AoRResult:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (``aor_deg`` is None unless the outcome is ``pile``)."""
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+    def responses(self) -> dict[str, float]:
+        """What the test measured, by response name: the angle (deg), the pile's height and
+        base diameter (m); none unless the outcome is ``pile``."""
+        if self.outcome != "pile":
+            return {}
+        return finite_responses({"aor_deg": self.aor_deg, "pile_height_m": self.pile_height_m,
+                                 "base_diameter_m": self.base_diameter_m})
 
 
 def _materials(p: Mapping[str, float]) -> MaterialTable:
