@@ -19,6 +19,7 @@ import numpy as np
 
 from demcal.calibrate import refine
 from demcal.calibrate import stages as st
+from demcal.calibrate.responses import AOR, aor_spec
 from demcal.calibrate.runner import Runner
 from demcal.calibrate.study import Study, load_study, study_folder
 from demcal.errors import InputError
@@ -163,9 +164,12 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
                     figures_dir=folder / "figures" / "runs",
                     stage_tests={name: replace(test, fidelity=fid)
                                  for name, fid in study.stage_fidelities().items()})
+    own_aor = next((r for r in study.responses if r.name == AOR), None)
+    specs = [aor_spec(own_aor, target), *study.other_responses()]
+    labs = {s.name: lab for s in specs if (lab := s.lab(path.parent)) is not None}
     return st.Context(study, store, runner, fixed, float(target["aor_deg"]),
                       [dict(f) for f in factors], target_std=target.get("std_deg"),
-                      target_n=target.get("n"))
+                      target_n=target.get("n"), responses=specs, labs=labs)
 
 
 def _stage_json(ctx: st.Context) -> dict[str, Any]:
@@ -179,7 +183,7 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
                          "responses": [p for f in s["factors"] for p in f["points"]],
                          "ranges": {f["name"]: [f["new_low"], f["new_high"]]
                                     for f in s["factors"]}, "message": s["message"]}
-        elif name in ("screening", "rsm"):
+        elif name in ("screening", "rsm") and "runs" in s:  # a skipped screening: no runs
             out[name] = {"design": s["design"], "factors": [f["name"] for f in s["factors"]],
                          "responses": [{"point": r["point"], "actual": r["actual"],
                                         "aor_deg": r["aor_deg"], "outcome": r["outcome"]}
@@ -230,8 +234,11 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
             ctx.store.delete_stage(name)
             continue
         if name == "screening" and not s.screening.enabled:
-            raise InputError("stages.screening.enabled: screening cannot be skipped (it "
-                             "selects the factors); give stages.screening.factors instead")
+            # straight to the response surface: its factors are the ones given, or all
+            refs = s.screening.factors or [f.name for f in ctx.study.factors]
+            ctx.results["screening"] = {"selected": [ctx.study.factor(r).name for r in refs]}
+            ctx.store.delete_stage(name)
+            continue
         if name == "steepest" and not s.steepest.enabled:
             sel = ctx.results["screening"]["selected"]
             ctx.results["steepest"] = {"levels": {
@@ -267,5 +274,10 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         "rsm_removed_terms": ctx.results["rsm"].get("removed_terms", []),
         "stages": _stage_json(ctx),
     }
+    if ctx.several:  # every response against its lab value, and the desirability
+        result["responses"] = {
+            "goals": opt["responses"]["goals"], "desirability": opt["responses"]["desirability"],
+            "predicted": opt["candidates"][0]["predicted"],
+            "verification": ver["responses"]}
     ctx.store.set_meta("result", result)
     return result

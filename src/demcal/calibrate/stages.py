@@ -16,8 +16,9 @@ from typing import Any
 import numpy as np
 
 from demcal import doe
-from demcal.calibrate import anchor
+from demcal.calibrate import anchor, several
 from demcal.calibrate.classifier import PileClassifier
+from demcal.calibrate.responses import LabValue, ResponseSpec
 from demcal.calibrate.runner import Point, Runner
 from demcal.calibrate.study import Study
 from demcal.errors import InputError, StudyError
@@ -160,6 +161,15 @@ class Context:
     target_std: float | None = None
     target_n: int | None = None
     rounds: Rounds = field(default_factory=Rounds)
+    #: every response the study aims at, the angle first (:mod:`demcal.calibrate.several`)
+    responses: list[ResponseSpec] = field(default_factory=list)
+    #: their lab values by name
+    labs: dict[str, LabValue] = field(default_factory=dict)
+
+    @property
+    def several(self) -> bool:
+        """Does the study aim at more responses than the angle?"""
+        return len(self.responses) > 1
 
     def full(self, actual: dict[str, float]) -> dict[str, float]:
         """The fixed set with ``actual`` factor values applied (floats)."""
@@ -818,6 +828,11 @@ def rsm(ctx: Context) -> dict[str, Any]:
             "within the noise; raise the budget or the fidelity, or narrow the ranges")
     warnings += choice["notes"]
     warnings += block_notes
+    if ctx.several:
+        fits = several.fit_responses(ctx, design, recs, n_reps)
+        ctx.results["_response_fits"] = fits
+        base["responses"] = {name: f.summary() for name, f in fits.items()}
+        warnings += [w for f in fits.values() for w in f.warnings]
     summary = {**base, "anova": table.to_records(), "fit": table.fit.to_dict(),
                "lack_of_fit_p": lof_p, "adequacy": stats_, "rounds": rounds,
                "model": choice["model"], "removed_terms": choice["removed_terms"],
@@ -884,6 +899,14 @@ def optimize(ctx: Context) -> dict[str, Any]:
     def constraint(x: np.ndarray) -> np.ndarray:
         return clf.p_pile_grid(ctx.fixed, names, x) >= opts.min_p_pile
 
+    if ctx.several:
+        summary = several.optimize_summary(ctx, clf, constraint, offset,
+                                           ctx.rounds.stored.get(k))
+        if k > 1:
+            summary.update(round=k, surface_offset_deg=offset,
+                           offset_from_rounds=measured.rounds,
+                           measured_offset_deg=measured.deg, offset_weight=measured.weight)
+        return _store_optimum(ctx, summary, h)
     kept = _stored_optimum(ctx.rounds.stored.get(k), (ctx.target, aim), model, constraint,
                            opts_json)
     if kept is not None:  # a resume (on this or another machine): the decision stands
@@ -1131,6 +1154,9 @@ def verification(ctx: Context) -> dict[str, Any]:
     summary["within_tolerance"] = None if tol is None or rel is None else bool(rel <= tol)
     summary.update(confirmation(model, ctx.results["optimize"]["chosen"], vals,
                                 offset=ctx.rounds.offset(model)))
+    if ctx.several:
+        summary["responses"] = {name: c.to_dict()
+                                for name, c in several.check_responses(ctx, recs).items()}
     if k > 1:
         summary["round"] = k
     summary = _with_rounds(summary, ctx.rounds.verification)

@@ -34,6 +34,7 @@ from pydantic import (
     model_validator,
 )
 
+from demcal.calibrate.responses import AOR, ResponseSpec
 from demcal.errors import InputError
 from demcal.execute.engine_spec import EngineSpec
 from demcal.limits import MAX_CHUNK, MAX_INPUT_FILE_BYTES, MAX_STUDY_SEED
@@ -322,7 +323,10 @@ class Study(_M):
                                "keeps fresh seeds)")
     backend: Literal["auto", "cpu", "cuda"] = "auto"
     material: Material = Material()
-    target: Target
+    target: Target | None = Field(None, description="the measured angle of repose (or a "
+                                  "[[responses]] table named aor_deg)")
+    responses: list[ResponseSpec] = Field(default_factory=list, max_length=20,
+                                          description="more responses beside the angle")
     factors: list[FactorSpec] = Field(min_length=1)
     test: TestSpec = TestSpec()
     stages: Stages = Stages()
@@ -341,6 +345,39 @@ class Study(_M):
             self.replicates = (FIDELITY_REPLICATES[self.test.fidelity]
                                if self.test.kind == "aor" and self.engine is None else 1)
         return self
+
+    @model_validator(mode="after")
+    def _responses(self) -> Study:
+        names = [r.name for r in self.responses]
+        if len(set(names)) != len(names):
+            raise ValueError("responses: a name is listed twice")
+        aor = next((r for r in self.responses if r.name == AOR), None)
+        if self.target is None:
+            if aor is None or aor.target is None:
+                raise ValueError("target: give [target] (the measured angle of repose) or a "
+                                 f"[[responses]] table named {AOR!r} with its target")
+            self.target = Target(aor_deg=aor.target, std_deg=aor.std, n=aor.n)
+        elif aor is not None:
+            raise ValueError(f"responses: {AOR!r} and [target] both give the angle; keep one")
+        known = self.reported_responses()
+        for r in self.responses:
+            if known is not None and r.name not in known:
+                raise ValueError(f"responses: {r.name!r} is not reported by the test; it "
+                                 f"reports {', '.join(sorted(known))}")
+        return self
+
+    def reported_responses(self) -> set[str] | None:
+        """The response names this study's test reports (None: an external engine's own
+        result, known only once it runs)."""
+        if self.engine is not None:
+            return None
+        if self.test.kind == "analytic":
+            return {AOR, *((self.test.analytic or {}).get("responses") or {})}
+        return {AOR, "pile_height_m", "base_diameter_m"}
+
+    def other_responses(self) -> list[ResponseSpec]:
+        """The responses beside the angle, in the order given."""
+        return [r for r in self.responses if r.name != AOR]
 
     def engine_data(self, base: Path | None = None) -> dict[str, Any] | None:
         """The external engine with its template read (None: demcal's engine); relative
@@ -407,6 +444,9 @@ class Study(_M):
                 if r not in allowed:
                     raise ValueError(f"{where}: {r!r} is not a factor; allowed: "
                                      + ", ".join(names + [s for s in symbols if s]))
+        if not self.stages.screening.enabled and self.stages.steepest.enabled:
+            raise ValueError("stages.steepest.enabled: the steepest path follows the "
+                             "screening's effects; with screening disabled disable it too")
         if self.stages.screening.min_factors > self.stages.screening.max_factors:
             raise ValueError("stages.screening.min_factors must be <= max_factors")
         return self

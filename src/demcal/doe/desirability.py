@@ -284,7 +284,12 @@ def surface_predictors(models: Mapping[str, Any]) -> tuple[tuple[str, ...], dict
 class _Objective:
     """Everything a point's score needs: predictions, d, D (vectorised over points)."""
 
-    def __init__(self, predictors: Mapping[str, Predictor], goals: Sequence[ResponseGoal]):
+    #: the score of a point outside the feasible region: worse than any inside it
+    INFEASIBLE = 1e6
+
+    def __init__(self, predictors: Mapping[str, Predictor], goals: Sequence[ResponseGoal],
+                 feasible: Callable[[np.ndarray], np.ndarray] | None = None):
+        self.feasible = feasible
         self.goals = tuple(goals)
         self.predictors = [predictors[g.name] for g in self.goals]
         self.importance = [int(g.importance) for g in self.goals]
@@ -300,7 +305,11 @@ class _Objective:
         """What the search minimises: -D where D > 0, else the summed shortfall (>= 0)."""
         y, _d, big_d = self.evaluate(x)
         gap = sum(g.shortfall(y[:, i]) for i, g in enumerate(self.goals))
-        return np.where(big_d > 0.0, -big_d, gap)
+        score = np.where(big_d > 0.0, -big_d, gap)
+        if self.feasible is not None:
+            ok = np.asarray(self.feasible(x), dtype=bool).reshape(-1)
+            score = np.where(ok, score, self.INFEASIBLE)
+        return score
 
 
 def _check_inputs(predictors: Mapping[str, Predictor], goals: Sequence[ResponseGoal],
@@ -380,6 +389,9 @@ class Search:
         Two solutions closer than this (coded, RMS over factors) count as one.
     seed : int or None
         Seed of the starting points.
+    feasible : callable, optional
+        ``feasible(coded (m, k)) -> bool (m,)``: settings outside it (e.g. where the test
+        forms no pile) are never proposed.
     """
 
     bounds: Mapping[str, tuple[float, float]] | None = None
@@ -387,6 +399,7 @@ class Search:
     n_solutions: int = 5
     min_distance: float = 0.1
     seed: int | None = 0
+    feasible: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 def optimize_desirability(
@@ -420,11 +433,15 @@ def optimize_desirability(
     names = tuple(names)
     _check_inputs(predictors, goals, names, search.n_starts, search.n_solutions)
     lo, hi = _box(names, search.bounds)
-    obj = _Objective(predictors, goals)
+    obj = _Objective(predictors, goals, search.feasible)
     rng = np.random.default_rng(search.seed)
     points = _local_searches(obj, lo, hi, search.n_starts, rng)
-    y, d, big_d = obj.evaluate(points)
     score = obj.score(points)
+    if search.feasible is not None:
+        points, score = points[score < obj.INFEASIBLE], score[score < obj.INFEASIBLE]
+        if not points.size:
+            raise InputError("no feasible setting was found in the search region")
+    y, d, big_d = obj.evaluate(points)
     centre_dist = np.sqrt(np.mean(points**2, axis=1))
     order = np.lexsort((centre_dist, np.round(score, 4)))
     chosen: list[int] = []
@@ -447,4 +464,4 @@ def optimize_desirability(
         for i in chosen
     )
     return DesirabilityResult(solutions=sols, goals=obj.goals, names=names,
-                              n_starts=len(points))
+                              n_starts=search.n_starts)

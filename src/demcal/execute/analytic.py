@@ -15,6 +15,10 @@ for any p the outcome is ``column`` (no angle). If ``x_p > unstable_above[p]`` a
 time-step fraction is not reduced (``dt_scale >= 1``) the outcome is ``unstable`` (a
 numerical failure that a retry with a smaller time step cures). ``delay_s`` makes a run take
 that long, so that tests can kill a study in the middle of a stage. Parameters in SI, angles deg.
+
+``responses`` plants more responses beside the angle, each its own surface about the same
+``centre`` (``base`` + linear, quadratic and interaction terms + ``noise`` N(0, 1)), reported
+by every run that formed a pile: a stand-in for a test with several responses.
 """
 
 from __future__ import annotations
@@ -28,7 +32,19 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["AnalyticOptions", "analytic_aor", "true_aor"]
+__all__ = ["AnalyticOptions", "PlantedResponse", "analytic_aor", "true_aor", "true_responses"]
+
+
+class PlantedResponse(BaseModel):
+    """One more planted response (its own units), about the angle's ``centre``."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    base: float = 0.0
+    linear: dict[str, float] = Field(default_factory=dict)
+    quadratic: dict[str, float] = Field(default_factory=dict)
+    interaction: dict[str, float] = Field(default_factory=dict, description="'p*q' -> coef")
+    noise: float = Field(0.0, ge=0)
 
 
 class AnalyticOptions(BaseModel):
@@ -51,23 +67,38 @@ class AnalyticOptions(BaseModel):
     no_pile_outcome: str = "column"
     unstable_above: dict[str, float] = Field(default_factory=dict)
     delay_s: float = Field(0.0, ge=0, le=60, description="wall time of one run (sleep), s")
+    responses: dict[str, PlantedResponse] = Field(default_factory=dict, max_length=20,
+                                                  description="more responses by name")
+
+
+def _surface(params: Mapping[str, float], centre: Mapping[str, float], base: float,
+             terms: tuple[Mapping[str, float], ...]) -> float:
+    """base + linear, quadratic, cubic and interaction terms about ``centre``."""
+    def d(p: str) -> float:
+        return float(params[p]) - float(centre.get(p, 0.0))
+
+    y = base
+    for power, coefs in enumerate(terms[:3], 1):
+        y += sum(c * d(p) ** power for p, c in coefs.items())
+    for pq, c in terms[3].items():
+        p, q = pq.split("*")
+        y += c * d(p.strip()) * d(q.strip())
+    return float(y)
+
+
+def true_responses(params: Mapping[str, float],
+                   options: AnalyticOptions | Mapping[str, Any]) -> dict[str, float]:
+    """The noise-free planted responses of ``options.responses``, by name."""
+    o = options if isinstance(options, AnalyticOptions) else AnalyticOptions(**options)
+    return {name: _surface(params, o.centre, r.base, (r.linear, r.quadratic, {}, r.interaction))
+            for name, r in o.responses.items()}
 
 
 def true_aor(params: Mapping[str, float], options: AnalyticOptions | Mapping[str, Any]) -> float:
     """The noise-free planted angle, deg (defined also where no pile forms)."""
     o = options if isinstance(options, AnalyticOptions) else AnalyticOptions(**options)
-
-    def d(p: str) -> float:
-        return float(params[p]) - float(o.centre.get(p, 0.0))
-
-    y = o.base_deg
-    y += sum(c * d(p) for p, c in o.linear.items())
-    y += sum(c * d(p) ** 2 for p, c in o.quadratic.items())
-    y += sum(c * d(p) ** 3 for p, c in o.cubic.items())
-    for pq, c in o.interaction.items():
-        p, q = pq.split("*")
-        y += c * d(p.strip()) * d(q.strip())
-    return float(y)
+    return _surface(params, o.centre, o.base_deg, (o.linear, o.quadratic, o.cubic,
+                                                   o.interaction))
 
 
 def analytic_aor(params: Mapping[str, float], seed: int,
@@ -90,5 +121,9 @@ def analytic_aor(params: Mapping[str, float], seed: int,
                        "s": int(seed)})
     rng = np.random.default_rng(int(hashlib.sha256(text.encode()).hexdigest()[:15], 16))
     aor = true_aor(params, o) + o.noise_deg * float(rng.standard_normal())
-    return {"outcome": "pile", "aor_deg": float(min(max(aor, 0.5), 89.5)), "seed": int(seed),
-            "reason": None, "params": dict(params), "stand_in": True}
+    out = {"outcome": "pile", "aor_deg": float(min(max(aor, 0.5), 89.5)), "seed": int(seed),
+           "reason": None, "params": dict(params), "stand_in": True}
+    if o.responses:  # drawn after the angle's noise: the angle stays as it was without them
+        out["responses"] = {name: y + o.responses[name].noise * float(rng.standard_normal())
+                            for name, y in true_responses(params, o).items()}
+    return out

@@ -165,9 +165,9 @@ def run_chunk(tasks: list[RunTask],
             t0 = time.perf_counter()
             r = analytic_aor(t.params, t.seed, t.test.analytic, dt_scale=t.dt_scale)
             pile = r["outcome"] == "pile"
-            emit(RunResult(t.key, r["outcome"], responses={"aor_deg": r["aor_deg"]} if pile
-                           else {}, reason=r["reason"], wall_time_s=time.perf_counter() - t0,
-                           detail=r))
+            responses = {"aor_deg": r["aor_deg"], **r.get("responses", {})} if pile else {}
+            emit(RunResult(t.key, r["outcome"], responses=responses, reason=r["reason"],
+                           wall_time_s=time.perf_counter() - t0, detail=r))
     elif tasks[0].test.kind == "template":
         from demcal.execute.template_engine import run_template
 

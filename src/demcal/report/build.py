@@ -25,6 +25,7 @@ from demcal.report import diagnostics as D
 from demcal.report import figures as F
 from demcal.report import material as M
 from demcal.report import model_figures as MF
+from demcal.report import responses as RS
 from demcal.report import tables as T
 from demcal.report.data import ReportData, StageView, load_report_data
 from demcal.report.html import badge, banner, figure_html, page, table_html
@@ -521,6 +522,19 @@ def _optimize(b: _Builder) -> str:
     return _section("optimize", "Optimum and alternatives", view.status, _guard(b, view, render))
 
 
+def _several_responses(b: _Builder) -> str:
+    """Each response's goal, model, prediction and verification (several-response studies)."""
+    view = RS.responses_view(b.data.stage("rsm").summary, b.data.stage("optimize").summary,
+                             b.data.stage("verification").summary)
+    if view is None:
+        return ""
+    goals, verified = RS.responses_tables(view)
+    equations = "".join(f"<p><b>{escape(r.name)}</b> = {escape(r.equation)}</p>"
+                        for r in view.rows if r.equation and r.name != "aor_deg")
+    return _section("responses", "Several responses", None,
+                    b.table(goals) + equations + b.table(verified))
+
+
 def _verification(b: _Builder) -> str:
     d, view = b.data, b.data.stage("verification")
 
@@ -656,7 +670,7 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
             (out / name).unlink(missing_ok=True)
     body = "".join([_overview(b), _material(b), _stages(b), _measurement(b), _rangefind(b),
                     _screening(b), _steepest(b), _rsm(b), _optimize(b), _verification(b),
-                    _excluded(b)])
+                    _several_responses(b), _excluded(b)])
     body += _footer(b)
     study = data.meta.get("study") or {}
     title = f"demcal calibration report: {study.get('name') or data.study_dir.name}"

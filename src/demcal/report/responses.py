@@ -1,0 +1,115 @@
+"""The report's "Several responses" section: each response's model, the desirability
+optimum, and each response verified against its lab value.
+
+The stored summaries are read once into typed views (:class:`ResponsesView`), so a renamed
+key breaks :func:`responses_view` and its test, not the page.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import pandas as pd
+
+from demcal.report.tables import Table
+
+__all__ = ["ResponseRow", "ResponsesView", "responses_tables", "responses_view"]
+
+
+@dataclass(frozen=True)
+class ResponseRow:
+    """One response across the stages (None where a stage has not run)."""
+
+    name: str
+    goal: str
+    low: float
+    high: float
+    target: float | None
+    importance: int
+    model: str | None
+    adequate: bool | None
+    adj_r2: float | None
+    pred_r2: float | None
+    equation: str | None
+    predicted: float | None
+    individual: float | None
+    verified_mean: float | None
+    verified_std: float | None
+    verified_n: int | None
+    lab_mean: float | None
+    relative_error_percent: float | None
+    p_value: float | None
+    consistent: bool | None
+
+
+@dataclass(frozen=True)
+class ResponsesView:
+    """Every response of a several-response study, and the overall desirability."""
+
+    rows: tuple[ResponseRow, ...]
+    desirability: float | None
+    unmet: tuple[str, ...]
+
+
+def responses_view(rsm: Mapping[str, Any], optimize: Mapping[str, Any],
+                   verification: Mapping[str, Any]) -> ResponsesView | None:
+    """The typed view of the stored summaries; None for a study with the angle alone."""
+    own = optimize.get("responses")
+    if not own:
+        return None
+    fits = rsm.get("responses") or {}
+    best = (optimize.get("candidates") or [{}])[0]
+    checks = verification.get("responses") or {}
+    rows = []
+    for g in own["goals"]:
+        name = g["name"]
+        fit = fits.get(name) or {}
+        adequacy = fit.get("adequacy") or {}
+        check = checks.get(name) or {}
+        lab = check.get("lab") or {}
+        if name == "aor_deg":  # the angle: its own model and verification
+            fit = {"model": rsm.get("model"), "adequate": rsm.get("adequate"),
+                   "equation_actual": rsm.get("equation_actual")}
+            adequacy = rsm.get("adequacy") or {}
+            check = {"mean": verification.get("aor_mean_deg"),
+                     "std": verification.get("aor_std_deg"),
+                     "n": verification.get("n_piles"),
+                     "relative_error_percent": verification.get("relative_error_percent"),
+                     "p_value": verification.get("p_value"),
+                     "consistent": verification.get("consistent")}
+            lab = {"mean": g.get("target")}
+        rows.append(ResponseRow(
+            name=name, goal=g["goal"], low=g["low"], high=g["high"], target=g.get("target"),
+            importance=g["importance"], model=fit.get("model"), adequate=fit.get("adequate"),
+            adj_r2=adequacy.get("adj_r2"), pred_r2=adequacy.get("pred_r2"),
+            equation=fit.get("equation_actual"),
+            predicted=(best.get("predicted") or {}).get(name),
+            individual=(best.get("individual") or {}).get(name),
+            verified_mean=check.get("mean"), verified_std=check.get("std"),
+            verified_n=check.get("n"), lab_mean=lab.get("mean"),
+            relative_error_percent=check.get("relative_error_percent"),
+            p_value=check.get("p_value"), consistent=check.get("consistent")))
+    return ResponsesView(tuple(rows), own.get("desirability"), tuple(own.get("unmet") or ()))
+
+
+def responses_tables(view: ResponsesView) -> tuple[Table, Table]:
+    """Two tables: each response's goal and model; each response at the optimum and
+    verified against its lab value."""
+    goals = pd.DataFrame([{
+        "response": r.name, "goal": r.goal, "low": r.low, "target": r.target, "high": r.high,
+        "importance": r.importance, "model": r.model, "adequate": r.adequate,
+        "adj R^2": r.adj_r2, "pred R^2": r.pred_r2} for r in view.rows])
+    verified = pd.DataFrame([{
+        "response": r.name, "lab": r.lab_mean, "predicted": r.predicted,
+        "desirability d": r.individual, "verified mean": r.verified_mean,
+        "verified std": r.verified_std, "n": r.verified_n,
+        "error (%)": r.relative_error_percent, "p": r.p_value,
+        "consistent": r.consistent} for r in view.rows])
+    note = ("overall desirability "
+            + ("n/a" if view.desirability is None else f"{view.desirability:.3f}")
+            + (f"; out of reach together: {', '.join(view.unmet)}" if view.unmet else ""))
+    return (Table("responses_goals", "Responses: goals and models", goals),
+            Table("responses_verified", "Responses at the optimum and verified", verified,
+                  note=note))

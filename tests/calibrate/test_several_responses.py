@@ -1,0 +1,139 @@
+"""A calibration aiming at several responses lands on the planted parameters.
+
+The stand-in test plants three responses over three factors, each linear with its own
+gradient, so the three lab values fix one point that no single response fixes: the angle alone
+leaves a plane of settings that all hit it. Straight to the response surface (range finding,
+screening and the steepest path disabled), the desirability optimum must land on the planted
+point, and the verification must judge every response against its lab value.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from demcal.calibrate import calibrate
+from demcal.cli import app
+from demcal.execute.analytic import AnalyticOptions, true_aor, true_responses
+
+FACTORS = {  # name: (symbol, low, high)
+    "pp.static_friction": ("x3", 0.2, 1.0),
+    "pp.rolling_friction": ("x4", 0.0, 0.4),
+    "pw.static_friction": ("x6", 0.3, 0.8),
+}
+PLANTED = {"pp.static_friction": 0.7, "pp.rolling_friction": 0.15, "pw.static_friction": 0.65}
+CENTRE = {"pp.static_friction": 0.6, "pp.rolling_friction": 0.2, "pw.static_friction": 0.55}
+ANALYTIC = {
+    "base_deg": 30.0, "centre": CENTRE, "noise_deg": 0.2,
+    "linear": {"pp.static_friction": 15.0, "pp.rolling_friction": 25.0,
+               "pw.static_friction": 2.0},
+    "responses": {
+        "drum_deg": {"base": 35.0, "noise": 0.2,
+                     "linear": {"pp.static_friction": 5.0, "pp.rolling_friction": 60.0,
+                                "pw.static_friction": 1.0}},
+        "bulk_density_kg_m3": {"base": 200.0, "noise": 0.5,
+                               "linear": {"pp.static_friction": -10.0,
+                                          "pp.rolling_friction": 20.0,
+                                          "pw.static_friction": 80.0}},
+    },
+}
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f'"{k}" = {_toml_value(x)}' for k, x in v.items()) + " }"
+    return repr(v)
+
+
+def write_study(folder: Path, *, responses: bool = True, aor_only_extra: str = "") -> Path:
+    opts = AnalyticOptions(**ANALYTIC)
+    truth = true_responses(PLANTED, opts)
+    lines = ['name = "three responses"', "seed = 3", "replicates = 1", "",
+             "[material]", 'preset = "corn_stalk"', "",
+             "[target]", f"aor_deg = {true_aor(PLANTED, opts)!r}", "std_deg = 0.5", "n = 5", ""]
+    for name, (sym, lo, hi) in FACTORS.items():
+        lines += ["[[factors]]", f'name = "{name}"', f'symbol = "{sym}"', f"low = {lo}",
+                  f"high = {hi}", ""]
+    if responses:
+        for name, value in truth.items():
+            lines += ["[[responses]]", f'name = "{name}"', f"target = {value!r}",
+                      "std = 0.5", "n = 5", ""]
+    lines += ["[test]", 'kind = "analytic"', "", "[test.analytic]"]
+    lines += [f"{k} = {_toml_value(v)}" for k, v in ANALYTIC.items()]
+    lines += ["", "[stages.rangefind]", "enabled = false", "",
+              "[stages.screening]", "enabled = false", "",
+              "[stages.steepest]", "enabled = false", "",
+              "[stages.rsm]", 'design = "bbd"', "center_points = 3", "",
+              "[stages.optimize]", "n_starts = 12", "",
+              "[stages.verification]", "n = 4", "", "[executor]", "workers = 1", ""]
+    path = folder / "study.toml"
+    path.write_text("\n".join(lines) + aor_only_extra)
+    return path
+
+
+def _coded_error(optimum: dict[str, float]) -> dict[str, float]:
+    return {n: abs(optimum[n] - PLANTED[n]) / (hi - lo) for n, (_s, lo, hi) in FACTORS.items()}
+
+
+def test_three_responses_land_on_the_planted_parameters(tmp_path: Path) -> None:
+    res = calibrate(write_study(tmp_path), workers=1)
+    err = _coded_error(res["optimum"])
+    assert max(err.values()) < 0.03, (res["optimum"], err)
+    several = res["responses"]
+    assert [g["name"] for g in several["goals"]] == ["aor_deg", "drum_deg",
+                                                     "bulk_density_kg_m3"]
+    assert several["desirability"] > 0.95
+    for name in ("drum_deg", "bulk_density_kg_m3"):
+        check = several["verification"][name]
+        assert check["n"] == 4 and check["consistent"] is True, check
+        assert check["relative_error_percent"] < 2.0
+    assert res["n_runs_executed"] == 15 + 4  # the response surface and the verification
+    # resumed: nothing runs again and the optimum stands
+    again = calibrate(tmp_path / "study.toml", workers=1)
+    assert again["n_runs_executed"] == 0 and again["optimum"] == res["optimum"]
+    # the report builds from the store and has a section per response
+    out = CliRunner().invoke(app, ["report", str(tmp_path)])
+    assert out.exit_code == 0, out.output
+    html = (tmp_path / "report" / "report.html").read_text()
+    assert "drum_deg" in html and "bulk_density_kg_m3" in html
+
+
+def test_the_angle_alone_does_not_fix_the_point(tmp_path: Path) -> None:
+    """The same study with the angle alone hits the angle but not the planted point: the
+    other two responses are what pins it."""
+    res = calibrate(write_study(tmp_path, responses=False), workers=1)
+    assert "responses" not in res
+    assert abs(res["verification"]["aor_mean_deg"] - res["target_aor_deg"]) < 1.0
+    assert max(_coded_error(res["optimum"]).values()) > 0.05
+
+
+def test_result_json_names_every_response(tmp_path: Path) -> None:
+    study = write_study(tmp_path)
+    out = CliRunner().invoke(app, ["calibrate", str(study), "--json", str(tmp_path / "r.json"),
+                                   "--workers", "1"])
+    assert out.exit_code == 0, out.output
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert set(doc["responses"]["predicted"]) == {"aor_deg", "drum_deg", "bulk_density_kg_m3"}
+    assert np.isfinite(doc["responses"]["verification"]["drum_deg"]["mean"])
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    ('\n[[responses]]\nname = "hopper_rate"\ntarget = 1.0\n', "'hopper_rate' is not reported"),
+    ('\n[[responses]]\nname = "drum_deg"\ntarget = 1.0\nlow = 5.0\nhigh = 2.0\n',
+     "low must be < high"),
+    ('\n[[responses]]\nname = "x"\ntarget = 1.0\nimportance = 9\n', "importance"),
+    ('\n[[responses]]\nname = "aor_deg"\ntarget = 40.0\n', "both give the angle"),
+])
+def test_bad_responses_get_one_line_and_exit_2(tmp_path: Path, extra: str, message: str
+                                                ) -> None:
+    study = write_study(tmp_path, responses=False, aor_only_extra="")
+    text = study.read_text().replace("[test]\n", extra.lstrip("\n") + "\n[test]\n", 1)
+    study.write_text(text)
+    out = CliRunner().invoke(app, ["calibrate", str(study)])
+    assert out.exit_code == 2, out.output
+    assert message in out.output and "Traceback" not in out.output
+    assert len(out.output.strip().splitlines()) <= 3
