@@ -12,7 +12,38 @@
 
 from __future__ import annotations
 
-__all__ = ["DemcalError", "InputError", "SimulationUnstable", "StoreError", "StudyError"]
+from typing import Any
+
+__all__ = ["DemcalError", "InputError", "SimulationUnstable", "StoreError", "StudyError",
+           "validation_message"]
+
+
+def validation_message(exc: Any, prefix: str = "", *, sep: str = "; ",
+                       show_input: bool = False) -> str:
+    """The one way a pydantic ``ValidationError`` becomes text: ``a.b: message`` per error.
+
+    Parameters
+    ----------
+    exc : pydantic.ValidationError
+    prefix : str
+        Put before each field path (e.g. ``"measurements"``).
+    sep : str
+        Between the errors ("; " for one line).
+    show_input : bool
+        Add ``; got VALUE`` to a type or range error (not to a failed check, whose message
+        already says it, nor to a missing field or a whole table).
+    """
+    parts = []
+    for err in exc.errors():
+        loc = ".".join(str(p) for p in (prefix, *err.get("loc", ())) if p != "")
+        msg = str(err.get("msg", "invalid value")).removeprefix("Value error, ")
+        tail = ""
+        got = err.get("input")
+        if show_input and err.get("type") not in ("value_error", "missing") \
+                and not isinstance(got, dict):
+            tail = f"; got {got!r}"
+        parts.append(f"{loc}: {msg}{tail}" if loc else f"{msg}{tail}")
+    return sep.join(parts)
 
 
 class DemcalError(Exception):

@@ -405,7 +405,11 @@ class RunStore:
             return
         if not self.readonly:
             conn.execute("PRAGMA synchronous=NORMAL")
-        version = self.meta("schema_version")
+        self._check_version(self.meta("schema_version"), tables)
+
+    def _check_version(self, version: Any, tables: set[str]) -> None:
+        """Refuse a store of another schema; a schema-1 store is read as it is, or migrated
+        when opened for writing."""
         if version is None:
             raise StoreError(f"{self.path}: not a demcal run store (no schema_version); "
                              "nothing was written")

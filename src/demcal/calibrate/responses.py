@@ -34,7 +34,7 @@ from demcal.doe.desirability import ResponseGoal
 from demcal.errors import InputError
 from demcal.limits import MAX_INPUT_FILE_BYTES
 
-__all__ = ["AOR", "LabValue", "ResponseSpec", "aor_spec", "read_repeats"]
+__all__ = ["AOR", "LabValue", "ResponseSpec", "aor_spec", "load_goals", "read_repeats"]
 
 #: The lift test's own response: its angle of repose, deg.
 AOR = "aor_deg"
@@ -185,3 +185,38 @@ def read_repeats(path: Path, where: str) -> np.ndarray:
     return np.array(values)
 
 
+
+
+def load_goals(path: Path) -> list[ResponseSpec]:
+    """The ``[[responses]]`` of a goals file (``demcal optimize --goals``); bad fields are one
+    InputError line naming each."""
+    import tomllib
+
+    from pydantic import TypeAdapter, ValidationError
+
+    from demcal.errors import validation_message
+
+    if not path.is_file():
+        raise InputError(f"--goals: file not found (or not a regular file): {path}")
+    if path.stat().st_size > MAX_INPUT_FILE_BYTES:
+        raise InputError(f"--goals: {path} is larger than {MAX_INPUT_FILE_BYTES // 2**20} MB")
+    try:
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError:
+        raise InputError(f"--goals: {path} is not a text (UTF-8) file") from None
+    except (tomllib.TOMLDecodeError, RecursionError) as exc:
+        raise InputError(f"--goals: {path} is not valid TOML: {exc}") from None
+    unknown = set(data) - {"responses"}
+    if unknown:
+        raise InputError(f"--goals: {path}: unknown table(s) {', '.join(sorted(unknown))}; a "
+                         "goals file holds [[responses]] tables")
+    try:
+        specs = TypeAdapter(list[ResponseSpec]).validate_python(data.get("responses") or [])
+    except ValidationError as exc:
+        raise InputError(f"--goals: {validation_message(exc, 'responses')}") from None
+    if not specs:
+        raise InputError(f"--goals: {path} has no [[responses]] table")
+    names = [s.name for s in specs]
+    if len(set(names)) != len(names):
+        raise InputError(f"--goals: {path}: a response is listed twice")
+    return specs

@@ -828,11 +828,7 @@ def rsm(ctx: Context) -> dict[str, Any]:
             "within the noise; raise the budget or the fidelity, or narrow the ranges")
     warnings += choice["notes"]
     warnings += block_notes
-    if ctx.several:
-        fits = several.fit_responses(ctx, design, recs, n_reps)
-        ctx.results["_response_fits"] = fits
-        base["responses"] = {name: f.summary() for name, f in fits.items()}
-        warnings += [w for f in fits.values() for w in f.warnings]
+    warnings += _other_responses(ctx, design, recs, n_reps, base)
     summary = {**base, "anova": table.to_records(), "fit": table.fit.to_dict(),
                "lack_of_fit_p": lof_p, "adequacy": stats_, "rounds": rounds,
                "model": choice["model"], "removed_terms": choice["removed_terms"],
@@ -848,6 +844,19 @@ def rsm(ctx: Context) -> dict[str, Any]:
     ctx.results["rsm"] = summary
     ctx.results["_rsm_model"] = model
     return summary
+
+
+def _other_responses(ctx: Context, design: doe.Design, recs: Sequence[RunRecord], n_reps: int,
+                     base: dict[str, Any]) -> list[str]:
+    """Fit every response beside the angle (a several-response study): the models go to
+    ``ctx.results["_response_fits"]``, their summaries to ``base["responses"]``; returns
+    their warnings (none, and nothing done, for the angle alone)."""
+    if not ctx.several:
+        return []
+    fits = several.fit_responses(ctx, design, recs, n_reps)
+    ctx.results["_response_fits"] = fits
+    base["responses"] = {name: f.summary() for name, f in fits.items()}
+    return [w for f in fits.values() for w in f.warnings]
 
 
 # ------------------------------------------------------------------------------ optimize

@@ -35,7 +35,7 @@ from pydantic import (
 )
 
 from demcal.calibrate.responses import AOR, ResponseSpec
-from demcal.errors import InputError
+from demcal.errors import InputError, validation_message
 from demcal.execute.engine_spec import EngineSpec
 from demcal.limits import MAX_CHUNK, MAX_INPUT_FILE_BYTES, MAX_STUDY_SEED
 from demcal.virtual.config import FIDELITIES, FIDELITY_REPLICATES
@@ -155,9 +155,7 @@ class TestSpec(_M):
             try:
                 config = fidelity_config(self.fidelity, **self.overrides)
             except ValidationError as exc:
-                raise ValueError("overrides: " + "; ".join(
-                    ".".join(map(str, e["loc"])) + ": " + e["msg"] for e in exc.errors())
-                ) from None
+                raise ValueError("overrides: " + validation_message(exc)) from None
             check_test_size(config)
         else:
             from demcal.execute.analytic import AnalyticOptions
@@ -464,12 +462,7 @@ def parse_study(data: dict[str, Any], *, base: Path | None = None) -> Study:
     try:
         study = Study.model_validate(data)
     except ValidationError as exc:
-        lines = []
-        for e in exc.errors():
-            loc = ".".join(str(p) for p in e["loc"])
-            msg = str(e["msg"]).removeprefix("Value error, ")
-            lines.append(f"{loc}: {msg}" if loc else msg)
-        raise InputError("study: " + "; ".join(lines)) from None
+        raise InputError("study: " + validation_message(exc)) from None
     if base is not None:  # resolve relative paths against the study file's folder
         def rel(p: str | None) -> str | None:
             return None if p is None else str((base / p).resolve())

@@ -21,7 +21,13 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from demcal.errors import DemcalError, InputError, SimulationUnstable, StudyError
+from demcal.errors import (
+    DemcalError,
+    InputError,
+    SimulationUnstable,
+    StudyError,
+    validation_message,
+)
 
 console = Console(markup=False, highlight=False)
 err_console = Console(stderr=True, markup=False, highlight=False)
@@ -58,12 +64,7 @@ def one_line(text: object) -> str:
 
 def format_validation_error(exc: Exception) -> str:
     """One line for a pydantic ``ValidationError``: ``a.b.c: message; d: message``."""
-    parts = []
-    for err in exc.errors():  # type: ignore[attr-defined]
-        loc = ".".join(str(p) for p in err.get("loc", ()))
-        msg = str(err.get("msg", "invalid value")).removeprefix("Value error, ")
-        parts.append(f"{loc}: {msg}" if loc else msg)
-    return "; ".join(parts)
+    return validation_message(exc)
 
 
 def check_output_file(path: Path | None, option: str, *,

@@ -21,6 +21,7 @@ from rich.table import Table
 from demcal import doe
 from demcal.cli import app
 from demcal.cli._common import check_output_file, cli_errors, console, log
+from demcal.cli.optimize_goals import GoalsRun, check_goal_options, optimize_goals
 from demcal.errors import InputError
 from demcal.limits import MAX_DESIGN_RUNS, MAX_SEED, check_finite
 
@@ -631,8 +632,15 @@ def analyze(
 @cli_errors
 def optimize_cmd(
     runs: Annotated[Path, typer.Argument(help="Run sheet (CSV) with a response column.")],
-    response: ResponseOpt,
-    target: Annotated[float, typer.Option("--target", help="Target response value.")],
+    response: Annotated[str | None, typer.Option("--response", help="Response column.")] = None,
+    target: Annotated[
+        float | None, typer.Option("--target", help="Target response value.")
+    ] = None,
+    goals: Annotated[
+        Path | None,
+        typer.Option("--goals", help="Several responses at once: a TOML file of "
+                     "[[responses]] (name, goal, low, high, target, weight, importance, model)."),
+    ] = None,
     model: ModelOpt = "quadratic",
     factors: FactorsFileOpt = None,
     columns: ColumnsOpt = None,
@@ -656,8 +664,18 @@ def optimize_cmd(
     seed: Annotated[int, typer.Option("--seed", help="Seed of the starting points.")] = 0,
     json_out: JsonOpt = None,
 ) -> None:
-    """Propose factor settings whose predicted response hits --target (ranked)."""
+    """Propose factor settings whose predicted response hits --target (ranked), or that
+    maximise the overall desirability of several responses (--goals)."""
     check_output_file(json_out, "--json", make_parents=True)
+    check_goal_options(goals, response, target)
+    if goals is not None:
+        _bounded(solutions, "--solutions", 1, 1000)
+        _bounded(seed, "--seed", 0, MAX_SEED)
+        run = GoalsRun(runs, goals, model, lambda name, mdl, cols: _load_surface(
+            runs, name, mdl, factors, cols, units))
+        optimize_goals(run, columns, solutions, seed, json_out)
+        return
+    assert response is not None and target is not None  # check_goal_options
     for value, option in ((target, "--target"), (lower, "--lower"), (upper, "--upper")):
         _bounded(value, option, -1e300, 1e300)
     _bounded(solutions, "--solutions", 1, 1000)

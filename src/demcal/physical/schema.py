@@ -63,7 +63,7 @@ from pydantic import (
     model_validator,
 )
 
-from demcal.errors import InputError
+from demcal.errors import InputError, validation_message
 from demcal.limits import MAX_TEMPLATE_SPHERES
 from demcal.physical.conversions import (
     compression_test,
@@ -484,16 +484,7 @@ def _known(name: str) -> Any:
 
 # ----------------------------------------------------------------------------- loading
 def _format_errors(exc: ValidationError, prefix: str) -> str:
-    lines = []
-    for err in exc.errors():
-        loc = ".".join(str(p) for p in (prefix, *err.get("loc", ())) if p != "")
-        msg = str(err.get("msg", "invalid value")).removeprefix("Value error, ")
-        got = err.get("input")
-        tail = ""
-        if err.get("type") not in ("value_error", "missing") and not isinstance(got, dict):
-            tail = f"; got {got!r}"
-        lines.append(f"{loc}: {msg}{tail}")
-    return "\n".join(lines)
+    return validation_message(exc, prefix, sep="\n", show_input=True)
 
 
 def parse_measurements(data: Any, *, prefix: str = "measurements") -> Measurements:
