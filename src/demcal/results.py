@@ -24,6 +24,7 @@ RESPONSE_UNITS = {
     "aor_deg": "deg",
     "pile_height_m": "m",
     "base_diameter_m": "m",
+    "bulk_density_kg_m3": "kg/m^3",
 }
 
 

@@ -66,3 +66,14 @@ def test_aor_rises_with(name, low, high):
     lo, hi = _quick_aor({name: low}, seeds), _quick_aor({name: high}, seeds)
     scatter = max(lo.std(ddof=1), hi.std(ddof=1))
     assert hi.mean() - lo.mean() > scatter, (lo, hi)
+
+
+def test_the_fill_reads_a_loose_bulk_density():
+    """The settled fill's level lies below its highest particle and gives a packing fraction
+    (bulk over particle density) of a loose fill of elongated particles."""
+    a = _tiny_run(3)
+    rho_p = preset_parameters("corn_stalk")["particle.density"]
+    assert 0 < a.fill_level_m <= a.fill_height_m
+    assert 0.15 < a.bulk_density_kg_m3 / rho_p < 0.7, a.bulk_density_kg_m3
+    if a.outcome == "pile":
+        assert a.responses()["bulk_density_kg_m3"] == a.bulk_density_kg_m3

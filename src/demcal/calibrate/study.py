@@ -371,7 +371,7 @@ class Study(_M):
             return None
         if self.test.kind == "analytic":
             return {AOR, *((self.test.analytic or {}).get("responses") or {})}
-        return {AOR, "pile_height_m", "base_diameter_m"}
+        return {AOR, "pile_height_m", "base_diameter_m", "bulk_density_kg_m3"}
 
     def other_responses(self) -> list[ResponseSpec]:
         """The responses beside the angle, in the order given."""

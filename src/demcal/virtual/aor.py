@@ -38,6 +38,7 @@ from demcal.virtual.factory import (
     pack_cylinder,
     place_in_cylinder,
 )
+from demcal.virtual.fill import bulk_density, fill_level
 from demcal.virtual.outcome import (
     Outcome,
     classify_after_lift,
@@ -87,6 +88,10 @@ class AoRResult:
     phase_times_s: dict[str, float] = field(default_factory=dict)
     artefacts: dict[str, str] = field(default_factory=dict)
     engine: str = "demcal"  #: the DEM engine that ran the test: "demcal" or "lammps"
+    #: the settled fill's level read as a lab reads it (:mod:`demcal.virtual.fill`), m
+    fill_level_m: float | None = None
+    #: its loose bulk density: the fill's mass over the cylinder's volume to that level, kg/m^3
+    bulk_density_kg_m3: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (``aor_deg`` is None unless the outcome is ``pile``)."""
@@ -94,11 +99,13 @@ class AoRResult:
 
     def responses(self) -> dict[str, float]:
         """What the test measured, by response name: the angle (deg), the pile's height and
-        base diameter (m); none unless the outcome is ``pile``."""
+        base diameter (m), the fill's loose bulk density (kg/m^3); none unless the outcome is
+        ``pile``."""
         if self.outcome != "pile":
             return {}
         return finite_responses({"aor_deg": self.aor_deg, "pile_height_m": self.pile_height_m,
-                                 "base_diameter_m": self.base_diameter_m})
+                                 "base_diameter_m": self.base_diameter_m,
+                                 "bulk_density_kg_m3": self.bulk_density_kg_m3})
 
 
 def _materials(p: Mapping[str, float]) -> MaterialTable:
@@ -127,6 +134,8 @@ class _Run:
     phase_start: float = 0.0
     inserted: int = 0
     fill_height: float | None = None
+    fill_level: float | None = None
+    fill_mass: float | None = None
     done: bool = False
     result: AoRResult | None = None
     phase_times: dict[str, float] = field(default_factory=dict)
@@ -344,6 +353,10 @@ def _step_phase(sim: Simulation, run: _Run, config: AoRTestConfig, template, t: 
         ok, rms, vmax = _settled(sim, w, config)
         if ok and elapsed >= ph.min_settle_time:
             run.fill_height = _material_top(sim, w)
+            centres, radii, _ = sim.spheres(w)
+            run.fill_level = fill_level(centres, radii, cell=config.particle.diameter,
+                                        tube_radius=0.5 * g.cylinder_inner_diameter)
+            run.fill_mass = float(sim.clump_masses(w).sum())
             if snap is not None:
                 snap.write(sim, run, "filled")
             sim.set_wall_velocity(w, TUBE, [0.0, 0.0, ph.lift_speed])
@@ -501,6 +514,9 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
                                    float(np.max(centres[:, 2] + radii)) if len(radii) else None),
         base_diameter_m=measured.get("base_diameter_m"),
         fill_height_m=run.fill_height,
+        fill_level_m=run.fill_level,
+        bulk_density_kg_m3=bulk_density(run.fill_mass or 0.0, run.fill_level,
+                                        0.5 * config.geometry.cylinder_inner_diameter),
         settled=settled and outcome in (Outcome.PILE, Outcome.COLUMN, Outcome.SCATTERED),
         time_step_s=float(sim.dt[w]),
         sim_time_s=t,
