@@ -16,6 +16,16 @@ The pieces work on their own: :func:`fit_surrogate` (a Gaussian process per resp
 See docs/bayes.md.
 """
 
+from demcal.doe.bayes.acquisition import acquire_batch, surrogate_share
+from demcal.doe.bayes.driver import BayesResult, BayesSettings, Evaluate, Round, calibrate_bayes
+from demcal.doe.bayes.identifiability import (
+    Candidate,
+    Identifiability,
+    Ridge,
+    Shrinkage,
+    identify,
+    ridge_shrinkage,
+)
 from demcal.doe.bayes.posterior import (
     ParameterSummary,
     Posterior,
@@ -27,13 +37,26 @@ from demcal.doe.bayes.responses import Response
 from demcal.doe.bayes.surrogate import Predictor, Surrogate, fit_surrogate
 
 __all__ = [
+    "BayesResult",
+    "BayesSettings",
+    "Candidate",
+    "Evaluate",
+    "Identifiability",
     "ParameterSummary",
     "Posterior",
     "Predictor",
     "Response",
+    "Ridge",
+    "Round",
     "SamplerSettings",
+    "Shrinkage",
     "Surrogate",
+    "acquire_batch",
+    "calibrate_bayes",
     "fit_surrogate",
+    "identify",
     "log_posterior",
+    "ridge_shrinkage",
     "sample_posterior",
+    "surrogate_share",
 ]

@@ -1,0 +1,97 @@
+"""The Bayesian calibration loop: recovery of planted parameters, acquisition, bad settings."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from bayes_engine import FACTORS, TRUTH, engine, lab
+
+from demcal.doe import Factor
+from demcal.doe.bayes import (
+    BayesSettings,
+    Response,
+    SamplerSettings,
+    acquire_batch,
+    calibrate_bayes,
+    fit_surrogate,
+    log_posterior,
+    sample_posterior,
+)
+from demcal.errors import InputError
+
+NAMES = ("aor", "density", "drum")
+
+
+@pytest.mark.parametrize("seed", [1, 5])
+def test_three_responses_recover_the_planted_parameters_within_90_runs(seed):
+    evaluate = engine(NAMES, seed=seed)
+    res = calibrate_bayes(evaluate, FACTORS, lab(NAMES),
+                          BayesSettings(max_runs=90, batch=6, tolerance=0.25, seed=seed))
+    assert res.n_runs == evaluate.runs <= 90
+    assert res.stopped == "tolerance"
+    for p, truth in zip(res.posterior.parameters, TRUTH, strict=True):
+        assert p.ci95_low <= truth <= p.ci95_high, p
+        assert p.ci95_high - p.ci95_low <= 0.5  # a quarter of the coded range [-1, 1]
+    assert res.posterior.plausible, res.posterior.warnings
+    assert np.all(np.abs(res.best_point - TRUTH) < 0.2)
+    assert set(res.best_point_actual) == set(FACTORS.names)
+    assert res.identifiability.identifiable
+
+
+def test_rounds_acquire_batches_near_the_posterior_until_the_budget_ends():
+    # A start of 8 runs and a tolerance tighter than the lab allows: the loop must acquire
+    # batch after batch and stop on the budget, its new runs where the lab values are.
+    evaluate = engine(NAMES, seed=3)
+    res = calibrate_bayes(evaluate, FACTORS, lab(NAMES),
+                          BayesSettings(max_runs=18, batch=4, tolerance=0.01, seed=3, n_start=8,
+                                        sampler=SamplerSettings(n_steps=1000, burn=300)))
+    assert res.stopped == "budget"
+    assert [r.n_runs for r in res.history] == [8, 12, 16, 18]
+    assert res.n_runs == evaluate.runs == 18
+    start, new = res.x[:8], res.x[8:]
+    dist = lambda pts: np.linalg.norm(pts - TRUTH, axis=1)  # noqa: E731
+    assert np.median(dist(new)) < 0.5 * np.median(dist(start))
+    for p, truth in zip(res.posterior.parameters, TRUTH, strict=True):
+        assert p.ci95_low <= truth <= p.ci95_high, p
+
+
+def test_a_batch_is_distinct_inside_the_box_and_in_the_posterior_mass():
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-1, 1, (10, 2))
+    space = [Factor("p", 0, 1), Factor("q", 0, 1)]
+    surrogates = {"y": fit_surrogate("y", x, np.sin(2 * x[:, 0]) + x[:, 1] ** 2)}
+    responses = [Response("y", 0.3, 0.05)]
+    post = sample_posterior(surrogates, responses, space)
+    pts = acquire_batch(surrogates, responses, post, 5, seed=1)
+    assert pts.shape == (5, 2)
+    assert np.all(np.abs(pts) <= 1)
+    gaps = [np.linalg.norm(a - b) for i, a in enumerate(pts) for b in pts[i + 1:]]
+    assert min(gaps) > 0.05  # the kriging believer spreads the batch
+    # Every chosen point is at least as probable as the posterior's least probable decile.
+    floor = np.quantile(post.log_prob, 0.1)
+    assert np.all(log_posterior(pts, surrogates, responses) >= floor - 1.0)
+
+
+@pytest.mark.parametrize(("settings", "message"), [
+    (dict(max_runs=20), "max_runs must be >= the space-filling start's 27 runs"),
+    (dict(batch=0), "batch must be an integer >= 1"),
+    (dict(tolerance=0.0), r"tolerance must be in \(0, 1\]"),
+    (dict(tolerance=1.5), r"tolerance must be in \(0, 1\]"),
+    (dict(max_runs=10, n_start=12), "max_runs must be >= the space-filling start's 12 runs"),
+])
+def test_bad_settings_are_one_input_error(settings, message):
+    evaluate = engine(NAMES)
+    with pytest.raises(InputError, match=message) as info:
+        calibrate_bayes(evaluate, FACTORS, lab(NAMES), BayesSettings(**settings))
+    assert "\n" not in str(info.value)
+    assert evaluate.runs == 0  # refused before any run
+
+
+def test_evaluate_must_answer_every_response_for_every_point():
+    with pytest.raises(InputError, match="no values for response drum"):
+        calibrate_bayes(engine(("aor", "density")), FACTORS, lab(NAMES))
+    with pytest.raises(InputError, match="returned 1 values of aor for 27 points"):
+        calibrate_bayes(lambda pts: {"aor": [1.0]}, FACTORS, lab(("aor",)))
+    with pytest.raises(InputError, match="varies every factor"):
+        calibrate_bayes(engine(NAMES), [*FACTORS, Factor("density", 1, 2, fixed=1.5)],
+                        lab(NAMES))
