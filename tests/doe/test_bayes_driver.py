@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from bayes_engine import FACTORS, TRUTH, engine, lab
@@ -95,3 +97,21 @@ def test_evaluate_must_answer_every_response_for_every_point():
     with pytest.raises(InputError, match="varies every factor"):
         calibrate_bayes(engine(NAMES), [*FACTORS, Factor("density", 1, 2, fixed=1.5)],
                         lab(NAMES))
+
+
+def test_replicate_variances_reach_the_surrogates_and_the_result_is_json():
+    base = engine(NAMES, seed=6)
+
+    def evaluate(points):
+        # A runner with 4 replicates per point: the mean's variance is the scatter² / 4.
+        return {n: (v, np.full(len(v), 0.3**2 / 4)) for n, v in base(points).items()}
+
+    res = calibrate_bayes(evaluate, FACTORS, lab(NAMES),
+                          BayesSettings(max_runs=27, tolerance=0.25, seed=6))
+    assert np.allclose(res.surrogates["aor"].noise_var, 0.3**2 / 4)
+    assert res.surrogates["aor"].noise_std == pytest.approx(0.15)
+    out = json.loads(json.dumps(res.to_dict()))
+    assert set(out["posterior"]) == set(FACTORS.names)
+    assert out["n_runs"] == 27 and out["identifiable"] is True and out["ridge"] == []
+    assert out["correlation"]["static_friction"]["static_friction"] == pytest.approx(1.0)
+    assert 0.2 <= out["posterior"]["static_friction"]["median"] <= 0.8  # actual units

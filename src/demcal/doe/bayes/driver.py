@@ -153,6 +153,22 @@ class BayesResult:
         """(k,) the posterior's maximum a posteriori sample, coded."""
         return self.posterior.map_point
 
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for the result JSON (the issue's fields; actual units)."""
+        verdict = self.identifiability
+        out = self.posterior.to_dict()
+        out.update({
+            "identifiable": verdict.identifiable,
+            "reason": verdict.reason,
+            "ridge": [{"text": r.text, "parameters": list(r.parameters),
+                       "direction_coded": list(r.direction), "fraction": r.fraction}
+                      for r in verdict.ridges],
+            "n_runs": self.n_runs,
+            "stopped": self.stopped,
+            "best": self.best_point_actual,
+        })
+        return out
+
     @property
     def best_point_actual(self) -> dict[str, float]:
         """The best point in the factors' units, keyed by factor."""
@@ -160,24 +176,50 @@ class BayesResult:
         return dict(zip(self.posterior.names, map(float, actual), strict=True))
 
 
+def _column(value: Any, name: str, n: int) -> np.ndarray:
+    vals = np.asarray(value, dtype=float).reshape(-1)
+    if len(vals) != n:
+        raise InputError(f"evaluate returned {len(vals)} values of {name} for {n} points")
+    return vals
+
+
 def _evaluate(evaluate: Evaluate, points: np.ndarray,
-              responses: Sequence[Response]) -> dict[str, np.ndarray]:
-    """Call ``evaluate`` and check that it answered every response for every point."""
+              responses: Sequence[Response]) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
+    """Call ``evaluate``; check it answered every response for every point.
+
+    A response's answer is its values, or ``(values, variances)`` when the runner knows each
+    point's variance (a replicate mean's squared standard error).
+    """
     got = evaluate(points.copy())
-    out = {}
+    out: dict[str, tuple[np.ndarray, np.ndarray | None]] = {}
     for r in responses:
         if r.name not in got:
             raise InputError(f"evaluate returned no values for response {r.name}")
-        vals = np.asarray(got[r.name], dtype=float).reshape(-1)
-        if len(vals) != len(points):
-            raise InputError(f"evaluate returned {len(vals)} values of {r.name} "
-                             f"for {len(points)} points")
-        out[r.name] = vals
+        value, var = got[r.name], None
+        if isinstance(value, tuple):
+            value, var = value
+            var = _column(var, f"{r.name} variances", len(points))
+        out[r.name] = (_column(value, r.name, len(points)), var)
     return out
 
 
-def _fit_all(x: np.ndarray, y: Mapping[str, np.ndarray], seed: int) -> dict[str, Surrogate]:
-    return {name: fit_surrogate(name, x, vals, seed=seed) for name, vals in y.items()}
+def _append(old: dict[str, tuple[np.ndarray, np.ndarray | None]],
+            new: dict[str, tuple[np.ndarray, np.ndarray | None]]
+            ) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
+    out = {}
+    for name, (vals, var) in old.items():
+        new_vals, new_var = new[name]
+        if (var is None) != (new_var is None):
+            raise InputError(f"evaluate gave variances of {name} in some rounds, not in others")
+        out[name] = (np.concatenate([vals, new_vals]),
+                     None if var is None else np.concatenate([var, new_var]))
+    return out
+
+
+def _fit_all(x: np.ndarray, data: Mapping[str, tuple[np.ndarray, np.ndarray | None]],
+             seed: int) -> dict[str, Surrogate]:
+    return {name: fit_surrogate(name, x, vals, noise_var=var, seed=seed)
+            for name, (vals, var) in data.items()}
 
 
 def calibrate_bayes(evaluate: Evaluate, factors: Any, responses: Sequence[Response],
@@ -188,7 +230,9 @@ def calibrate_bayes(evaluate: Evaluate, factors: Any, responses: Sequence[Respon
     ----------
     evaluate : callable
         ``evaluate(points)`` with ``points`` an (n, k) array of coded settings returns a
-        mapping from each response's name to its n values (NaN for a failed run).
+        mapping from each response's name to its n values (NaN for a failed run), or to
+        ``(values, variances)`` when each point's variance is known (replicates): the
+        surrogate then takes them as per-point noise instead of learning one.
     factors : FactorSpace, sequence of Factor or mapping
         The k factors, all varied (fixed factors stay with the runner).
     responses : sequence of Response
@@ -214,10 +258,10 @@ def calibrate_bayes(evaluate: Evaluate, factors: Any, responses: Sequence[Respon
     settings.check(len(space))
     x = latin_hypercube(space, settings.start_runs(len(space)), seed=settings.seed,
                         optimization="random-cd").coded
-    y = _evaluate(evaluate, x, responses)
+    data = _evaluate(evaluate, x, responses)
     history: list[Round] = []
     while True:
-        surrogates = _fit_all(x, y, settings.seed)
+        surrogates = _fit_all(x, data, settings.seed)
         posterior = sample_posterior(surrogates, responses, space, settings.sampler)
         history.append(Round(len(x), tuple(map(float, posterior.half_widths)),
                              posterior.acceptance_fraction, posterior.warnings))
@@ -227,11 +271,11 @@ def calibrate_bayes(evaluate: Evaluate, factors: Any, responses: Sequence[Respon
         new = acquire_batch(surrogates, responses, posterior,
                             min(settings.batch, settings.max_runs - len(x)),
                             seed=settings.seed + len(history))
-        y_new = _evaluate(evaluate, new, responses)
+        data = _append(data, _evaluate(evaluate, new, responses))
         x = np.vstack([x, new])
-        y = {n: np.concatenate([y[n], y_new[n]]) for n in y}
     return BayesResult(posterior=posterior, identifiability=identify(posterior),
-                       surrogates=surrogates, x=x, y=y, history=tuple(history), stopped=stopped)
+                       surrogates=surrogates, x=x, y={n: v for n, (v, _) in data.items()},
+                       history=tuple(history), stopped=stopped)
 
 
 def _stop(posterior: Posterior, settings: BayesSettings, n_runs: int) -> str:
