@@ -53,3 +53,25 @@ def engine(names: tuple[str, ...], seed: int = 0):
 
     evaluate.runs = 0
     return evaluate
+
+
+def nonlinear_response(name: str, x: np.ndarray) -> np.ndarray:
+    """A harder engine: saturating, curved and interacting responses (coded points)."""
+    x = np.atleast_2d(x)
+    x1, x2, x3 = x.T
+    if name == "aor":
+        return 30 + 8 * np.tanh(2 * (x1 - 0.2)) + 3 * x2 + 1.5 * x1 * x3
+    if name == "density":
+        return 10 + 4 * x2 + 2 * x3**2 + x3 + 0.5 * x2 * x1
+    return 5 + np.exp(x1) + 4 * np.sin(1.5 * x3)
+
+
+def nonlinear_engine(noise: float, seed: int = 0):
+    """``evaluate`` of :func:`nonlinear_response` with seed noise ``noise`` on every response."""
+    rng = np.random.default_rng(seed)
+
+    def evaluate(points: np.ndarray) -> dict[str, np.ndarray]:
+        return {n: nonlinear_response(n, points) + noise * rng.standard_normal(len(points))
+                for n in ("aor", "density", "drum")}
+
+    return evaluate

@@ -6,9 +6,9 @@ import json
 
 import numpy as np
 import pytest
-from bayes_engine import FACTORS, TRUTH, engine, lab
+from bayes_engine import FACTORS, TRUTH, engine, lab, nonlinear_engine, nonlinear_response
 
-from demcal.doe import Factor
+from demcal.doe import Factor, latin_hypercube
 from demcal.doe.bayes import (
     BayesSettings,
     Response,
@@ -115,3 +115,23 @@ def test_replicate_variances_reach_the_surrogates_and_the_result_is_json():
     assert out["n_runs"] == 27 and out["identifiable"] is True and out["ridge"] == []
     assert out["correlation"]["static_friction"]["static_friction"] == pytest.approx(1.0)
     assert 0.2 <= out["posterior"]["static_friction"]["median"] <= 0.8  # actual units
+
+
+def test_acquired_runs_shrink_the_posterior_more_than_space_filling_runs():
+    # Curved responses and a precise lab: after the start, the loop's 12 chosen runs must
+    # narrow the posterior more than 12 more space-filling runs would (same total, 39).
+    responses = [Response(n, float(nonlinear_response(n, TRUTH)[0]), 0.1) for n in NAMES]
+    sampler = SamplerSettings(n_steps=1200, burn=400, seed=1)
+    res = calibrate_bayes(nonlinear_engine(0.5, seed=0), FACTORS, responses,
+                          BayesSettings(max_runs=39, batch=6, tolerance=0.01, seed=1,
+                                        sampler=sampler))
+    assert res.n_runs == 39
+    x = latin_hypercube(FACTORS, 39, seed=1, optimization="random-cd").coded
+    y = nonlinear_engine(0.5, seed=0)(x)
+    spread = sample_posterior({n: fit_surrogate(n, x, y[n]) for n in NAMES}, responses,
+                              FACTORS, sampler)
+    volume = np.prod(res.posterior.half_widths)
+    assert volume < 0.75 * np.prod(spread.half_widths), (res.posterior.half_widths,
+                                                         spread.half_widths)
+    for p, truth in zip(res.posterior.parameters, TRUTH, strict=True):
+        assert p.ci95_low <= truth <= p.ci95_high, p
