@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from demcal.doe.bayes.posterior import Posterior
 from demcal.doe.bayes.responses import Response
@@ -95,9 +96,10 @@ def acquire_batch(surrogates: Mapping[str, Surrogate], responses: Sequence[Respo
     weight = np.exp(0.5 * (posterior.log_prob[keep] - np.max(posterior.log_prob[keep])))
     current = dict(surrogates)
     chosen: list[np.ndarray] = []
-    for _ in range(min(batch, len(cand))):
-        best = int(np.argmax(weight * surrogate_share(cand, current, responses)))
-        chosen.append(cand[best])
-        weight[best] = 0.0  # never the same point twice
-        current = {n: s.with_fantasy(chosen[-1]) for n, s in current.items()}
+    with threadpool_limits(limits=1, user_api="blas"):  # small matrices: threads only contend
+        for _ in range(min(batch, len(cand))):
+            best = int(np.argmax(weight * surrogate_share(cand, current, responses)))
+            chosen.append(cand[best])
+            weight[best] = 0.0  # never the same point twice
+            current = {n: s.with_fantasy(chosen[-1]) for n, s in current.items()}
     return np.array(chosen)

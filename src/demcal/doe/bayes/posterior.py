@@ -14,7 +14,7 @@ simulation.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import emcee
@@ -72,9 +72,9 @@ class SamplerSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        for field in ("n_steps", "thin"):
-            if not (isinstance(getattr(self, field), int) and getattr(self, field) >= 1):
-                raise InputError(f"sampler {field} must be an integer >= 1")
+        for name in ("n_steps", "thin"):
+            if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
+                raise InputError(f"sampler {name} must be an integer >= 1")
         if not (isinstance(self.burn, int) and 0 <= self.burn < self.n_steps):
             raise InputError(
                 f"sampler burn must be in [0, n_steps={self.n_steps}); got {self.burn!r}"
@@ -150,10 +150,10 @@ class Posterior:
     factors: FactorSpace
     parameters: tuple[ParameterSummary, ...]
     mean: np.ndarray
-    covariance: np.ndarray
+    covariance: np.ndarray = field(repr=False)
     correlation: np.ndarray
-    samples: np.ndarray
-    log_prob: np.ndarray
+    samples: np.ndarray = field(repr=False)
+    log_prob: np.ndarray = field(repr=False)
     acceptance_fraction: float
     map_point: np.ndarray
     warnings: tuple[str, ...]

@@ -12,7 +12,7 @@ are known, they are given per point (``alpha``) instead of the learned white ter
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
@@ -97,16 +97,16 @@ class Surrogate:
     """
 
     name: str
-    x: np.ndarray
-    y: np.ndarray
-    noise_var: np.ndarray | None
+    x: np.ndarray = field(repr=False)
+    y: np.ndarray = field(repr=False)
+    noise_var: np.ndarray | None = field(repr=False)
     kernel: str
     noise_std: float
     log_marginal_likelihood: float
-    _gp: Any
-    _y_mean: float
-    _y_scale: float
-    _latent: Any
+    _gp: Any = field(repr=False)
+    _y_mean: float = field(repr=False)
+    _y_scale: float = field(repr=False)
+    _latent: Any = field(repr=False)
 
     @property
     def n_factors(self) -> int:
