@@ -13,6 +13,7 @@ from demcal.doe.bayes import (
     BayesSettings,
     Candidate,
     SamplerSettings,
+    Sensitivity,
     calibrate_bayes,
     fit_surrogate,
     identify,
@@ -118,3 +119,32 @@ def test_chord_of_the_box():
 def test_candidate_needs_a_positive_standard_error():
     with pytest.raises(InputError, match="standard_error must be > 0"):
         Candidate("d", None, 0.0)
+
+
+def test_known_slopes_alone_estimate_the_shrinkage(angle_alone):
+    # No runs of the new test, only how it moves: 4 per coded unit of rolling friction cuts
+    # the friction ridge; the same slope in restitution does not.
+    ridge = _friction_ridge(angle_alone.identifiability)
+    out = ridge_shrinkage(angle_alone.posterior,
+                          [Candidate("drum", Sensitivity((0.0, 4.0, 0.0)), 0.15),
+                           Candidate("other", Sensitivity((0.0, 0.0, 4.0)), 0.15)], [ridge])
+    assert out[0].shrinkage > 0.6
+    assert abs(out[1].shrinkage) < 0.2
+    with pytest.raises(InputError, match="2 slopes for 3 factors"):
+        Sensitivity((1.0, 2.0)).predict(np.zeros((1, 3)))
+
+
+def test_a_stuck_sampler_is_said():
+    from demcal.doe.bayes.posterior import _build
+
+    class Flat:
+        def predict(self, x):
+            return np.zeros(len(np.atleast_2d(x))), np.ones(len(np.atleast_2d(x)))
+
+    from demcal.doe.bayes import Response
+
+    space = FactorSpace([Factor("p", 0, 1)])
+    samples = np.random.default_rng(0).uniform(-0.5, 0.5, (200, 1))
+    post = _build(space, samples, np.zeros(200), 0.05, ({"y": Flat()}, [Response("y", 0, 1)]))
+    assert not post.plausible
+    assert "accepted only 5% of its moves" in post.warnings[0]

@@ -30,6 +30,7 @@ __all__ = [
     "Candidate",
     "Identifiability",
     "Ridge",
+    "Sensitivity",
     "Shrinkage",
     "identify",
     "ridge_shrinkage",
@@ -198,7 +199,8 @@ class Candidate:
     name : str
         The response's name.
     surrogate : Predictor
-        Its surrogate over the coded box (fitted on the runs made so far).
+        Its surrogate over the coded box (fitted on the runs made so far), or a
+        :class:`Sensitivity` when only its slopes are known.
     standard_error : float
         Expected standard error of its lab mean, in its unit, > 0.
     """
@@ -210,6 +212,31 @@ class Candidate:
     def __post_init__(self) -> None:
         if not float(self.standard_error) > 0:
             raise InputError(f"candidate {self.name}: standard_error must be > 0")
+
+
+@dataclass(frozen=True)
+class Sensitivity:
+    """A response known only by how it moves with each factor: a linear Predictor.
+
+    For a test the study has no runs of yet ("the drum responds to rolling friction"), the
+    expected shrinkage of a ridge needs only the response's slopes: what a run would show.
+
+    Parameters
+    ----------
+    gradient : tuple of float
+        Change of the response per coded unit of each factor (half the factor's range), in
+        the response's unit, in the factors' order.
+    """
+
+    gradient: tuple[float, ...]
+
+    def predict(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``x @ gradient`` (the intercept does not matter here) and zero uncertainty."""
+        pts = np.atleast_2d(np.asarray(x, dtype=float))
+        if pts.shape[1] != len(self.gradient):
+            raise InputError(f"sensitivity has {len(self.gradient)} slopes for "
+                             f"{pts.shape[1]} factors")
+        return pts @ np.asarray(self.gradient, dtype=float), np.zeros(len(pts))
 
 
 @dataclass(frozen=True)
