@@ -1,0 +1,64 @@
+"""Bayesian calibration: what the tests identify, and how well (issue 40).
+
+Pure statistics over the coded box [-1, 1]^k (numpy, scipy, scikit-learn, emcee); nothing
+here runs a simulation. Typical use::
+
+    from demcal.doe import bayes
+
+    responses = [bayes.Response("aor_deg", 38.2, 0.6), bayes.Response("bulk_density", 412, 3)]
+    result = bayes.calibrate_bayes(evaluate, factors, responses,
+                                   bayes.BayesSettings(max_runs=90, batch=4, tolerance=0.25))
+    result.posterior.to_dict()            # intervals in actual units, correlation
+    result.identifiability.reason         # "not identifiable: ... sf up 0.06 = rf down 0.02 ..."
+
+The pieces work on their own: :func:`fit_surrogate` (a Gaussian process per response),
+:func:`sample_posterior`, :func:`identify` and :func:`ridge_shrinkage`, :func:`acquire_batch`.
+See docs/bayes.md.
+"""
+
+from demcal.doe.bayes.acquisition import acquire_batch, surrogate_share
+from demcal.doe.bayes.driver import BayesResult, BayesSettings, Evaluate, Round, calibrate_bayes
+from demcal.doe.bayes.identifiability import (
+    Candidate,
+    Identifiability,
+    Ridge,
+    Sensitivity,
+    Shrinkage,
+    identify,
+    ridge_shrinkage,
+)
+from demcal.doe.bayes.posterior import (
+    ParameterSummary,
+    Posterior,
+    SamplerSettings,
+    log_posterior,
+    sample_posterior,
+)
+from demcal.doe.bayes.responses import Response
+from demcal.doe.bayes.surrogate import Predictor, Surrogate, fit_surrogate
+
+__all__ = [
+    "BayesResult",
+    "BayesSettings",
+    "Candidate",
+    "Evaluate",
+    "Identifiability",
+    "ParameterSummary",
+    "Posterior",
+    "Predictor",
+    "Response",
+    "Ridge",
+    "Round",
+    "SamplerSettings",
+    "Sensitivity",
+    "Shrinkage",
+    "Surrogate",
+    "acquire_batch",
+    "calibrate_bayes",
+    "fit_surrogate",
+    "identify",
+    "log_posterior",
+    "ridge_shrinkage",
+    "sample_posterior",
+    "surrogate_share",
+]
