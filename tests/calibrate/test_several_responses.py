@@ -137,3 +137,53 @@ def test_bad_responses_get_one_line_and_exit_2(tmp_path: Path, extra: str, messa
     assert out.exit_code == 2, out.output
     assert message in out.output and "Traceback" not in out.output
     assert len(out.output.strip().splitlines()) <= 3
+
+
+ENGINE = '''"""A three-response stand-in engine: reads key = value lines, writes result.json."""
+import json, random, sys
+p = {}
+for line in open(sys.argv[1]):
+    k, _, v = line.partition("=")
+    if v.strip():
+        p[k.strip()] = float(v)
+rng = random.Random(int(p["seed"]))
+d3, d4, d6 = p["mu"] - 0.6, p["mur"] - 0.2, p["muw"] - 0.55
+json.dump({"aor_deg": 30 + 15 * d3 + 25 * d4 + 2 * d6 + 0.2 * rng.gauss(0, 1),
+           "drum_deg": 35 + 5 * d3 + 60 * d4 + d6 + 0.2 * rng.gauss(0, 1),
+           "bulk_density_kg_m3": 200 - 10 * d3 + 20 * d4 + 80 * d6 + 0.5 * rng.gauss(0, 1)},
+          open("result.json", "w"))
+'''
+
+
+def test_a_template_engine_with_three_responses_lands_on_its_planted_point(tmp_path: Path
+                                                                           ) -> None:
+    """The issue's own check: an external engine reports three numbers (its JSON's keys
+    become responses), three factors, straight to the response surface."""
+    (tmp_path / "engine.py").write_text(ENGINE)
+    (tmp_path / "input.txt.template").write_text(
+        "seed = {seed}\nmu = {pp.static_friction}\nmur = {pp.rolling_friction}\n"
+        "muw = {pw.static_friction}\n")
+    d3, d4, d6 = (PLANTED[n] - CENTRE[n] for n in FACTORS)
+    truth = {"aor_deg": 30 + 15 * d3 + 25 * d4 + 2 * d6,
+             "drum_deg": 35 + 5 * d3 + 60 * d4 + d6,
+             "bulk_density_kg_m3": 200 - 10 * d3 + 20 * d4 + 80 * d6}
+    study = write_study(tmp_path, responses=False)
+    text = study.read_text()
+    text = text[:text.index("[test]")]  # the engine replaces the stand-in test
+    text = text.replace(f"aor_deg = {true_aor(PLANTED, AnalyticOptions(**ANALYTIC))!r}",
+                        f"aor_deg = {truth['aor_deg']!r}")
+    for name in ("drum_deg", "bulk_density_kg_m3"):
+        text += (f'[[responses]]\nname = "{name}"\ntarget = {truth[name]!r}\nstd = 0.5\n'
+                 "n = 5\n\n")
+    text += ('[engine]\nkind = "template"\ntemplate = "input.txt.template"\n'
+             'command = ["{python}", "{template_dir}/engine.py", "{input}"]\ntimeout_s = 60\n'
+             '\n[engine.result]\nkind = "value"\nfile = "result.json"\n\n'
+             "[stages.rangefind]\nenabled = false\n\n[stages.screening]\nenabled = false\n\n"
+             '[stages.steepest]\nenabled = false\n\n[stages.rsm]\ndesign = "bbd"\n'
+             "center_points = 3\n\n[stages.verification]\nn = 4\n\n[executor]\nworkers = 1\n")
+    study.write_text(text)
+    res = calibrate(study, workers=1)
+    err = _coded_error(res["optimum"])
+    assert max(err.values()) < 0.03, (res["optimum"], err)
+    for name in ("drum_deg", "bulk_density_kg_m3"):
+        assert res["responses"]["verification"][name]["consistent"] is True
