@@ -12,7 +12,8 @@ import pytest
 
 from demcal import doe
 from demcal.calibrate import calibrate
-from demcal.calibrate.stages import adequacy, choose_model, verification_size
+from demcal.calibrate.stages import adequacy, choose_model
+from demcal.calibrate.verify import verification_size
 from demcal.store import RunStore
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "analytic" / "study.toml"

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from demcal.calibrate.stages import compare_to_target
+from demcal.calibrate.verify import compare_to_target
 
 
 def test_welch_against_the_measurement_by_hand():
@@ -52,7 +52,7 @@ def test_confirmation_is_design_experts_interval_for_the_mean_of_n_runs():
     import statsmodels.api as sm
 
     from demcal import doe
-    from demcal.calibrate.stages import confirmation
+    from demcal.calibrate.verify import confirmation
 
     rs, _, y = _surface()
     chosen = {"a": 0.65, "b": 0.8, "c": 0.5}  # coded 0.3, -0.2, 0.5
@@ -74,7 +74,7 @@ def test_confirmation_is_design_experts_interval_for_the_mean_of_n_runs():
 
 
 def test_confirmation_without_a_surface_or_an_interval():
-    from demcal.calibrate.stages import confirmation
+    from demcal.calibrate.verify import confirmation
 
     out = confirmation(None, {}, np.array([44.0]))
     assert out == {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None, "confirmed": None}
@@ -92,7 +92,8 @@ def test_a_refinement_rounds_confirmation_carries_the_offsets_error(c):
     import statsmodels.api as sm
 
     from demcal import doe
-    from demcal.calibrate.stages import Offset, confirmation
+    from demcal.calibrate.rounds import Offset
+    from demcal.calibrate.verify import confirmation
 
     rs, _, y = _surface()
     chosen = {"a": 0.65, "b": 0.8, "c": 0.5}
@@ -121,7 +122,7 @@ ROUND_OPTIMA = [{"a": 0.6, "b": 1.1, "c": 0.3}, {"a": 0.7, "b": 0.9, "c": 0.6}]
 def _two_rounds(rs, pts, *, first_confirmed):
     """Rounds 1 and 2 at ``pts[0]``, ``pts[1]`` (12 and 4 piles) whose means read 2 and 1
     deg below the surface; round 2 confirmed."""
-    from demcal.calibrate.stages import Rounds
+    from demcal.calibrate.rounds import Rounds
 
     pred = rs.predict({k: [p[k] for p in pts[:2]] for k in "abc"}, units="actual")
     return Rounds(optimize=[{"chosen": p} for p in pts],
@@ -132,7 +133,7 @@ def _two_rounds(rs, pts, *, first_confirmed):
 
 
 def test_the_offset_pools_the_rounds_that_agreed_and_restarts_after_one_that_did_not():
-    from demcal.calibrate.stages import Rounds
+    from demcal.calibrate.rounds import Rounds
 
     rs, _, _ = _surface()
     pts = [*ROUND_OPTIMA, {"a": 0.65, "b": 0.8, "c": 0.5}]
@@ -155,7 +156,7 @@ def test_the_weight_of_a_confirmed_offset_is_the_piles_share_of_the_information(
     import statsmodels.api as sm
 
     from demcal import doe
-    from demcal.calibrate.stages import offset_weight
+    from demcal.calibrate.rounds import offset_weight
 
     rs, _, y = _surface()
     earlier = [({"a": 0.6, "b": 1.1, "c": 0.3}, 12), ({"a": 0.7, "b": 0.9, "c": 0.6}, 4)]
@@ -176,7 +177,7 @@ def test_the_weight_of_a_confirmed_offset_is_the_piles_share_of_the_information(
 
 
 def test_a_round_applies_a_confirmed_offset_by_its_weight_and_an_unconfirmed_one_whole():
-    from demcal.calibrate.stages import offset_weight
+    from demcal.calibrate.rounds import offset_weight
 
     rs, _, _ = _surface()
     pts = ROUND_OPTIMA
@@ -194,7 +195,7 @@ def test_the_weight_is_what_the_surfaces_true_error_regresses_on_the_measured_of
     # factor from the measured offset to the surface's true error there is the weight, and
     # applying the weighted offset misses the truth by less than applying all of it.
     from demcal import doe
-    from demcal.calibrate.stages import offset_weight
+    from demcal.calibrate.rounds import offset_weight
 
     d = doe.box_behnken({"a": (0.0, 1.0), "b": (0.0, 2.0), "c": (-1.0, 1.0)}, center_points=3,
                         randomize=False)

@@ -20,7 +20,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from demcal import doe
-from demcal.calibrate.stages import compare_to_target
+from demcal.calibrate.verify import compare_to_target
 from demcal.store import RunRecord, RunStore, run_key
 
 DATA = Path(__file__).resolve().parents[2] / "examples" / "corn_stalk"

@@ -8,7 +8,7 @@ target lies outside the piles' own 95 % interval, or (with ``tolerance_percent``
 acceptance criterion) the mean misses the target by more than it, and ``max_rounds``
 allows, the next round corrects the surface by the offset the piles measured (their mean
 less the surface's prediction at that optimum; pooled with the earlier rounds' while they
-agree, :meth:`~demcal.calibrate.stages.Rounds.offset`; all of it after a round the surface
+agree, :meth:`~demcal.calibrate.rounds.Rounds.offset`; all of it after a round the surface
 did not confirm, the share N h / (N h + 1) that the piles' information bears against the
 surface's when it did), reads the optimum where the corrected
 surface meets the target, starting from the previous one, and verifies it on seeds of its
@@ -64,8 +64,9 @@ def run_rounds(ctx: st.Context) -> dict[str, Any]:
     """Optimize and verify, then refine while :func:`needs_another_round` and the study's
     ``stages.verification.max_rounds`` allow; returns the last verification summary.
 
-    Round ``k`` verifies on seeds ``seed + 10000 k + i`` (:func:`stages.verification_seed`),
-    so a round never reuses a pile of another. Everything is keyed like any other run: a
+    Round ``k`` verifies on seeds ``seed + 10000 k + i``
+    (:func:`demcal.calibrate.verify.verification_seed`), so a round never reuses a pile of
+    another. Everything is keyed like any other run: a
     resumed study finds every round's runs and re-runs none.
     """
     opts = ctx.study.stages.verification

@@ -22,6 +22,7 @@ import numpy as np
 
 from demcal import doe
 from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
+from demcal.calibrate.verify import compare_to_target
 from demcal.errors import StudyError
 from demcal.store import RunRecord
 
@@ -205,8 +206,6 @@ def desirability_optimum(ctx: Any, model: doe.ResponseSurface, feasible: Callabl
 def check_responses(ctx: Any, recs: Sequence[RunRecord]) -> dict[str, ResponseCheck]:
     """Each response of the verification runs against its lab value (every response but the
     angle, whose verification is the stage's own)."""
-    from demcal.calibrate import stages as st
-
     goals = {g.name: g for g in ctx.results.get("_goals", [])}
     out = {}
     for spec in ctx.responses[1:]:
@@ -218,7 +217,7 @@ def check_responses(ctx: Any, recs: Sequence[RunRecord]) -> dict[str, ResponseCh
         rel = None
         if mean is not None and lab is not None and lab.mean != 0:
             rel = abs(mean - lab.mean) / abs(lab.mean) * 100.0
-        cmp = None if lab is None else st.compare_to_target(vals, lab.mean, lab.std, lab.n)
+        cmp = None if lab is None else compare_to_target(vals, lab.mean, lab.std, lab.n)
         goal = goals.get(spec.name)
         d = None if goal is None or mean is None else float(goal.desirability(mean))
         out[spec.name] = ResponseCheck(spec.name, tuple(vals.tolist()), mean, std, lab, rel,

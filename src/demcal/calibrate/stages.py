@@ -19,125 +19,27 @@ from demcal import doe
 from demcal.calibrate import anchor, several
 from demcal.calibrate.classifier import PileClassifier
 from demcal.calibrate.responses import LabValue, ResponseSpec
+from demcal.calibrate.rounds import (
+    Rounds,
+    stored_rounds,
+    with_rounds,
+)
 from demcal.calibrate.runner import Point, Runner
 from demcal.calibrate.study import Study
+from demcal.calibrate.verify import (
+    compare_to_target,
+    confirmation,
+    interval_half_width,
+    pure_error_std,
+    verification_seed,
+    verification_size,
+)
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord, RunStore, params_hash
 from demcal.virtual import PARAMETERS
 
 __all__ = ["Context", "adequacy", "choose_model", "optimize", "rangefind", "rsm", "screening",
            "steepest", "verification"]
-
-
-@dataclass
-class Rounds:
-    """The verification rounds of one study (:mod:`demcal.calibrate.refine`).
-
-    ``number``: the round now running (1: the response surface's own optimum);
-    ``optimize``/``verification``: the summaries of the rounds already finished, in order;
-    ``stored``: the optimize summaries the store held when the study started, by round (read
-    once, before round 1 overwrites them; None until then).
-    """
-
-    number: int = 1
-    optimize: list[dict[str, Any]] = field(default_factory=list)
-    verification: list[dict[str, Any]] = field(default_factory=list)
-    stored: dict[int, dict[str, Any]] | None = None
-
-    def offset(self, model: Any) -> Offset:
-        """The surface's offset measured by the finished rounds (:class:`Offset`).
-
-        Each round's piles measure the offset at its optimum (their mean less the surface's
-        prediction there). The estimate pools, weighted by their piles, the last round and
-        the rounds before it back to the last one whose mean was not confirmed: a confirmed
-        round agreed with the offset it was aimed by, so the offsets are one (the
-        confirmation is that consistency test); a round that disagreed starts a new
-        estimate, so an offset that changes along the way (a curved response) is followed.
-
-        How much of it the next round applies (:attr:`Offset.weight`): all of it when a
-        pooled round was not confirmed (the surface is off there by more than its own
-        error: only the piles know by how much). When every pooled round was confirmed, the
-        measured offset may be the piles' scatter as well as the surface's error, and the two
-        are weighed by their variances: the piles' mean s^2 / N, the surface's prediction at
-        the pooled optima s^2 h (h = d' (X'X)^-1 d, d the pile-weighted row of the full
-        quadratic: :func:`offset_weight`), so w = N h / (N h + 1), the best linear estimate
-        of the surface's error there (s^2 cancels).
-        """
-        pool: list[int] = []
-        for j in range(len(self.verification) - 1, -1, -1):
-            pool.insert(0, j)
-            if self.verification[j].get("confirmed") is not True:
-                break
-        at = [(dict(self.optimize[j]["chosen"]), int(self.verification[j]["n_piles"]))
-              for j in pool]
-        if not at:
-            return Offset()
-        y = np.array([float(self.verification[j]["aor_mean_deg"]) for j in pool])
-        x = {n: [p[n] for p, _ in at] for n in model.names}
-        pred = np.asarray(model.predict(x, units="actual"), dtype=float)
-        w = np.array([n for _, n in at], dtype=float)
-        confirmed = all(self.verification[j].get("confirmed") is True for j in pool)
-        return Offset(float(np.sum(w * (y - pred)) / w.sum()), at,
-                      [int(self.verification[j].get("round", 1)) for j in pool],
-                      weight=offset_weight(model, at) if confirmed else 1.0)
-
-
-@dataclass(frozen=True)
-class Offset:
-    """A surface offset (deg) and the optimum piles it was measured on.
-
-    ``deg``: the pooled offset (piles' means less the surface, weighted by the piles);
-    ``at``: [(the optimum's factor values, its number of piles)]; ``rounds``: their round
-    numbers; ``weight``: the share of it the next round applies (:meth:`Rounds.offset`).
-    Round 1 has none: ``Offset()``.
-    """
-
-    deg: float = 0.0
-    at: list[tuple[dict[str, float], int]] = field(default_factory=list)
-    rounds: list[int] = field(default_factory=list)
-    weight: float = 1.0
-
-    @property
-    def applied(self) -> float:
-        """The correction the next round aims by, deg: ``weight * deg``."""
-        return self.weight * self.deg
-
-
-def _model_rows(model: Any, points: Sequence[Mapping[str, float]],
-                terms: Sequence[tuple[int, ...]]) -> np.ndarray:
-    """Model rows (coded) of factor settings ``points`` (actual units) for ``terms``."""
-    space = model.factors.subset(model.names)
-    return doe.model_matrix(space.to_coded(np.array([[p[n] for n in model.names]
-                                                     for p in points])), terms)
-
-
-def _pile_mean_row(model: Any, at: Sequence[tuple[Mapping[str, float], int]],
-                   terms: Sequence[tuple[int, ...]]) -> np.ndarray:
-    """The pile-weighted mean model row of the optima ``at`` ([(settings, piles)])."""
-    n_at = np.array([n for _, n in at], dtype=float)
-    return (n_at / n_at.sum()) @ _model_rows(model, [p for p, _ in at], terms)
-
-
-def offset_weight(model: Any, at: Sequence[tuple[Mapping[str, float], int]]) -> float:
-    """Share of a measured surface offset to apply when the surface kept its promise:
-    N h / (N h + 1) (:meth:`Rounds.offset`), N the piles at the optima ``at``.
-
-    h is the leverage of the pile-weighted optimum row under the *full quadratic* on the
-    model's design points, not under the fitted model: a model reduced by backward
-    elimination predicts with a variance that ignores the terms' selection, and would make
-    the surface look more certain than it is. Where the design cannot hold the full
-    quadratic (too few runs, aliased terms), the fitted model's own terms.
-    """
-    terms = doe.model_terms(len(model.names), "quadratic")
-    x = doe.model_matrix(model.coded, terms)
-    if x.shape[0] <= x.shape[1] or np.linalg.matrix_rank(x) < x.shape[1]:
-        terms, xtx_inv = model.terms, model.xtx_inv
-    else:
-        xtx_inv = np.linalg.inv(x.T @ x)
-    mean_row = _pile_mean_row(model, at, terms)
-    h = float(mean_row @ xtx_inv @ mean_row)
-    n = float(sum(k for _, k in at))
-    return n * h / (n * h + 1.0)
 
 
 @dataclass
@@ -860,27 +762,6 @@ def _other_responses(ctx: Context, design: doe.Design, recs: Sequence[RunRecord]
 
 
 # ------------------------------------------------------------------------------ optimize
-def stored_rounds(record: Any) -> dict[int, dict[str, Any]]:
-    """The summaries of a finished stage record by round (``{}`` for none or an unfinished one).
-
-    The record holds the last round's summary, with the earlier rounds' under ``"rounds"``;
-    a summary without ``"round"`` (written before refinement rounds existed) is round 1.
-    """
-    if record is None or record.status != "done":
-        return {}
-    last = record.summary
-    return {int(s.get("round", 1)): s for s in [*last.get("rounds", []), last]}
-
-
-def _with_rounds(summary: dict[str, Any], earlier: list[dict[str, Any]]) -> dict[str, Any]:
-    """``summary`` of the current round as stored (any history it carried dropped) and, when
-    there were earlier rounds, their summaries (without their own history)."""
-    out = {k: v for k, v in summary.items() if k != "rounds"}
-    if earlier:
-        out["rounds"] = [{k: v for k, v in e.items() if k != "rounds"} for e in earlier]
-    return out
-
-
 def optimize(ctx: Context) -> dict[str, Any]:
     """Settings whose predicted AoR equals the target, ranked; only inside the pile region.
 
@@ -953,7 +834,7 @@ def optimize(ctx: Context) -> dict[str, Any]:
 
 
 def _store_optimum(ctx: Context, summary: dict[str, Any], h: str) -> dict[str, Any]:
-    stored = _with_rounds(summary, ctx.rounds.optimize)
+    stored = with_rounds(summary, ctx.rounds.optimize)
     ctx.store.set_stage("optimize", "done", stored, inputs_hash=h)
     ctx.results["optimize"] = stored
     return stored
@@ -991,132 +872,6 @@ def _stored_optimum(prior: dict[str, Any] | None, target: tuple[float, float], m
 
 
 # ------------------------------------------------------------------------------ verification
-def compare_to_target(values: np.ndarray, target: float, target_std: float | None = None,
-                      target_n: int | None = None, alpha: float = 0.05) -> dict[str, Any]:
-    """Is the simulated mean AoR consistent with the measured one? (angles in degrees)
-
-    With the measurement's spread and count known, Welch's two-sample t-test of the
-    replicates against the measurement (scipy ``ttest_ind_from_stats``); otherwise a one-sample
-    t-test against the target value. Also the (1 - alpha) t-interval of the simulated mean.
-    Keys: ``ci_low_deg``, ``ci_high_deg``, ``target_in_interval`` (the target inside that
-    interval), ``p_value``, ``test`` and ``consistent`` (p >= alpha), all None with fewer than
-    two replicates.
-    """
-    from scipy import stats
-
-    out: dict[str, Any] = {"ci_low_deg": None, "ci_high_deg": None, "target_in_interval": None,
-                           "p_value": None, "test": None, "consistent": None}
-    if values.size < 2:
-        return out
-    mean, sd, n = float(values.mean()), float(values.std(ddof=1)), int(values.size)
-    half = _half_width(values, alpha)
-    out.update(ci_low_deg=mean - half, ci_high_deg=mean + half,
-               target_in_interval=bool(abs(mean - target) <= half))
-    if sd == 0.0 and not target_std:
-        return out
-    if target_std is not None and target_n is not None and target_n >= 2:
-        res = stats.ttest_ind_from_stats(mean, sd, n, target, target_std, target_n,
-                                         equal_var=False)
-        out["test"] = f"Welch t-test against the measurement (n = {target_n})"
-    else:
-        res = stats.ttest_1samp(values, target)
-        out["test"] = "one-sample t-test against the target value"
-    out["p_value"] = float(res.pvalue)
-    out["consistent"] = bool(res.pvalue >= alpha)
-    return out
-
-
-def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
-                 alpha: float = 0.05, offset: Offset | None = None) -> dict[str, Any]:
-    """Did the optimum give what the response surface promised? (deg)
-
-    Design-Expert's confirmation: the mean of the n verification piles against the surface's
-    (1 - alpha) prediction interval for the mean of n new runs at the chosen settings
-    (``predict_interval(..., n_new=n)``). Keys ``confirm_pi_low_deg``, ``confirm_pi_high_deg``
-    and ``confirmed`` (the mean inside that interval); None without a surface or a pile.
-
-    In a refinement round the promise is the surface corrected by ``offset``: b = sum_j w_j
-    (ybar_j - yhat(x_j)) over earlier optima x_j with n_j piles (w_j = n_j / N), of which the
-    round applied the share c (``offset.weight``). Then the prediction is yhat(x) + c b and
-    its variance s^2 (1/n + c^2/N + d' (X'X)^-1 d), with d the model row at x less c times
-    the w-weighted rows at the x_j (the predictions share their coefficients' error; s^2 the
-    residual mean square, t on its df).
-    """
-    out: dict[str, Any] = {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None,
-                           "confirmed": None}
-    if model is None or values.size == 0 or model.df_resid <= 0:
-        return out
-    at = {n: [chosen[n]] for n in model.names}
-    if offset is None or not offset.at:
-        iv = model.predict_interval(at, units="actual", alpha=alpha, n_new=int(values.size))
-        lo, hi = float(iv["pi_low"].iloc[0]), float(iv["pi_high"].iloc[0])
-    else:
-        from scipy import stats
-
-        c = offset.weight
-        d = _model_rows(model, [chosen], model.terms)[0] - c * _pile_mean_row(
-            model, offset.at, model.terms)
-        n_at = float(sum(n for _, n in offset.at))
-        var = model.mse * (1 / values.size + c * c / n_at + float(d @ model.xtx_inv @ d))
-        pred = float(model.predict(at, units="actual")[0]) + offset.applied
-        half = float(stats.t.ppf(1 - alpha / 2, model.df_resid)) * math.sqrt(var)
-        lo, hi = pred - half, pred + half
-    out.update(confirm_pi_low_deg=lo, confirm_pi_high_deg=hi,
-               confirmed=bool(lo <= float(values.mean()) <= hi))
-    return out
-
-
-def _half_width(values: np.ndarray, alpha: float = 0.05) -> float:
-    """Half-width of the (1 - alpha) t-interval of the mean of ``values`` (inf below two)."""
-    from scipy import stats
-
-    if values.size < 2:
-        return math.inf
-    return float(stats.t.ppf(1 - alpha / 2, values.size - 1) * values.std(ddof=1)
-                 / math.sqrt(values.size))
-
-
-def verification_size(values: np.ndarray, half_width: float, max_n: int,
-                      sigma: float | None = None) -> int:
-    """Replicates whose 95 % interval half-width should reach ``half_width`` deg (<= max_n).
-
-    The smallest n with t(n-1) s / sqrt(n) <= half_width, at least one more than now while the
-    interval is still too wide. ``s`` is the larger of the runs' own spread and ``sigma``, the
-    test's scatter known from elsewhere (the response surface's pure error, with far more
-    degrees of freedom than a few verification runs): a verification whose first runs happen
-    to agree closely does not stop before the test's known scatter allows the goal.
-    """
-    from scipy import stats
-
-    n = values.size
-    s = float(values.std(ddof=1)) if n > 1 else math.inf
-    if sigma is not None and math.isfinite(sigma):
-        s = max(s, float(sigma))
-
-    def wide(k: int) -> bool:
-        return bool(stats.t.ppf(0.975, k - 1) * s / math.sqrt(k) > half_width)
-
-    if n >= max_n or (_half_width(values) <= half_width and not wide(n)):
-        return n
-    want = n + 1
-    while want < max_n and wide(want):
-        want += 1
-    return min(max_n, want)
-
-
-def _pure_error_std(model: Any) -> tuple[float | None, int]:
-    """Standard deviation (deg) and df of a fitted model's pure error (None without one)."""
-    ss, df = model.pure_error if model is not None else (0.0, 0)
-    return (math.sqrt(ss / df), df) if df > 0 else (None, 0)
-
-
-def verification_seed(seed: int, round_: int, i: int) -> int:
-    """Seed of verification run ``i`` of round ``round_`` (1-based): ``seed + 10000 round + i``,
-    never one a design point of the study used (they are ``seed + 1000 replicate + point``
-    with fewer than 10 replicates) nor one of another round (at most 200 runs a round)."""
-    return int(seed + 10_000 * round_ + i)
-
-
 def verification(ctx: Context) -> dict[str, Any]:
     """Replicate runs at the chosen optimum, on fresh seeds: mean, spread, error to the target.
 
@@ -1127,7 +882,7 @@ def verification(ctx: Context) -> dict[str, Any]:
     """
     opts = ctx.study.stages.verification
     params = ctx.full(ctx.results["optimize"]["chosen"])
-    sigma, sigma_df = _pure_error_std(ctx.results.get("_rsm_model"))
+    sigma, sigma_df = pure_error_std(ctx.results.get("_rsm_model"))
     k = ctx.rounds.number
     h = ctx.begin("verification", {"params": params, "n": opts.n,
                                    **({"round": k} if k > 1 else {})})
@@ -1147,7 +902,7 @@ def verification(ctx: Context) -> dict[str, Any]:
     std = float(vals.std(ddof=1)) if vals.size > 1 else (0.0 if vals.size else None)
     rel = None if mean is None else abs(mean - ctx.target) / ctx.target * 100.0
     png = next((r.artefacts.get("pile_png") for r in recs if r.artefacts.get("pile_png")), None)
-    hw = _half_width(vals)
+    hw = interval_half_width(vals)
     summary = {"params": params, "aor_deg": aors, "outcomes": [r.outcome for r in recs],
                "aor_mean_deg": mean, "aor_std_deg": std, "relative_error_percent": rel,
                "n": n, "n_piles": int(vals.size), "pile_png": png,
@@ -1168,7 +923,7 @@ def verification(ctx: Context) -> dict[str, Any]:
                                 for name, c in several.check_responses(ctx, recs).items()}
     if k > 1:
         summary["round"] = k
-    summary = _with_rounds(summary, ctx.rounds.verification)
+    summary = with_rounds(summary, ctx.rounds.verification)
     ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
     ctx.results["verification"] = summary
     return summary

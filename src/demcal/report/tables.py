@@ -428,9 +428,9 @@ def verification_table(summary: Mapping[str, Any]) -> Table:
 
 def verification_summary_table(summary: Mapping[str, Any], target: float | None) -> Table:
     """Mean ± std of the replicates, their 95 % interval, the relative error against the
-    measurement and the t-test's p and verdict (see demcal.calibrate.stages.compare_to_target),
+    measurement and the t-test's p and verdict (see demcal.calibrate.verify.compare_to_target),
     and Design-Expert's confirmation: the surface's prediction interval for the mean of the n
-    runs and whether the mean lies inside it (demcal.calibrate.stages.confirmation)."""
+    runs and whether the mean lies inside it (demcal.calibrate.verify.confirmation)."""
     lo, hi = summary.get("ci_low_deg"), summary.get("ci_high_deg")
     plo, phi = summary.get("confirm_pi_low_deg"), summary.get("confirm_pi_high_deg")
     ok, confirmed = summary.get("consistent"), summary.get("confirmed")

@@ -1,0 +1,142 @@
+"""The verification's statistics: the simulated mean against the lab's, the response
+surface's promise at the optimum (Design-Expert's confirmation), and how many runs the
+verification needs for its interval."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from demcal.calibrate.rounds import Offset, model_rows, pile_mean_row
+
+__all__ = ["compare_to_target", "confirmation", "interval_half_width", "pure_error_std",
+           "verification_seed", "verification_size"]
+
+
+def compare_to_target(values: np.ndarray, target: float, target_std: float | None = None,
+                      target_n: int | None = None, alpha: float = 0.05) -> dict[str, Any]:
+    """Is the simulated mean AoR consistent with the measured one? (angles in degrees)
+
+    With the measurement's spread and count known, Welch's two-sample t-test of the
+    replicates against the measurement (scipy ``ttest_ind_from_stats``); otherwise a one-sample
+    t-test against the target value. Also the (1 - alpha) t-interval of the simulated mean.
+    Keys: ``ci_low_deg``, ``ci_high_deg``, ``target_in_interval`` (the target inside that
+    interval), ``p_value``, ``test`` and ``consistent`` (p >= alpha), all None with fewer than
+    two replicates.
+    """
+    from scipy import stats
+
+    out: dict[str, Any] = {"ci_low_deg": None, "ci_high_deg": None, "target_in_interval": None,
+                           "p_value": None, "test": None, "consistent": None}
+    if values.size < 2:
+        return out
+    mean, sd, n = float(values.mean()), float(values.std(ddof=1)), int(values.size)
+    half = interval_half_width(values, alpha)
+    out.update(ci_low_deg=mean - half, ci_high_deg=mean + half,
+               target_in_interval=bool(abs(mean - target) <= half))
+    if sd == 0.0 and not target_std:
+        return out
+    if target_std is not None and target_n is not None and target_n >= 2:
+        res = stats.ttest_ind_from_stats(mean, sd, n, target, target_std, target_n,
+                                         equal_var=False)
+        out["test"] = f"Welch t-test against the measurement (n = {target_n})"
+    else:
+        res = stats.ttest_1samp(values, target)
+        out["test"] = "one-sample t-test against the target value"
+    out["p_value"] = float(res.pvalue)
+    out["consistent"] = bool(res.pvalue >= alpha)
+    return out
+
+
+def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
+                 alpha: float = 0.05, offset: Offset | None = None) -> dict[str, Any]:
+    """Did the optimum give what the response surface promised? (deg)
+
+    Design-Expert's confirmation: the mean of the n verification piles against the surface's
+    (1 - alpha) prediction interval for the mean of n new runs at the chosen settings
+    (``predict_interval(..., n_new=n)``). Keys ``confirm_pi_low_deg``, ``confirm_pi_high_deg``
+    and ``confirmed`` (the mean inside that interval); None without a surface or a pile.
+
+    In a refinement round the promise is the surface corrected by ``offset``: b = sum_j w_j
+    (ybar_j - yhat(x_j)) over earlier optima x_j with n_j piles (w_j = n_j / N), of which the
+    round applied the share c (``offset.weight``). Then the prediction is yhat(x) + c b and
+    its variance s^2 (1/n + c^2/N + d' (X'X)^-1 d), with d the model row at x less c times
+    the w-weighted rows at the x_j (the predictions share their coefficients' error; s^2 the
+    residual mean square, t on its df).
+    """
+    out: dict[str, Any] = {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None,
+                           "confirmed": None}
+    if model is None or values.size == 0 or model.df_resid <= 0:
+        return out
+    at = {n: [chosen[n]] for n in model.names}
+    if offset is None or not offset.at:
+        iv = model.predict_interval(at, units="actual", alpha=alpha, n_new=int(values.size))
+        lo, hi = float(iv["pi_low"].iloc[0]), float(iv["pi_high"].iloc[0])
+    else:
+        from scipy import stats
+
+        c = offset.weight
+        d = model_rows(model, [chosen], model.terms)[0] - c * pile_mean_row(
+            model, offset.at, model.terms)
+        n_at = float(sum(n for _, n in offset.at))
+        var = model.mse * (1 / values.size + c * c / n_at + float(d @ model.xtx_inv @ d))
+        pred = float(model.predict(at, units="actual")[0]) + offset.applied
+        half = float(stats.t.ppf(1 - alpha / 2, model.df_resid)) * math.sqrt(var)
+        lo, hi = pred - half, pred + half
+    out.update(confirm_pi_low_deg=lo, confirm_pi_high_deg=hi,
+               confirmed=bool(lo <= float(values.mean()) <= hi))
+    return out
+
+
+def interval_half_width(values: np.ndarray, alpha: float = 0.05) -> float:
+    """Half-width of the (1 - alpha) t-interval of the mean of ``values`` (inf below two)."""
+    from scipy import stats
+
+    if values.size < 2:
+        return math.inf
+    return float(stats.t.ppf(1 - alpha / 2, values.size - 1) * values.std(ddof=1)
+                 / math.sqrt(values.size))
+
+
+def verification_size(values: np.ndarray, half_width: float, max_n: int,
+                      sigma: float | None = None) -> int:
+    """Replicates whose 95 % interval half-width should reach ``half_width`` deg (<= max_n).
+
+    The smallest n with t(n-1) s / sqrt(n) <= half_width, at least one more than now while the
+    interval is still too wide. ``s`` is the larger of the runs' own spread and ``sigma``, the
+    test's scatter known from elsewhere (the response surface's pure error, with far more
+    degrees of freedom than a few verification runs): a verification whose first runs happen
+    to agree closely does not stop before the test's known scatter allows the goal.
+    """
+    from scipy import stats
+
+    n = values.size
+    s = float(values.std(ddof=1)) if n > 1 else math.inf
+    if sigma is not None and math.isfinite(sigma):
+        s = max(s, float(sigma))
+
+    def wide(k: int) -> bool:
+        return bool(stats.t.ppf(0.975, k - 1) * s / math.sqrt(k) > half_width)
+
+    if n >= max_n or (interval_half_width(values) <= half_width and not wide(n)):
+        return n
+    want = n + 1
+    while want < max_n and wide(want):
+        want += 1
+    return min(max_n, want)
+
+
+def pure_error_std(model: Any) -> tuple[float | None, int]:
+    """Standard deviation (deg) and df of a fitted model's pure error (None without one)."""
+    ss, df = model.pure_error if model is not None else (0.0, 0)
+    return (math.sqrt(ss / df), df) if df > 0 else (None, 0)
+
+
+def verification_seed(seed: int, round_: int, i: int) -> int:
+    """Seed of verification run ``i`` of round ``round_`` (1-based): ``seed + 10000 round + i``,
+    never one a design point of the study used (they are ``seed + 1000 replicate + point``
+    with fewer than 10 replicates) nor one of another round (at most 200 runs a round)."""
+    return int(seed + 10_000 * round_ + i)
