@@ -72,10 +72,20 @@ from typing import Any
 
 from demcal.errors import StoreError
 
-__all__ = ["STORE_NAME", "RunRecord", "RunStore", "StageRecord", "params_hash", "run_key",
+__all__ = ["STAGES", "STORE_NAME", "RunRecord", "RunStore", "StageRecord", "params_hash", "run_key",
            "salvage"]
 
 STORE_NAME = "demcal.sqlite"
+#: The calibration's stages, in the order they run, with their titles: the names the
+#: ``stages`` table holds (the calibration writes them, the report reads them).
+STAGES: dict[str, str] = {
+    "rangefind": "Range finding",
+    "screening": "Screening (Plackett-Burman)",
+    "steepest": "Path of steepest ascent",
+    "rsm": "Response surface",
+    "optimize": "Optimum",
+    "verification": "Verification",
+}
 SCHEMA_VERSION = 2
 #: Schemas this demcal opens: the current one, and schema 1 (migrated on a writable open).
 READABLE_SCHEMAS = (1, 2)

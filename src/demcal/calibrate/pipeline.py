@@ -25,11 +25,12 @@ from demcal.calibrate.study import Study, load_study, study_folder
 from demcal.errors import InputError
 from demcal.execute.local import GPU_CHUNK, default_chunk, default_workers
 from demcal.execute.tasks import TestDef
+from demcal.store import STAGES as STAGE_TITLES
 from demcal.store import RunStore
 
 __all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def"]
 
-STAGES = ("rangefind", "screening", "steepest", "rsm", "optimize", "verification")
+STAGES = tuple(STAGE_TITLES)  #: the stages in the order they run (demcal.store.STAGES)
 
 
 def test_def(study: Study, folder: Path | None = None) -> TestDef:

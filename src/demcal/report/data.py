@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from demcal.errors import InputError
-from demcal.store import STORE_NAME, RunRecord, RunStore
+from demcal.store import STAGES, STORE_NAME, RunRecord, RunStore
 
 __all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
 
@@ -21,15 +21,6 @@ __all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
 #: anchor runs (the study's own test at path points; demcal.calibrate.anchor)
 RUNS_OF: dict[str, str] = {"steepest_anchor": "steepest"}
 
-#: The calibration's stages in the order the report shows them, with their titles.
-STAGES: dict[str, str] = {
-    "rangefind": "Range finding",
-    "screening": "Screening (Plackett-Burman)",
-    "steepest": "Path of steepest ascent",
-    "rsm": "Response surface",
-    "optimize": "Optimum",
-    "verification": "Verification",
-}
 
 
 #: The meta keys of the store contract that the report reads.
