@@ -100,6 +100,12 @@ def test_three_responses_land_on_the_planted_parameters(tmp_path: Path) -> None:
     assert out.exit_code == 0, out.output
     html = (tmp_path / "report" / "report.html").read_text()
     assert "drum_deg" in html and "bulk_density_kg_m3" in html
+    assert "could not be drawn" not in html
+    doc = json.loads((tmp_path / "report" / "report.json").read_text())
+    assert doc["problems"] == []
+    assert len([f for f in doc["figures"] if "overlay_" in f]) == 3  # each factor pair
+    assert doc["tables"]["responses_verified"]["columns"][:3] == ["response", "lab",
+                                                                  "predicted"]
 
 
 def test_the_angle_alone_does_not_fix_the_point(tmp_path: Path) -> None:

@@ -531,8 +531,15 @@ def _several_responses(b: _Builder) -> str:
     goals, verified = RS.responses_tables(view)
     equations = "".join(f"<p><b>{escape(r.name)}</b> = {escape(r.equation)}</p>"
                         for r in view.rows if r.equation and r.name != "aor_deg")
+    rsm, opt = b.data.stage("rsm").summary, b.data.stage("optimize").summary
+    names = [f["name"] for f in rsm.get("factors") or []]
+    figures = "".join(
+        b.figure(f"overlay_{p}_{q}", f"Overlay on {b.data.symbol(p)} x {b.data.symbol(q)}, the "
+                 "other factors at the optimum (red star)",
+                 lambda p=p, q=q: RS.overlay_figure(rsm, opt, (p, q)))
+        for p, q in itertools.combinations(names, 2))
     return _section("responses", "Several responses", None,
-                    b.table(goals) + equations + b.table(verified))
+                    b.table(goals) + equations + b.table(verified) + figures)
 
 
 def _verification(b: _Builder) -> str:

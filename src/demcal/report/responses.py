@@ -11,11 +11,12 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from demcal.report.tables import Table
 
-__all__ = ["ResponseRow", "ResponsesView", "responses_tables", "responses_view"]
+__all__ = ["ResponseRow", "ResponsesView", "overlay_figure", "responses_tables", "responses_view"]
 
 
 @dataclass(frozen=True)
@@ -113,3 +114,70 @@ def responses_tables(view: ResponsesView) -> tuple[Table, Table]:
     return (Table("responses_goals", "Responses: goals and models", goals),
             Table("responses_verified", "Responses at the optimum and verified", verified,
                   note=note))
+
+
+def _surfaces(rsm: Mapping[str, Any]) -> dict[str, Any]:
+    """Every response's stored surface (the angle's and the others'), by name."""
+    from demcal.report.surface import StoredSurface
+
+    out = {"aor_deg": StoredSurface.from_summary(rsm)}
+    for name, fit in (rsm.get("responses") or {}).items():
+        out[name] = StoredSurface.from_summary({"factors": rsm["factors"],
+                                                "coefficients_coded": fit["coefficients_coded"]})
+    return out
+
+
+def overlay_figure(rsm: Mapping[str, Any], optimize: Mapping[str, Any],
+                   pair: tuple[str, str], n_grid: int = 60) -> Any:
+    """Design-Expert's overlay plot on one factor pair, the other factors at the optimum: the
+    region where every response lies within its desirability limits (unshaded), each
+    response's limits (dashed) and lab value (solid) as contours, where they cross is what
+    the tests pin; the overall desirability's contours and the optimum.
+
+    Pure function of the stored summaries (the models' coded coefficients and the goals).
+    """
+    import matplotlib
+    from matplotlib.figure import Figure
+
+    from demcal.doe.desirability import ResponseGoal, overall_desirability
+
+    surfaces = _surfaces(rsm)
+    aor = surfaces["aor_deg"]
+    goals = [ResponseGoal(g["name"], g["goal"], g["low"], g["high"], target=g.get("target"),
+                          weight=g["weight"], importance=g["importance"])
+             for g in optimize["responses"]["goals"]]
+    chosen = optimize["chosen"]
+    i, j = aor.index(pair[0]), aor.index(pair[1])
+    base = np.array([float(chosen[n]) for n in aor.names])
+    gi = np.linspace(aor.low[i], aor.high[i], n_grid)
+    gj = np.linspace(aor.low[j], aor.high[j], n_grid)
+    xx, yy = np.meshgrid(gi, gj)
+    pts = np.tile(base, (xx.size, 1))
+    pts[:, i], pts[:, j] = xx.ravel(), yy.ravel()
+    coded = aor.to_coded(pts)
+    ys = {g.name: surfaces[g.name].predict_coded(coded) for g in goals}
+    d = np.column_stack([g.desirability(ys[g.name]) for g in goals])
+    big_d = overall_desirability(d, [g.importance for g in goals]).reshape(xx.shape)
+    inside = np.all(d > 0, axis=1).reshape(xx.shape)
+    fig = Figure(figsize=(4.6, 3.8), dpi=100)
+    ax = fig.add_subplot()
+    ax.contourf(xx, yy, (~inside).astype(float), levels=[0.5, 1.5], colors=["0.85"])
+    colours = matplotlib.colormaps["tab10"]
+    for k, g in enumerate(goals):  # the limits dashed, the lab value solid
+        z = ys[g.name].reshape(xx.shape)
+        for levels, style in ((sorted({g.low, g.high}), "dashed"),
+                              ([g.target] if g.target is not None else [], "solid")):
+            if levels and float(z.min()) < max(levels) and min(levels) < float(z.max()):
+                cs = ax.contour(xx, yy, z, levels=levels, colors=[colours(k)],
+                                linewidths=1.0, linestyles=style)
+                ax.clabel(cs, fontsize=6, fmt=lambda v, n=g.name: f"{n} {v:.4g}")
+    if float(big_d.max()) > 0:
+        cd = ax.contour(xx, yy, big_d, levels=[0.2, 0.4, 0.6, 0.8], colors="k",
+                        linewidths=0.5, linestyles="dotted")
+        ax.clabel(cd, fontsize=6, fmt="D %.1f")
+    ax.plot([chosen[aor.names[i]]], [chosen[aor.names[j]]], "r*", ms=10)
+    ax.set_xlabel(aor.symbols[i] if aor.symbols[i] != aor.names[i] else aor.names[i])
+    ax.set_ylabel(aor.symbols[j] if aor.symbols[j] != aor.names[j] else aor.names[j])
+    ax.set_title("Overlay: lab values solid, limits dashed (outside them shaded), D dotted",
+                 fontsize=8)
+    return fig
