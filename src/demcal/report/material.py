@@ -18,6 +18,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from demcal.report import responses as RS
 from demcal.report.data import ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
 from demcal.virtual.material_card import MaterialCard, parameter_law
@@ -117,6 +118,14 @@ def _verification_block(ver: Mapping[str, Any], opt: Mapping[str, Any],
         verification["target_aor_deg"] = data.target_aor_deg
     if opt.get("predicted_aor_deg") is not None:
         verification["predicted_aor_deg"] = opt["predicted_aor_deg"]
+    several = RS.responses_view(data.stage("rsm").summary, opt, ver)
+    if several is not None:  # every response at the optimum and verified
+        verification["desirability"] = several.desirability
+        verification["responses"] = {r.name: {k: v for k, v in (
+            ("lab", r.lab_mean), ("predicted", r.predicted), ("mean", r.verified_mean),
+            ("std", r.verified_std), ("n", r.verified_n),
+            ("relative_error_percent", r.relative_error_percent),
+            ("consistent", r.consistent)) if v is not None} for r in several.rows}
     if ver.get("round", 1) > 1:  # a refinement round's (demcal.calibrate.refine)
         verification["round"] = ver["round"]
         for key in ("surface_offset_deg", "measured_offset_deg", "offset_weight"):

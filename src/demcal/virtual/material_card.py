@@ -220,7 +220,10 @@ class MaterialCard:
         test = {k: v for k, v in d["test"].items() if k != "overrides"}
         lines += _toml_table("test", test)
         lines += _toml_table("test.overrides", _flatten(d["test"].get("overrides") or {}))
-        lines += _toml_table("verification", d["verification"])
+        ver = {k: v for k, v in d["verification"].items() if k != "responses"}
+        lines += _toml_table("verification", ver)
+        for name, row in (d["verification"].get("responses") or {}).items():
+            lines += _toml_table(f"verification.responses.{_key(name)}", row)
         if "particle_shape" in d:
             lines += _toml_table("particle_shape", d["particle_shape"])
         for name, row in d["parameters"].items():
