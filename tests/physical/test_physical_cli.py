@@ -85,3 +85,35 @@ def test_missing_file_and_bad_option_exit_2(tmp_path):
     result = run(str(EXAMPLE), "--range-rule", "iqr")
     assert result.exit_code == 2
     assert "range_rule must be one of" in result.output
+
+
+def test_bulk_density_repeats_give_mean_std_and_n(tmp_path):
+    """A cylinder of known volume filled loosely and weighed: the bulk density's repeats."""
+    text = EXAMPLE.read_text(encoding="utf-8").replace(
+        "[measurements.aor]",
+        "[measurements.bulk_density]\nmass_g = [24.1, 25.0, 23.6, 24.4]\nvolume_cm3 = 500.0\n\n"
+        "[measurements.aor]", 1)
+    path = tmp_path / "m.toml"
+    path.write_text(text, encoding="utf-8")
+    out = tmp_path / "d.json"
+    result = run(str(path), "--json", str(out))
+    assert result.exit_code == 0, result.output
+    assert "bulk_density_kg_m3" in result.output
+    from demcal.calibrate.responses import ResponseSpec
+
+    lab = ResponseSpec(name="bulk_density_kg_m3", measurements=str(path)).lab()
+    values = [24.1 / 500 * 1e3, 25.0 / 500 * 1e3, 23.6 / 500 * 1e3, 24.4 / 500 * 1e3]
+    assert lab.n == 4 and lab.mean == pytest.approx(sum(values) / 4)
+    import numpy as np
+
+    assert lab.std == pytest.approx(float(np.std(values, ddof=1)))
+
+
+def test_bulk_density_needs_its_volume(tmp_path):
+    text = EXAMPLE.read_text(encoding="utf-8").replace(
+        "[measurements.aor]", "[measurements.bulk_density]\nmass_g = [24.1]\n\n"
+        "[measurements.aor]", 1)
+    path = tmp_path / "m.toml"
+    path.write_text(text, encoding="utf-8")
+    result = run(str(path))
+    assert result.exit_code == 2 and "bulk_density" in result.output

@@ -115,6 +115,8 @@ class ResponseSpec(BaseModel):
         path = Path(self.measurements)
         if base is not None and not path.is_absolute():
             path = base / path
+        if path.suffix == ".toml":  # demcal physical's measurements: the summary by name
+            return _physical_lab(path, self.name)
         values = read_repeats(path, f"responses {self.name!r}: measurements")
         std = float(np.std(values, ddof=1)) if values.size > 1 else None
         return LabValue(mean=float(values.mean()), std=std, n=int(values.size))
@@ -139,6 +141,17 @@ class ResponseSpec(BaseModel):
         return ResponseGoal(self.name, self.goal, float(low), float(high),
                             target=centre if self.goal == "target" else None,
                             weight=float(self.weight), importance=int(self.importance))
+
+
+def _physical_lab(path: Path, name: str) -> LabValue:
+    """A response's lab value from a measurements TOML (``demcal physical``'s repeats, e.g.
+    ``[measurements.bulk_density]`` for ``bulk_density_kg_m3``)."""
+    from demcal.physical import derive_parameters, load_measurements
+
+    s = derive_parameters(load_measurements(path)).summaries.get(name)
+    if s is None or s.mean is None:
+        raise InputError(f"responses {name!r}: measurements {path} has no repeats of {name}")
+    return LabValue(mean=float(s.mean), std=s.std, n=s.n_repeats)
 
 
 def aor_spec(own: ResponseSpec | None, target: dict) -> ResponseSpec:

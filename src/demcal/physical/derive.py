@@ -472,6 +472,10 @@ def derive_parameters(
     if m.moisture_percent is not None:
         s = summarize(m.moisture_percent, name="moisture_percent", unit="%", level=level)
         summaries[s.name] = s
+    if m.bulk_density is not None:  # a response to calibrate against, not a parameter
+        s = summarize(m.bulk_density.densities(), name="bulk_density_kg_m3", unit="kg/m^3",
+                      level=level)
+        summaries[s.name] = s
     target = None
     if m.aor is not None and m.aor.angle_deg is not None:
         target = summarize(m.aor.angle_deg, name="aor_deg", unit="deg", level=level)

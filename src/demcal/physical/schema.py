@@ -155,6 +155,14 @@ class Density(_Model):
         )
 
 
+class BulkDensity(Density):
+    """Loose bulk density repeats: a container of known volume filled loosely (poured, not
+    tapped, levelled off) and weighed. Give ``mass_g`` of each repeat with ``volume_cm3``
+    (the container's volume, one value for all), or ``density_kg_m3`` (bulk densities)."""
+
+    method: str = Field("loose fill", description="How it was filled (free text).")
+
+
 # ----------------------------------------------------------------------------- elasticity
 class CompressionRepeat(_Model):
     """One axial compression of a cylindrical specimen (see
@@ -429,6 +437,8 @@ class Measurements(_Model):
     range_rule: Literal["minmax", "mean_std", "ci"] = "minmax"
     range_k: Annotated[float, Field(gt=0, allow_inf_nan=False)] = 2.0
     density: Density | None = None
+    bulk_density: BulkDensity | None = Field(
+        None, description="loose bulk density repeats: a response the lift test reports")
     elasticity: Elasticity | None = None
     shape: Shape | None = None
     friction: Friction = Field(default_factory=Friction)
