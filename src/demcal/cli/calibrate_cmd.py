@@ -28,6 +28,7 @@ from demcal.cli._common import (
     console,
     styled,
 )
+from demcal.display import readable
 from demcal.errors import InputError
 
 
@@ -36,7 +37,7 @@ def _print_result(result: dict) -> None:
     table.add_column("parameter")
     table.add_column("value", justify="right")
     for name, value in result["optimum"].items():
-        table.add_row(name, f"{value:.5g}")
+        table.add_row(name, readable(value))
     console.print(table)
     v = result["verification"]
     mean = "n/a" if v["aor_mean_deg"] is None else f"{v['aor_mean_deg']:.2f}"
@@ -76,7 +77,7 @@ def _print_rounds(result: dict) -> None:
         mean = "n/a" if r["aor_mean_deg"] is None else f"{r['aor_mean_deg']:.2f} deg"
         word = {True: "confirmed", False: "not confirmed", None: "no confirmation"}[
             r["confirmed"]]
-        params = ", ".join(f"{k} {v:.4g}" for k, v in r["optimum"].items())
+        params = ", ".join(f"{k} {readable(v, 4)}" for k, v in r["optimum"].items())
         aimed = "" if r.get("surface_offset_deg") is None else (
             f" (aimed by {r['surface_offset_deg']:+.2f} deg: "
             f"{r.get('offset_weight', 1.0):.2f} of the {r.get('measured_offset_deg', 0.0):+.2f}"
