@@ -68,9 +68,8 @@ def test_each_verification_pile_is_shown_beside_a_photo(tmp_path):
     assert "beside photo 5 (42.77°" in ver and "the same method" in ver
 
 
-def test_the_material_card_of_the_paper_store(tmp_path):
-    study = build_paper_store(tmp_path / "study")
-    path = build_report(study)
+def test_the_material_card_of_the_paper_store(paper_report):
+    path = paper_report["html_path"]
     card = read_material_card(path.parent / "material.toml")
     doc = json.loads((path.parent / "report.json").read_text())
     params = doc["summaries"]["verification"]["params"]
