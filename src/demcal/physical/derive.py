@@ -460,49 +460,8 @@ def derive_parameters(
         what = f"inclined plane, tan of {_fmt(angles.minimum)}-{_fmt(angles.maximum)} deg"
         add_factor(f"{key}.static_friction", mu, what)
 
-    # --- shape, moisture, AoR
-    template_choice = None
-    if m.shape is not None:
-        sl = summarize(np.asarray(m.shape.length_mm) * 1e-3, name="particle.length", unit="m",
-                       level=level)
-        sd = summarize(np.asarray(m.shape.diameter_mm) * 1e-3, name="particle.diameter",
-                       unit="m", level=level)
-        summaries.update({sl.name: sl, sd.name: sd})
-        template_choice = _choose_template(m.shape, m.material, sl.central, sd.central, fixed)
-    if m.moisture_percent is not None:
-        s = summarize(m.moisture_percent, name="moisture_percent", unit="%", level=level)
-        summaries[s.name] = s
-    target = None
-    if m.aor is not None and m.aor.angle_deg is not None:
-        target = summarize(m.aor.angle_deg, name="aor_deg", unit="deg", level=level)
-        summaries[target.name] = target
-
-    # --- user-given values override or complete
-    for name, spec in m.factor_ranges.items():
-        old = factors.pop(name, None) or fixed.pop(name, None)
-        src = spec.source
-        if old is not None:
-            was = (
-                f"{_fmt(old.low)}-{_fmt(old.high)}"
-                if isinstance(old, FactorRange)
-                else _fmt(old.value)
-            )
-            notes.append(f"{name}: given range {spec.low:g}-{spec.high:g} overrides measured {was}")
-            src = f"{spec.source} (measured {was})"
-        factors[name] = FactorRange(name, spec.low, spec.high, src, old.measured if old else None,
-                                    None)
-    for name, spec in m.fixed.items():
-        old = factors.pop(name, None) or fixed.pop(name, None)
-        src = spec.source
-        if old is not None:
-            was = (
-                f"{_fmt(old.low)}-{_fmt(old.high)}"
-                if isinstance(old, FactorRange)
-                else _fmt(old.value)
-            )
-            notes.append(f"{name}: given value {spec.value:g} overrides measured {was}")
-            src = f"{spec.source} (measured {was})"
-        fixed[name] = FixedParameter(name, spec.value, src, old.measured if old else None)
+    template_choice, target = _shape_and_target(m, level, summaries, fixed)
+    _apply_given(m, fixed, factors, notes)
 
     rayleigh = _rayleigh(m, template_choice, fixed, factors)
     order = list(PARAMETERS)
@@ -521,6 +480,61 @@ def derive_parameters(
         notes=tuple(notes),
         settings={"ci_level": level, "range_rule": rule, "range_k": k},
     )
+
+
+def _shape_and_target(
+    m: Measurements, level: float, summaries: dict[str, RepeatSummary],
+    fixed: dict[str, FixedParameter],
+) -> tuple[TemplateChoice | None, RepeatSummary | None]:
+    """Shape (the particle template), moisture and the target AoR; their summaries are added
+    to ``summaries``."""
+    template_choice = None
+    if m.shape is not None:
+        sl = summarize(np.asarray(m.shape.length_mm) * 1e-3, name="particle.length", unit="m",
+                       level=level)
+        sd = summarize(np.asarray(m.shape.diameter_mm) * 1e-3, name="particle.diameter",
+                       unit="m", level=level)
+        summaries.update({sl.name: sl, sd.name: sd})
+        template_choice = _choose_template(m.shape, m.material, sl.central, sd.central, fixed)
+    if m.moisture_percent is not None:
+        s = summarize(m.moisture_percent, name="moisture_percent", unit="%", level=level)
+        summaries[s.name] = s
+    target = None
+    if m.aor is not None and m.aor.angle_deg is not None:
+        target = summarize(m.aor.angle_deg, name="aor_deg", unit="deg", level=level)
+        summaries[target.name] = target
+    return template_choice, target
+
+
+def _measured_text(old: FactorRange | FixedParameter) -> str:
+    """A measured range or value as the note of a user-given value that overrides it."""
+    if isinstance(old, FactorRange):
+        return f"{_fmt(old.low)}-{_fmt(old.high)}"
+    return _fmt(old.value)
+
+
+def _apply_given(
+    m: Measurements, fixed: dict[str, FixedParameter], factors: dict[str, FactorRange],
+    notes: list[str],
+) -> None:
+    """User-given ranges and values override what was measured, or complete it (in place)."""
+    for name, spec in m.factor_ranges.items():
+        old = factors.pop(name, None) or fixed.pop(name, None)
+        src = spec.source
+        if old is not None:
+            was = _measured_text(old)
+            notes.append(f"{name}: given range {spec.low:g}-{spec.high:g} overrides measured {was}")
+            src = f"{spec.source} (measured {was})"
+        factors[name] = FactorRange(name, spec.low, spec.high, src, old.measured if old else None,
+                                    None)
+    for name, spec in m.fixed.items():
+        old = factors.pop(name, None) or fixed.pop(name, None)
+        src = spec.source
+        if old is not None:
+            was = _measured_text(old)
+            notes.append(f"{name}: given value {spec.value:g} overrides measured {was}")
+            src = f"{spec.source} (measured {was})"
+        fixed[name] = FixedParameter(name, spec.value, src, old.measured if old else None)
 
 
 def _choose_template(
