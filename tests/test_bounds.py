@@ -15,6 +15,11 @@ from demcal.cli import app
 from demcal.errors import InputError
 from demcal.execute.dask_exec import check_address
 
+# distributed's scheduler serves its HTTP routes on port 8787 even with no dashboard; when a
+# parallel test (pytest -n) or another suite on the host holds it, it moves and warns, and
+# warnings are errors here: a free port of the OS's choosing instead
+FREE_PORT = "127.0.0.1:0"
+
 ROOT = Path(__file__).resolve().parents[1]
 ANALYTIC = ROOT / "examples" / "analytic" / "study.toml"
 CORN = ROOT / "examples" / "corn_stalk"
@@ -129,7 +134,7 @@ def test_dask_without_workers_says_so_and_times_out(caplog):
 
     task = RunTask("k", TestDef(kind="analytic", analytic={}), {}, 1, 1.0, None)
     with distributed.LocalCluster(n_workers=0, processes=False,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=FREE_PORT) as cluster:
         t0 = time.monotonic()
         with pytest.raises(StudyError, match=r"no Dask worker connected.*timeout 1 s"):
             run_dask([[task]], lambda r: None, address=cluster.scheduler_address,

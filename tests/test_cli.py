@@ -1,8 +1,11 @@
 """The CLI entry point exists and answers --help."""
 
+import sys
+
+import pytest
 from typer.testing import CliRunner
 
-from demcal.cli import app
+from demcal.cli import app, main
 
 
 def test_help_lists_commands():
@@ -11,20 +14,38 @@ def test_help_lists_commands():
     assert "Calibrate DEM material parameters" in result.output
 
 
-def test_usage_errors_are_one_line_and_exit_2():
-    """Through the console script (not CliRunner): click's usage errors are one line."""
+def test_the_console_script_answers_a_usage_error_in_one_line():
+    """Through ``python -m demcal`` (not CliRunner): the real entry point, in a process."""
     import subprocess
     import sys
 
-    for args, needle in ((["calibrate", "x.toml", "--workers", "0"], "'--workers'"),
-                         (["frobnicate"], "No such command"),
-                         (["simulate", "aor", "--bogus", "1"], "No such option: --bogus"),
-                         (["calibrate"], "Missing argument")):
-        res = subprocess.run([sys.executable, "-m", "demcal", *args], capture_output=True,
-                             text=True, timeout=120)
-        assert res.returncode == 2, res.stderr
-        lines = res.stderr.strip().splitlines()
-        assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], lines
-    res = subprocess.run([sys.executable, "-m", "demcal"], capture_output=True, text=True,
-                         timeout=120)
-    assert res.returncode == 0 and res.stdout.count("Usage") == 1
+    res = subprocess.run([sys.executable, "-m", "demcal", "frobnicate"], capture_output=True,
+                         text=True, timeout=120)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0] == "error: No such command 'frobnicate'. (see " \
+        "`python -m demcal --help`)", lines
+
+
+@pytest.mark.parametrize(("args", "needle"), [
+    (["calibrate", "x.toml", "--workers", "0"], "'--workers'"),
+    (["frobnicate"], "No such command"),
+    (["simulate", "aor", "--bogus", "1"], "No such option: --bogus"),
+    (["calibrate"], "Missing argument")])
+def test_usage_errors_are_one_line_and_exit_2(args, needle, monkeypatch, capsys):
+    """main(), the console script's entry, in this process (one subprocess above shows the
+    script reaches it; a process per case cost ~5-10 s of imports each): click's usage
+    errors are one line on stderr and exit code 2."""
+    monkeypatch.setattr(sys, "argv", ["demcal", *args])
+    with pytest.raises(SystemExit) as exit_:
+        main()
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], lines
+
+
+def test_no_arguments_print_the_help_once(monkeypatch, capsys):
+    monkeypatch.setattr(sys, "argv", ["demcal"])
+    with pytest.raises(SystemExit) as exit_:
+        main()
+    assert exit_.value.code == 0 and capsys.readouterr().out.count("Usage") == 1

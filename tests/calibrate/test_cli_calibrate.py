@@ -18,6 +18,7 @@ def test_calibrate_cli_json_layout(study_file, tmp_path):
     assert res.exit_code == 0, res.output
     assert "pp.static_friction" in res.output and "verification (3 runs)" in res.output
     assert "predicted R^2" in res.output
+    assert "this is a demonstration" not in res.output  # the analytic stand-in is no quick test
     data = json.loads(out.read_text())
     assert set(data["optimum"]) == {"pp.static_friction", "pp.rolling_friction",
                                     "pp.surface_energy"}

@@ -17,6 +17,11 @@ from demcal.calibrate.study import load_study, parse_study
 from demcal.errors import InputError, StudyError
 from demcal.store import RunStore
 
+# distributed's scheduler serves its HTTP routes on port 8787 even with no dashboard; when a
+# parallel test (pytest -n) or another suite on the host holds it, it moves and warns, and
+# warnings are errors here: a free port of the OS's choosing instead
+FREE_PORT = "127.0.0.1:0"
+
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "stand_in_engine"
 N_RUNS = 29  # screening 8, steepest 3, rsm 15, verification 2 + 1 (sized by the pure error)
 
@@ -119,7 +124,7 @@ def test_a_timed_out_run_is_stored_and_the_others_kept(study_dir):
 def test_dask_local_cluster_runs_the_study(study_dir):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=FREE_PORT) as cluster:
         res = calibrate(study_dir / "study.toml", dask=cluster.scheduler_address)
     assert res["n_runs"] == res["n_runs_executed"] == N_RUNS
     assert abs(res["verification"]["aor_mean_deg"] - 33.0) < 1.5
@@ -141,7 +146,7 @@ def test_process_pool_and_dask_give_the_inline_answer(tmp_path, study_dir):
     assert res["optimum"] == ref["optimum"] and res["n_runs_executed"] == N_RUNS
     assert res["verification"] == ref["verification"]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=FREE_PORT) as cluster:
         res = calibrate(c / "study.toml", dask=cluster.scheduler_address)
     assert res["optimum"] == ref["optimum"] and res["verification"] == ref["verification"]
 

@@ -12,6 +12,11 @@ from demcal.execute import RunTask, TestDef, run_local
 from demcal.execute.analytic import analytic_aor
 from demcal.results import RunResult
 
+# distributed's scheduler serves its HTTP routes on port 8787 even with no dashboard; when a
+# parallel test (pytest -n) or another suite on the host holds it, it moves and warns, and
+# warnings are errors here: a free port of the OS's choosing instead
+FREE_PORT = "127.0.0.1:0"
+
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "analytic" / "study.toml"
 OPTIONS = {"base_deg": 30.0, "linear": {"pp.static_friction": 20.0}, "noise_deg": 0.5,
            "no_pile_above": {"pp.static_friction": 0.85}}
@@ -61,7 +66,7 @@ def test_dask_local_cluster_runs_the_study(tmp_path):
     shutil.copy(EXAMPLE, b / "study.toml")
     ref = calibrate(a / "study.toml", workers=1)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=FREE_PORT) as cluster:
         res = calibrate(b / "study.toml", dask=cluster.scheduler_address)
     assert res["optimum"] == ref["optimum"]
     assert res["verification"] == ref["verification"]
@@ -87,7 +92,7 @@ def test_dask_worker_killed_mid_run_loses_nothing(tmp_path):
     (b / "study.toml").write_text(text)
     ref = calibrate(a / "study.toml", workers=1)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, \
+                                  dashboard_address=FREE_PORT) as cluster, \
             distributed.Client(cluster) as client:
         pids = list(client.run(os.getpid).values())
         killed: list[int] = []

@@ -10,6 +10,7 @@ from pathlib import Path
 from htmltables import read_tables, section
 from paper_store import DATA, _png, build_paper_store
 
+from demcal.display import readable
 from demcal.physical.derive import derive_parameters
 from demcal.report import build_report
 from demcal.store import RunStore
@@ -67,9 +68,8 @@ def test_each_verification_pile_is_shown_beside_a_photo(tmp_path):
     assert "beside photo 5 (42.77°" in ver and "the same method" in ver
 
 
-def test_the_material_card_of_the_paper_store(tmp_path):
-    study = build_paper_store(tmp_path / "study")
-    path = build_report(study)
+def test_the_material_card_of_the_paper_store(paper_report):
+    path = paper_report["html_path"]
     card = read_material_card(path.parent / "material.toml")
     doc = json.loads((path.parent / "report.json").read_text())
     params = doc["summaries"]["verification"]["params"]
@@ -81,7 +81,8 @@ def test_the_material_card_of_the_paper_store(tmp_path):
     rows = read_tables(path.read_text("utf-8"))["t-material_card"]["rows"]
     assert [r[0] for r in rows] == list(PARAMETERS)
     x3 = next(r for r in rows if r[0] == "pp.static_friction")
-    assert x3[2] == repr(card.parameters["pp.static_friction"])  # every digit shown
+    # the table is for reading (6 significant digits); the card above keeps every bit
+    assert x3[2] == readable(card.parameters["pp.static_friction"])
     assert x3[4:6] == ["calibrated", "tangential"]
 
 

@@ -43,18 +43,6 @@ def test_aor_bad_vtk_dir(tmp_path):
 
 
 
-def test_aor_run_saves_the_pile_picture(tmp_path):
-    """A pile's side view with the fitted flanks is saved where asked (issue 4's --plot)."""
-    cfg = fidelity_config("quick", fill={"count": 80}, phases={"pile_settle_max_time": 1.0})
-    p = preset_parameters("corn_stalk", {"pp.surface_energy": 0.0, "pp.static_friction": 0.2,
-                                         "pp.rolling_friction": 0.02})
-    png = tmp_path / "figs" / "pile.png"
-    res = run_aor([p], config=cfg, seeds=[3], backend="cpu", plot_paths=[png])[0]
-    assert res.outcome == "pile", res.reason
-    assert res.artefacts["pile_png"] == str(png)
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
-
-
 def test_aor_plot_paths_one_per_run():
     cfg = fidelity_config("quick", **TINY)
     p = preset_parameters("corn_stalk", {"pp.surface_energy": 0.0})

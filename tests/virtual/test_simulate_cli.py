@@ -25,7 +25,10 @@ def test_simulate_aor_json_and_plot(tmp_path):
     assert data["n_particles"] == 80 and data["settled"] is True
     assert data["params"]["pp.static_friction"] == 0.2
     assert data["params"]["particle.density"] == 114.36       # the preset's fixed values
-    assert png.read_bytes()[:4] == b"\x89PNG"
+    # the pile's side view with the fitted flanks, where asked (issue 4's --plot): also
+    # run_aor's check of plot_paths, which ran this same pile a second time on its own
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
+    assert data["runs"][0]["artefacts"]["pile_png"] == str(png)
     assert "angle of repose" in res.output
 
 

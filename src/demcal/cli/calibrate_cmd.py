@@ -17,7 +17,7 @@ from rich.progress import (
 )
 from rich.table import Table
 
-from demcal.calibrate.study import study_folder
+from demcal.calibrate.study import Study, study_folder
 from demcal.cli import app
 from demcal.cli._common import (
     EXIT_INTERRUPTED,
@@ -28,6 +28,7 @@ from demcal.cli._common import (
     console,
     styled,
 )
+from demcal.display import readable
 from demcal.errors import InputError
 
 
@@ -36,7 +37,7 @@ def _print_result(result: dict) -> None:
     table.add_column("parameter")
     table.add_column("value", justify="right")
     for name, value in result["optimum"].items():
-        table.add_row(name, f"{value:.5g}")
+        table.add_row(name, readable(value))
     console.print(table)
     v = result["verification"]
     mean = "n/a" if v["aor_mean_deg"] is None else f"{v['aor_mean_deg']:.2f}"
@@ -76,7 +77,7 @@ def _print_rounds(result: dict) -> None:
         mean = "n/a" if r["aor_mean_deg"] is None else f"{r['aor_mean_deg']:.2f} deg"
         word = {True: "confirmed", False: "not confirmed", None: "no confirmation"}[
             r["confirmed"]]
-        params = ", ".join(f"{k} {v:.4g}" for k, v in r["optimum"].items())
+        params = ", ".join(f"{k} {readable(v, 4)}" for k, v in r["optimum"].items())
         aimed = "" if r.get("surface_offset_deg") is None else (
             f" (aimed by {r['surface_offset_deg']:+.2f} deg: "
             f"{r.get('offset_weight', 1.0):.2f} of the {r.get('measured_offset_deg', 0.0):+.2f}"
@@ -124,6 +125,33 @@ def _print_verification(result: dict) -> None:
         console.print(styled(("note:", "yellow"), f" the target {result['target_aor_deg']:.2f} "
                              f"deg lies outside the verification's 95 % interval: the "
                              f"calibrated angle is {off:+.2f} deg from it"), highlight=False)
+
+
+def _print_demonstration_worth(result: dict) -> None:
+    """The last lines of a quick-fidelity study: what its answer is worth.
+
+    A first run of the README's main command is the quick demonstration; its verification
+    (3 small piles) has a 95 % interval of about +/- 11 deg, which a newcomer easily takes for
+    the product's accuracy. So its end says so, with the interval it measured, and names the
+    study to run for a calibration to use.
+    """
+    v = result["verification"]
+    lo, hi = v.get("ci_low_deg"), v.get("ci_high_deg")
+    interval = (f"its verification's 95 % interval is {lo:.1f}-{hi:.1f} deg "
+                f"(+/- {(hi - lo) / 2:.1f} deg on {v['n']} piles)"
+                if lo is not None and hi is not None else
+                "its verification has no interval (too few piles)")
+    console.print(styled(("this is a demonstration:", "yellow"),
+                         f" the quick fidelity's piles are small, and {interval}, so this "
+                         "answer shows the workflow, not a calibration to use. The calibration "
+                         "to use is the standard study: [test] fidelity = \"standard\" "
+                         "(examples/corn_stalk/study_standard.toml, docs/precision.md)"),
+                  highlight=False)
+
+
+def _is_quick_demonstration(study: Study) -> bool:
+    """Whether a study verifies at the quick fidelity (demcal's own angle-of-repose test)."""
+    return study.test.kind == "aor" and study.test.fidelity == "quick"
 
 
 def _build_report(study_dir: Path) -> Path:
@@ -194,6 +222,7 @@ def calibrate_cmd(
                          progress=on_progress, break_lock=break_lock)
         ctx.runner.dask_timeout = dask_timeout if dask_timeout is not None else \
             ctx.study.executor.dask_timeout
+        demonstration = _is_quick_demonstration(ctx.study)
         try:
             result = run_stages(ctx)
         except KeyboardInterrupt:
@@ -237,6 +266,8 @@ def calibrate_cmd(
             if (path.parent / "material.toml").is_file():
                 console.print(f"material card: {path.parent / 'material.toml'}")
             check_report_problems(path)
+    if demonstration:  # last, where a first run's reader looks
+        _print_demonstration_worth(result)
 
 
 @app.command("init")

@@ -156,6 +156,29 @@ def _view_angles(result) -> list[float]:
     return angles
 
 
+def _print_runs(results: list, summary: dict, *, title: str) -> None:
+    """One table row per run, then the summary line (or why no run gave an angle)."""
+    table = Table(title=title)
+    for col in ("seed", "outcome", "AoR (deg)", "left", "right", "spread", "particles", "lost",
+                "sim time (s)", "wall (s)"):
+        table.add_column(col)
+
+    def f(x: float | None) -> str:
+        return "-" if x is None else f"{x:.2f}"
+
+    for r in results:
+        table.add_row(str(r.seed), r.outcome, f(r.aor_deg), f(r.aor_left_deg),
+                      f(r.aor_right_deg), f(r.aor_std_deg), str(r.n_particles),
+                      str(r.particles_lost), f"{r.sim_time_s:.3f}", f"{r.wall_time_s:.1f}")
+    console.print(table)
+    if summary["aor_deg"] is not None:
+        console.print(summary_line(summary), highlight=False)
+    else:
+        reasons = {r.reason for r in results if r.reason}
+        console.print(styled("outcome: ", (str(summary["outcome"]), "bold"),
+                             " (no angle). " + "; ".join(sorted(reasons))))
+
+
 @simulate_app.command("aor")
 @cli_errors
 def simulate_aor(
@@ -288,24 +311,8 @@ def simulate_aor(
     summary["engine"] = engine
     summary["preset"] = preset
     summary["material"] = None if material is None else str(material)
-    table = Table(title=f"angle of repose ({preset}, {fidelity}"
-                  + (", LAMMPS)" if engine == "lammps" else ")"))
-    for col in ("seed", "outcome", "AoR (deg)", "left", "right", "spread", "particles", "lost",
-                "sim time (s)", "wall (s)"):
-        table.add_column(col)
-    for r in results:
-        def f(x):
-            return "-" if x is None else f"{x:.2f}"
-        table.add_row(str(r.seed), r.outcome, f(r.aor_deg), f(r.aor_left_deg),
-                      f(r.aor_right_deg), f(r.aor_std_deg), str(r.n_particles),
-                      str(r.particles_lost), f"{r.sim_time_s:.3f}", f"{r.wall_time_s:.1f}")
-    console.print(table)
-    if summary["aor_deg"] is not None:
-        console.print(summary_line(summary), highlight=False)
-    else:
-        reasons = {r.reason for r in results if r.reason}
-        console.print(styled("outcome: ", (str(summary["outcome"]), "bold"),
-                             " (no angle). " + "; ".join(sorted(reasons))))
+    _print_runs(results, summary, title=f"angle of repose ({preset}, {fidelity}"
+                + (", LAMMPS)" if engine == "lammps" else ")"))
     if plot is not None and "pile_png" not in results[0].artefacts:
         console.print(styled((f"no pile picture: the first run ended as "
                               f"{results[0].outcome}", "yellow")))

@@ -223,8 +223,28 @@ class Simulation:
         a["s_force"] = np.zeros((n_sph, 3))
         a["s_torque"] = np.zeros((n_sph, 3))
         a["s_roll"] = np.zeros((n_sph, 3))
+        self._build_walls(max_walls, n_sph)
+        rolling_c = self.rolling_model == ROLLING_C
+        cap = _config.NEIGHBOR_CAPACITY
+        for side in ("a", "b"):
+            alloc_neighbors(a, side, n_sph, cap, rolling_c)
+        n_buckets = _pow2_at_least(_config.BUCKETS_PER_SPHERE * n_sph)
+        a["bucket_count"] = np.zeros(n_buckets, dtype=np.int32)
+        a["bucket_members"] = np.zeros((n_buckets, _config.BUCKET_CAPACITY), dtype=np.int32)
+        a["pair_params"] = pair
+        a["world_dt"] = world_dt
+        self._build_world_arrays(n_worlds)
+        self.n_worlds = n_worlds
+        self.n_clumps = n_clu
+        self.n_spheres = n_sph
+        self.n_materials = n_mat
+        self.max_walls = max_walls
+
+    def _build_walls(self, max_walls: int, n_sph: int) -> None:
+        """The walls' arrays (packed per world) and the per-sphere wall contact state."""
+        a = self.arrays
         wtype, worigin, wgeom, wvel = pack_walls([w.walls for w in self.worlds], max_walls)
-        wmat = np.zeros((n_worlds, max_walls), dtype=np.int32)
+        wmat = np.zeros((len(self.worlds), max_walls), dtype=np.int32)
         for w, world in enumerate(self.worlds):
             for k, wall in enumerate(world.walls):
                 wmat[w, k] = world.materials.index(wall.material)
@@ -246,14 +266,10 @@ class Simulation:
         a["w_hist"] = np.zeros((n_sph, max_walls, 3))
         rolling_c = self.rolling_model == ROLLING_C
         a["w_rhist"] = np.zeros((n_sph, max_walls, 3) if rolling_c else (1, 1, 3))
-        cap = _config.NEIGHBOR_CAPACITY
-        for side in ("a", "b"):
-            alloc_neighbors(a, side, n_sph, cap, rolling_c)
-        n_buckets = _pow2_at_least(_config.BUCKETS_PER_SPHERE * n_sph)
-        a["bucket_count"] = np.zeros(n_buckets, dtype=np.int32)
-        a["bucket_members"] = np.zeros((n_buckets, _config.BUCKET_CAPACITY), dtype=np.int32)
-        a["pair_params"] = pair
-        a["world_dt"] = world_dt
+
+    def _build_world_arrays(self, n_worlds: int) -> None:
+        """Per-world gravity, domain, clocks and the run's flags and counters."""
+        a = self.arrays
         a["world_gravity"] = np.array([self._vec3(w.gravity, f"world {k} gravity (m/s^2)")
                                        for k, w in enumerate(self.worlds)])
         lo = np.array([self._vec3(w.domain_lo, f"world {k} domain_lo (m)")
@@ -272,11 +288,6 @@ class Simulation:
         a["flag_nan"] = np.zeros(n_worlds, dtype=np.int32)
         a["flag_overlap"] = np.zeros(n_worlds, dtype=np.int32)
         a["stats"] = np.zeros(4, dtype=np.int64)
-        self.n_worlds = n_worlds
-        self.n_clumps = n_clu
-        self.n_spheres = n_sph
-        self.n_materials = n_mat
-        self.max_walls = max_walls
 
     @staticmethod
     def _vec3(value, label: str) -> np.ndarray:

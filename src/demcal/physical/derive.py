@@ -460,7 +460,34 @@ def derive_parameters(
         what = f"inclined plane, tan of {_fmt(angles.minimum)}-{_fmt(angles.maximum)} deg"
         add_factor(f"{key}.static_friction", mu, what)
 
-    # --- shape, moisture, AoR
+    template_choice, target = _shape_and_target(m, level, summaries, fixed)
+    _apply_given(m, fixed, factors, notes)
+
+    rayleigh = _rayleigh(m, template_choice, fixed, factors)
+    order = list(PARAMETERS)
+    fixed = dict(sorted(fixed.items(), key=lambda kv: order.index(kv[0])))
+    factors = dict(sorted(factors.items(), key=lambda kv: order.index(kv[0])))
+    missing = tuple(n for n in PARAMETERS if n not in fixed and n not in factors)
+    return PhysicalResult(
+        measurements=m,
+        summaries=summaries,
+        fixed=fixed,
+        factors=factors,
+        template=template_choice,
+        rayleigh=rayleigh,
+        target_aor=target,
+        missing=missing,
+        notes=tuple(notes),
+        settings={"ci_level": level, "range_rule": rule, "range_k": k},
+    )
+
+
+def _shape_and_target(
+    m: Measurements, level: float, summaries: dict[str, RepeatSummary],
+    fixed: dict[str, FixedParameter],
+) -> tuple[TemplateChoice | None, RepeatSummary | None]:
+    """Shape (the particle template), moisture, the loose bulk density and the target AoR;
+    their summaries are added to ``summaries``."""
     template_choice = None
     if m.shape is not None:
         sl = summarize(np.asarray(m.shape.length_mm) * 1e-3, name="particle.length", unit="m",
@@ -480,17 +507,26 @@ def derive_parameters(
     if m.aor is not None and m.aor.angle_deg is not None:
         target = summarize(m.aor.angle_deg, name="aor_deg", unit="deg", level=level)
         summaries[target.name] = target
+    return template_choice, target
 
-    # --- user-given values override or complete
+
+def _measured_text(old: FactorRange | FixedParameter) -> str:
+    """A measured range or value as the note of a user-given value that overrides it."""
+    if isinstance(old, FactorRange):
+        return f"{_fmt(old.low)}-{_fmt(old.high)}"
+    return _fmt(old.value)
+
+
+def _apply_given(
+    m: Measurements, fixed: dict[str, FixedParameter], factors: dict[str, FactorRange],
+    notes: list[str],
+) -> None:
+    """User-given ranges and values override what was measured, or complete it (in place)."""
     for name, spec in m.factor_ranges.items():
         old = factors.pop(name, None) or fixed.pop(name, None)
         src = spec.source
         if old is not None:
-            was = (
-                f"{_fmt(old.low)}-{_fmt(old.high)}"
-                if isinstance(old, FactorRange)
-                else _fmt(old.value)
-            )
+            was = _measured_text(old)
             notes.append(f"{name}: given range {spec.low:g}-{spec.high:g} overrides measured {was}")
             src = f"{spec.source} (measured {was})"
         factors[name] = FactorRange(name, spec.low, spec.high, src, old.measured if old else None,
@@ -499,32 +535,10 @@ def derive_parameters(
         old = factors.pop(name, None) or fixed.pop(name, None)
         src = spec.source
         if old is not None:
-            was = (
-                f"{_fmt(old.low)}-{_fmt(old.high)}"
-                if isinstance(old, FactorRange)
-                else _fmt(old.value)
-            )
+            was = _measured_text(old)
             notes.append(f"{name}: given value {spec.value:g} overrides measured {was}")
             src = f"{spec.source} (measured {was})"
         fixed[name] = FixedParameter(name, spec.value, src, old.measured if old else None)
-
-    rayleigh = _rayleigh(m, template_choice, fixed, factors)
-    order = list(PARAMETERS)
-    fixed = dict(sorted(fixed.items(), key=lambda kv: order.index(kv[0])))
-    factors = dict(sorted(factors.items(), key=lambda kv: order.index(kv[0])))
-    missing = tuple(n for n in PARAMETERS if n not in fixed and n not in factors)
-    return PhysicalResult(
-        measurements=m,
-        summaries=summaries,
-        fixed=fixed,
-        factors=factors,
-        template=template_choice,
-        rayleigh=rayleigh,
-        target_aor=target,
-        missing=missing,
-        notes=tuple(notes),
-        settings={"ci_level": level, "range_rule": rule, "range_k": k},
-    )
 
 
 def _choose_template(

@@ -18,6 +18,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from demcal.display import readable
 from demcal.report import responses as RS
 from demcal.report.data import ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
@@ -202,16 +203,21 @@ def write_material_card(study_dir: str | Path,
 
 
 def card_table(card: MaterialCard) -> Table:
-    """The material card as a table: parameter, symbol, value (full precision), unit, role,
-    contact law."""
-    rows = [{"parameter": r["parameter"], "symbol": r["symbol"], "value": repr(r["value"]),
+    """The material card as a table: parameter, symbol, value (rounded for reading), unit,
+    role, contact law.
+
+    The values are :func:`demcal.display.readable` (6 significant digits: 0.3, not
+    0.30000000000000004); the card's files keep every digit.
+    """
+    rows = [{"parameter": r["parameter"], "symbol": r["symbol"], "value": readable(r["value"]),
              "unit": r["unit"], "role": r["role"], "contact law": r["law"],
              "meaning": r["description"]} for r in card.rows()]
     return Table("material_card", "Calibrated material (as typed into the DEM code)",
                  _frame(rows, ["parameter", "symbol", "value", "unit", "role", "contact law",
                                "meaning"]),
-                 note="Values in SI units, written exactly as stored (material.toml / "
-                      "material.json hold the same digits).")
+                 note="Values in SI units, rounded to 6 significant digits for reading; "
+                      "material.toml / material.json hold the exact values (type those, or "
+                      "load the card, for the exact round trip).")
 
 
 # ------------------------------------------------------------------------------ Table 1

@@ -15,6 +15,7 @@ from typing import Any
 
 import pandas as pd
 
+from demcal.display import readable
 from demcal.doe.anova import significance
 from demcal.report.data import ReportData, StageView
 
@@ -87,7 +88,7 @@ def format_cell(value: Any, column: str = "") -> str:
     if isinstance(value, float):
         if column in P_COLUMNS:
             return "<0.0001" if value < 1e-4 else f"{value:.4f}"
-        return f"{value:.5g}"
+        return readable(value, 5)
     return str(value)
 
 
