@@ -132,6 +132,18 @@ def _build_report(study_dir: Path) -> Path:
     return Path(build_report(study_dir))
 
 
+def _refuse_json_onto_inputs(study: Path, json_out: Path | None) -> None:
+    """Refuse a ``--json`` that is the study file, its store or any file the study reads
+    (written at the end, it would replace them: every run lost)."""
+    if json_out is None:
+        return
+    from demcal.calibrate.study import load_study
+    from demcal.cli._outputs import refuse_overwrites, study_inputs
+
+    refuse_overwrites({"--json": json_out}, study_inputs(study))  # before parsing the study
+    refuse_overwrites({"--json": json_out}, study_inputs(study, load_study(study)))
+
+
 @app.command("calibrate")
 @cli_errors
 def calibrate_cmd(
@@ -164,6 +176,7 @@ def calibrate_cmd(
     study_dir = study_folder(study)
     if not Path(study).is_file():
         raise InputError(f"study file not found (or not a file): {study}")
+    _refuse_json_onto_inputs(study, json_out)
     if report:
         check_output_dir(study_dir / "report", "report folder")
     if dask_timeout is not None and not 0 < dask_timeout <= 7 * 86400:

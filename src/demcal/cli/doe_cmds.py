@@ -21,6 +21,7 @@ from rich.table import Table
 from demcal import doe
 from demcal.cli import app
 from demcal.cli._common import check_output_file, cli_errors, console, log
+from demcal.cli._outputs import refuse_overwrites
 from demcal.errors import InputError
 from demcal.limits import MAX_DESIGN_RUNS, MAX_SEED, check_finite
 
@@ -617,6 +618,7 @@ def analyze(
 ) -> None:
     """Fit a model to a run sheet and print Design-Expert's ANOVA and fit statistics."""
     check_output_file(json_out, "--json", make_parents=True)
+    refuse_overwrites({"--json": json_out}, [(runs, "the run sheet"), (factors, "factors")])
     rs = _load_surface(runs, response, model, factors, columns, units, block=block)
     if reduce is not None:
         rs = rs.reduce(alpha_out=reduce)
@@ -658,6 +660,7 @@ def optimize_cmd(
 ) -> None:
     """Propose factor settings whose predicted response hits --target (ranked)."""
     check_output_file(json_out, "--json", make_parents=True)
+    refuse_overwrites({"--json": json_out}, [(runs, "the run sheet"), (factors, "factors")])
     for value, option in ((target, "--target"), (lower, "--lower"), (upper, "--upper")):
         _bounded(value, option, -1e300, 1e300)
     _bounded(solutions, "--solutions", 1, 1000)

@@ -22,6 +22,7 @@ from demcal.cli._common import (
     console,
     styled,
 )
+from demcal.cli._outputs import refuse_overwrites
 from demcal.errors import InputError
 from demcal.limits import MAX_REPLICATES, MAX_SEED, check_test_size
 from demcal.physical.stats import std_interval
@@ -215,6 +216,8 @@ def simulate_aor(
     check_output_file(plot, "--plot")
     check_output_file(json_out, "--json")
     check_output_dir(vtk, "--vtk")
+    refuse_overwrites({"--plot": plot, "--json": json_out},
+                      [(material, "the material card"), (hostfile, "the MPI hostfile")])
     overrides = parse_assignments(set_ or [])
     test_overrides = parse_test_overrides(test or [])
     if material is not None:
