@@ -9,6 +9,7 @@ parts), never from markup in an f-string.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import os
@@ -21,9 +22,11 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
+from demcal.cli._stdout import EXIT_STDOUT_GONE, guarded_stdout, reset, stdout_gone
 from demcal.errors import DemcalError, InputError, SimulationUnstable, StudyError
 
-console = Console(markup=False, highlight=False)
+# stdout through a guard: a closed pipe or a hung-up terminal ends no command midway
+console = Console(file=guarded_stdout, markup=False, highlight=False)
 err_console = Console(stderr=True, markup=False, highlight=False)
 log = logging.getLogger("demcal")
 
@@ -174,8 +177,18 @@ def check_report_problems(html_path: Path) -> None:
 
 
 def _fail(prefix: str, message: object, code: int) -> typer.Exit:
-    err_console.print(styled((prefix, "red"), " ", one_line(message)), soft_wrap=True)
+    with contextlib.suppress(OSError):  # stderr gone too: the exit code still says it
+        err_console.print(styled((prefix, "red"), " ", one_line(message)), soft_wrap=True)
     return typer.Exit(code)
+
+
+def _check_stdout() -> None:
+    """After a command that ran to its end: if its standard output went away meanwhile,
+    say so on stderr and exit with EXIT_STDOUT_GONE (its files are all written)."""
+    if stdout_gone():
+        raise _fail("failed:", "standard output was closed (a closed pipe or a hung-up "
+                    "terminal); the command ran to its end and wrote its files, but not all "
+                    "of its output was shown", EXIT_STDOUT_GONE)
 
 
 def cli_errors(func: F) -> F:
@@ -189,8 +202,13 @@ def cli_errors(func: F) -> F:
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        reset()
         try:
-            return func(*args, **kwargs)
+            out = func(*args, **kwargs)
+        except typer.Exit as done:
+            if not done.exit_code:  # a failure's own exit code says more
+                _check_stdout()
+            raise
         except InputError as exc:
             raise _fail("error:", exc, EXIT_INPUT) from None
         except (SimulationUnstable, StudyError, DemcalError) as exc:
@@ -215,5 +233,7 @@ def cli_errors(func: F) -> F:
             if type(exc).__name__ == "ValidationError" and hasattr(exc, "errors"):
                 raise _fail("error:", format_validation_error(exc), EXIT_INPUT) from None
             raise
+        _check_stdout()
+        return out
 
     return wrapper  # type: ignore[return-value]

@@ -226,30 +226,39 @@ def calibrate_cmd(
             ctx.store.close()
     finally:
         progress.stop()
-    if json_out is not None:  # first: the result is kept whatever the printing does
+    # every file first (the JSON, the card or report), the console last: a console that
+    # is gone (a closed pipe, a hung-up terminal) or blocks costs no result
+    if json_out is not None:
         json_out.write_text(json.dumps(result, indent=2))
+    lines, report_path = _write_card_or_report(study_dir, report)
     _print_result(result)
     if json_out is not None:
         console.print(f"result: {json_out}")
-    if not report:  # the material card all the same (report/material.toml)
-        from demcal.report.material import write_material_card
+    for line in lines:
+        console.print(line, markup=False, highlight=False)
+    if report_path is not None:
+        check_report_problems(report_path)
 
-        try:
-            files = write_material_card(study_dir)
-        except OSError as exc:  # the result is stored; the card can be written by `report`
-            console.print(f"note: no material card written ({exc.strerror}: "
-                          f"{exc.filename}); `demcal report` writes it", markup=False,
-                          highlight=False)
-            files = None
-        if files is not None:
-            console.print(f"material card: {files[0]}")
+
+def _write_card_or_report(study_dir: Path, report: bool) -> tuple[list[str], Path | None]:
+    """Write the report (with its material card), or the card alone; return the lines
+    that name them and the report's path (None: no report)."""
     if report:
         path = _build_report(study_dir)
-        if path is not None:
-            console.print(f"report: {path}")
-            if (path.parent / "material.toml").is_file():
-                console.print(f"material card: {path.parent / 'material.toml'}")
-            check_report_problems(path)
+        if path is None:
+            return [], None
+        lines = [f"report: {path}"]
+        if (path.parent / "material.toml").is_file():
+            lines.append(f"material card: {path.parent / 'material.toml'}")
+        return lines, path
+    from demcal.report.material import write_material_card
+
+    try:  # the material card all the same (report/material.toml)
+        files = write_material_card(study_dir)
+    except OSError as exc:  # the result is stored; the card can be written by `report`
+        return [f"note: no material card written ({exc.strerror}: {exc.filename}); "
+                "`demcal report` writes it"], None
+    return [f"material card: {files[0]}"], None
 
 
 @app.command("init")

@@ -291,6 +291,8 @@ def simulate_aor(
     summary["engine"] = engine
     summary["preset"] = preset
     summary["material"] = None if material is None else str(material)
+    if json_out is not None:  # first: the console may be gone (a closed pipe)
+        json_out.write_text(json.dumps(summary, indent=1, default=float))
     table = Table(title=f"angle of repose ({preset}, {fidelity}"
                   + (", LAMMPS)" if engine == "lammps" else ")"))
     for col in ("seed", "outcome", "AoR (deg)", "left", "right", "spread", "particles", "lost",
@@ -312,8 +314,6 @@ def simulate_aor(
     if plot is not None and "pile_png" not in results[0].artefacts:
         console.print(styled((f"no pile picture: the first run ended as "
                               f"{results[0].outcome}", "yellow")))
-    if json_out is not None:
-        json_out.write_text(json.dumps(summary, indent=1, default=float))
     if any(r.outcome == "unstable" for r in results):
         raise typer.Exit(EXIT_FAILURE)
 
