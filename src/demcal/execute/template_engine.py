@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from demcal.errors import InputError
+from demcal.execute.engine_guard import engine_watchdog, note_engine, stop_leftover_engine
 from demcal.execute.engine_results import ResultUnreadable, read_positions, read_value
 from demcal.execute.signals import sigterm_raises
 from demcal.execute.template_fill import fill
@@ -145,14 +146,17 @@ def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[
             return "engine_error", f"command not executable: {cmd[0]!r}"
         except OSError as exc:
             return "engine_error", f"cannot start {cmd[0]!r}: {exc.strerror}"
-        try:
-            code = proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            _kill_group(proc)
-            return "timeout", f"no end within {timeout:g} s; the engine was killed"
-        except BaseException:  # Ctrl-C, a terminated pool worker: take the engine down too
-            _kill_group(proc)
-            raise
+        note_engine(run_dir, proc.pid)
+        # the watchdog ends the engine's group if this process dies first (kill -9)
+        with engine_watchdog(proc.pid):
+            try:
+                code = proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                _kill_group(proc)
+                return "timeout", f"no end within {timeout:g} s; the engine was killed"
+            except BaseException:  # Ctrl-C, a terminated pool worker: take the engine down
+                _kill_group(proc)
+                raise
     if code != 0:
         return "engine_error", f"exit code {code}"
     return None, "exit code 0"
@@ -215,6 +219,7 @@ def _fresh_run_dir(engine: dict[str, Any], key: str) -> Path:
     """The run's own folder under ``engine["runs_dir"]``, emptied (a re-run replaces it)."""
     run_dir = Path(engine["runs_dir"]) / run_dir_name(key)
     if run_dir.exists():
+        stop_leftover_engine(run_dir)  # a killed study's engine: never two in one folder
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True)
     return run_dir
