@@ -623,10 +623,24 @@ def analyze(
     if reduce is not None:
         rs = rs.reduce(alpha_out=reduce)
     _print_analysis(rs)
+    if not rs.ss_total > 0:  # 0/0 above: say why every statistic is 0 or n/a
+        console.print(f"note: {response} does not vary (every run gave the same value): there "
+                      "is no effect to estimate", highlight=False)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
         json_out.write_text(json.dumps(analysis_dict(rs), indent=2))
         console.print(f"results written to {json_out}", highlight=False)
+
+
+def _optimize_headline(frame: Any, response: str, target: float, model: str) -> str:
+    """The solutions table's title; a target no setting reaches (every desirability 0:
+    every prediction outside the limits) is called unreachable, never "predicted to give"."""
+    if len(frame) and float(frame["desirability"].max()) > 0:
+        return f"Settings predicted to give {response} = {target:g} ({model} model)"
+    closest = "" if not len(frame) else \
+        f"; the closest settings predict {float(frame['predicted'].iloc[0]):.5g}"
+    return (f"Target {response} = {target:g} is unreachable within the factors' ranges "
+            f"({model} model, desirability 0{closest})")
 
 
 @app.command("optimize")
@@ -678,7 +692,7 @@ def optimize_cmd(
         seed=seed,
     )
     frame = res.to_frame()
-    t = Table(title=f"Settings predicted to give {response} = {target:g} ({rs.model} model)")
+    t = Table(title=_optimize_headline(frame, response, target, rs.model))
     for c in ("rank", *rs.names, "predicted", "desirability", "95% CI", "95% PI"):
         t.add_column(c, justify="right")
     for _, row in frame.iterrows():

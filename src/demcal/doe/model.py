@@ -300,7 +300,7 @@ class ResponseSurface:
         ``V(yhat_i) = h_i s^2`` so that ``mean V(yhat) = p s^2 / n``. Above 4 is adequate.
         Reproduces the paper's 26.586 for its Table 7 data.
         """
-        if self.df_resid <= 0:
+        if self.df_resid <= 0 or not self.mse > 0:  # no noise estimate (an exact fit)
             return math.nan
         mean_var = self.n_params * self.mse / self.n_runs
         return float((self.fitted.max() - self.fitted.min()) / math.sqrt(mean_var))
@@ -372,6 +372,10 @@ class ResponseSurface:
         """Model F value, (SS_model / df_model) / MSE."""
         if self.df_resid <= 0 or self.df_model <= 0:
             return math.nan
+        if not self.ss_total > 0:  # a response that does not vary: no model to test
+            return math.nan
+        if not self.mse > 0:  # an exact fit: no noise to test the model against
+            return math.inf
         return (self.ss_model / self.df_model) / self.mse
 
     @cached_property
