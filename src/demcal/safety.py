@@ -16,20 +16,54 @@ Bounds
 from __future__ import annotations
 
 import math
+import os
 import re
+import stat
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
 __all__ = ["MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "csv_cell", "csv_safe", "image_problem",
-           "photo_too_large", "safe_filename", "study_image"]
+           "not_regular", "photo_too_large", "regular_input", "safe_filename", "study_image"]
 
 MAX_IMAGE_BYTES = 50 * 1024 * 1024
 MAX_IMAGE_PIXELS = 100_000_000
 _MAGIC = {b"\x89PNG\r\n\x1a\n": "PNG", b"\xff\xd8\xff": "JPEG"}
 _FORMULA_START = ("=", "+", "-", "@", "\t", "\r", "|", "%")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def not_regular(path: str | Path) -> str | None:
+    """Why ``path`` (links followed) is not a regular file demcal may read, else None.
+
+    A named pipe (FIFO) blocks its reader until a writer comes, forever when none does; a
+    device may never end (``/dev/zero``, ``/dev/urandom``). Neither is an input file, so
+    every input is refused unless it is a regular file. A missing file passes: its reader
+    says "not found" as it always did.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "a folder, not a file"
+    kind = "a named pipe (FIFO)" if stat.S_ISFIFO(mode) else \
+        "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else \
+        "a socket" if stat.S_ISSOCK(mode) else "not a regular file"
+    return f"{kind}, not a regular file: reading it could block forever"
+
+
+def regular_input(path: str | Path, what: str) -> Path:
+    """``path`` as a Path if it is a regular file (or missing: its reader says so), else
+    InputError naming ``what`` and why (see :func:`not_regular`)."""
+    from demcal.errors import InputError
+
+    if why := not_regular(path):
+        raise InputError(f"{what} {path}: {why}")
+    return Path(path)
 
 
 def safe_filename(text: str, max_len: int = 100) -> str:
@@ -77,6 +111,11 @@ def csv_safe(frame: pd.DataFrame) -> pd.DataFrame:
 
 def image_problem(path: Path) -> str | None:
     """Why ``path`` is not an image demcal will read (None: a PNG or JPEG within bounds)."""
+    return not_regular(path) or _image_problem(path)  # a named pipe is never opened
+
+
+def _image_problem(path: Path) -> str | None:
+    """:func:`image_problem` of a regular file."""
     try:
         size = path.stat().st_size
         with path.open("rb") as fh:
@@ -109,7 +148,11 @@ def photo_too_large(path: str | Path) -> str | None:
     Only the header is read, so a decompression bomb is refused before it takes memory. A
     file that is not an image passes: its reader says so.
     """
-    p = Path(path)
+    return not_regular(path) or _photo_too_large(Path(path))  # a named pipe is never opened
+
+
+def _photo_too_large(p: Path) -> str | None:
+    """:func:`photo_too_large` of a regular file."""
     try:
         if p.stat().st_size > MAX_IMAGE_BYTES:
             return f"larger than {MAX_IMAGE_BYTES // (1024 * 1024)} MB"

@@ -24,6 +24,7 @@ from demcal.cli._common import check_output_file, cli_errors, console, log
 from demcal.cli._outputs import refuse_overwrites
 from demcal.errors import InputError
 from demcal.limits import MAX_DESIGN_RUNS, MAX_SEED, check_finite
+from demcal.safety import regular_input
 
 BOOKKEEPING = ("run", "std", "point_type", "block")
 
@@ -149,6 +150,7 @@ def _write_sheet(design: doe.Design, out: Path | None) -> None:
 def _read_csv(path: Path) -> pd.DataFrame:
     if not path.exists():
         raise InputError(f"runs file {str(path)!r} does not exist")
+    regular_input(path, "runs file")  # a named pipe would block the read
     try:
         frame = pd.read_csv(path, skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:

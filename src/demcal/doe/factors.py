@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from demcal.errors import InputError
+from demcal.safety import regular_input
 
 __all__ = ["Factor", "FactorSpace", "as_factor_space", "load_factors"]
 
@@ -378,7 +379,7 @@ def load_factors(path: str | Path) -> FactorSpace:
         If the file is missing or not TOML, has no ``factors``, or a factor is invalid
         (the message names the field, e.g. ``factors.x3.low``).
     """
-    p = Path(path)
+    p = regular_input(path, "factors file")  # a named pipe would block the read
     try:
         with p.open("rb") as fh:
             data = tomllib.load(fh)

@@ -73,6 +73,7 @@ from demcal.physical.conversions import (
     youngs_modulus_from_shear,
 )
 from demcal.physical.parameters import PARAMETERS
+from demcal.safety import regular_input
 
 __all__ = [
     "AngleOfRepose",
@@ -538,7 +539,7 @@ def load_measurements(path: str | Path) -> Measurements:
     InputError
         File missing or unreadable, bad TOML, or invalid fields (one line per field).
     """
-    p = Path(path)
+    p = regular_input(path, "measurements file")  # a named pipe would block the read
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
