@@ -195,6 +195,10 @@ def _loads(text: Any, where: str) -> Any:
     """``json.loads`` of a stored cell; a damaged cell is a StoreError naming ``where``."""
     try:
         return json.loads(text)
+    except RecursionError:  # a crafted cell: refused like any damaged one
+        raise StoreError(f"{where}: unreadable JSON (nested too deeply); the store is damaged "
+                         "(`demcal store salvage` copies the readable runs into a new "
+                         "store)") from None
     except (TypeError, ValueError) as exc:
         raise StoreError(f"{where}: unreadable JSON ({exc}); the store is damaged (`demcal "
                          "store salvage` copies the readable runs into a new store)") from None

@@ -53,10 +53,17 @@ def styled(*parts: str | tuple[str, str]) -> Text:
     return Text.assemble(*parts)
 
 
-def one_line(text: object) -> str:
-    """``text`` on one line: line breaks (and other control characters) become spaces."""
+#: longest error line printed (a screenful): a message quoting a 9 MB value is cut here
+MAX_LINE_CHARS = 2000
+
+
+def one_line(text: object, limit: int = MAX_LINE_CHARS) -> str:
+    """``text`` on one line, at most ``limit`` characters: line breaks and other control
+    characters (ESC of a terminal sequence included) become spaces."""
     s = str(text)
-    return "".join(" " if (c in "\r\n\t" or ord(c) < 32) else c for c in s).strip()
+    if len(s) > limit:
+        s = s[:limit] + f"... ({len(s) - limit:,} more characters)"
+    return "".join(" " if (ord(c) < 32 or 0x7f <= ord(c) < 0xa0) else c for c in s).strip()
 
 
 def format_validation_error(exc: Exception) -> str:
@@ -191,13 +198,46 @@ def _check_stdout() -> None:
                     "of its output was shown", EXIT_STDOUT_GONE)
 
 
+def _os_message(exc: OSError) -> str:
+    where = f"{exc.filename}: " if exc.filename else ""
+    return f"{where}{exc.strerror or exc}"
+
+
+#: expected errors: (types, prefix, message, exit code), the first match wins
+_ERRORS: tuple[tuple[Any, str, Callable[[Any], str], int], ...] = (
+    (InputError, "error:", str, EXIT_INPUT),
+    ((SimulationUnstable, StudyError, DemcalError), "failed:", str, EXIT_FAILURE),
+    ((FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError), "error:",
+     _os_message, EXIT_INPUT),
+    (UnicodeDecodeError, "error:", lambda e: f"an input file is not text (UTF-8): {e.reason} "
+     f"at byte {e.start}", EXIT_INPUT),
+    # a structure nested too deeply, wherever it was read: one line, not a traceback
+    (RecursionError, "error:", lambda e: "an input is nested too deeply (thousands of "
+     "levels) to be read", EXIT_INPUT),
+    (MemoryError, "failed:", lambda e: "out of memory; reduce the problem size", EXIT_FAILURE),
+    (sqlite3.DatabaseError, "failed:", lambda e: f"run store: {e}", EXIT_FAILURE),
+    (OSError, "failed:", str, EXIT_FAILURE),
+)
+
+
+def _as_exit(exc: Exception) -> typer.Exit | None:
+    """The exit (after its one line) of an expected error; None: a bug, keep its traceback."""
+    for types, prefix, message, code in _ERRORS:
+        if isinstance(exc, types):
+            return _fail(prefix, message(exc), code)
+    if type(exc).__name__ == "ValidationError" and hasattr(exc, "errors"):
+        return _fail("error:", format_validation_error(exc), EXIT_INPUT)
+    return None
+
+
 def cli_errors(func: F) -> F:
     """Decorate a command: expected errors become one red line and an exit code.
 
-    InputError, pydantic validation errors and unreadable input files (missing, a folder,
-    not text, no permission) exit with 2; a failed simulation or study, a damaged store or a
-    full disk exit with 3; Ctrl-C exits with 130. Anything else is a bug and keeps its
-    traceback.
+    InputError, pydantic validation errors, unreadable input files (missing, a folder,
+    not text, no permission) and inputs nested too deeply exit with 2; a failed simulation or
+    study, a damaged store or a full disk exit with 3; Ctrl-C exits with 130; a standard
+    output that went away during a command that ran to its end exits with 141. Anything else
+    is a bug and keeps its traceback.
     """
 
     @functools.wraps(func)
@@ -209,30 +249,12 @@ def cli_errors(func: F) -> F:
             if not done.exit_code:  # a failure's own exit code says more
                 _check_stdout()
             raise
-        except InputError as exc:
-            raise _fail("error:", exc, EXIT_INPUT) from None
-        except (SimulationUnstable, StudyError, DemcalError) as exc:
-            raise _fail("failed:", exc, EXIT_FAILURE) from None
-        except (FileNotFoundError, IsADirectoryError, NotADirectoryError,
-                PermissionError) as exc:
-            where = f"{exc.filename}: " if exc.filename else ""
-            raise _fail("error:", f"{where}{exc.strerror or exc}", EXIT_INPUT) from None
-        except UnicodeDecodeError as exc:
-            raise _fail("error:", f"an input file is not text (UTF-8): {exc.reason} at byte "
-                        f"{exc.start}", EXIT_INPUT) from None
-        except MemoryError:
-            raise _fail("failed:", "out of memory; reduce the problem size", EXIT_FAILURE) \
-                from None
-        except sqlite3.DatabaseError as exc:
-            raise _fail("failed:", f"run store: {exc}", EXIT_FAILURE) from None
-        except OSError as exc:
-            raise _fail("failed:", exc, EXIT_FAILURE) from None
         except KeyboardInterrupt:
             raise _fail("interrupted", "", EXIT_INTERRUPTED) from None
         except Exception as exc:
-            if type(exc).__name__ == "ValidationError" and hasattr(exc, "errors"):
-                raise _fail("error:", format_validation_error(exc), EXIT_INPUT) from None
-            raise
+            if (exit_ := _as_exit(exc)) is None:
+                raise
+            raise exit_ from None
         _check_stdout()
         return out
 

@@ -385,7 +385,7 @@ def load_factors(path: str | Path) -> FactorSpace:
             data = tomllib.load(fh)
     except FileNotFoundError:
         raise InputError(f"factors file {str(p)!r} does not exist") from None
-    except tomllib.TOMLDecodeError as exc:
+    except (tomllib.TOMLDecodeError, RecursionError) as exc:  # RecursionError: too deep
         raise InputError(f"factors file {str(p)!r} is not valid TOML: {exc}") from None
     section = data.get("factors")
     if section is None:

@@ -51,6 +51,8 @@ KILL_GRACE_S = 5.0
 LOG_NAME = "engine.log"
 #: lines of the log's end quoted in a failure's reason
 TAIL_LINES = 3
+#: bytes read from the log's end to find them
+TAIL_BYTES = 16 * 1024
 #: measured pile values (angles in deg, lengths in m) copied to the top of a run's result
 MEASURED_KEYS = ("aor_deg", "aor_left_deg", "aor_right_deg", "aor_std_deg", "pile_height_m",
                  "base_diameter_m")
@@ -104,11 +106,16 @@ def _values(task: Any, engine: dict[str, Any], run_dir: Path) -> dict[str, objec
 
 
 def _tail(log: Path) -> str:
+    """The log's last :data:`TAIL_LINES` lines, read from its end (a 300 MB log was read
+    whole to quote three lines)."""
     try:
-        lines = [ln.strip() for ln in log.read_text(errors="replace").splitlines()
-                 if ln.strip()]
+        with open(log, "rb") as fh:
+            fh.seek(0, os.SEEK_END)
+            fh.seek(max(0, fh.tell() - TAIL_BYTES))
+            text = fh.read(TAIL_BYTES).decode("utf-8", errors="replace")
     except OSError:
         return ""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
     tail = " | ".join(lines[-TAIL_LINES:])
     return tail[-300:]
 

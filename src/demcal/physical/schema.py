@@ -550,6 +550,8 @@ def load_measurements(path: str | Path) -> Measurements:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{p}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{p}: invalid TOML: nested too deeply") from None
     if "measurements" in doc:
         return parse_measurements(doc["measurements"], prefix="measurements")
     return parse_measurements(doc, prefix="measurements")
