@@ -66,6 +66,10 @@ def run_dir_name(key: str) -> str:
     return f"{stage}_{digest}"
 
 
+class HookFailed(Exception):
+    """The study's hook raised for this run: the run fails as ``engine_error``."""
+
+
 def _load_hook(ref: str) -> Callable[..., Any]:
     where, _, func = ref.rpartition(":")
     try:
@@ -95,8 +99,12 @@ def _values(task: Any, engine: dict[str, Any], run_dir: Path) -> dict[str, objec
                   template_dir=str(Path(engine["template_path"]).parent),
                   python=sys.executable)
     if engine.get("hook"):
-        extra = _load_hook(engine["hook"])(params=dict(task.params), seed=int(task.seed),
-                                           run_dir=run_dir)
+        hook = _load_hook(engine["hook"])
+        try:
+            extra = hook(params=dict(task.params), seed=int(task.seed), run_dir=run_dir)
+        except (Exception, SystemExit) as exc:  # the user's code: this run fails, typed
+            raise HookFailed(f"engine.hook {engine['hook']} raised {type(exc).__name__}: "
+                             f"{str(exc)[:300]}") from None
         if extra is not None:
             if not isinstance(extra, dict):
                 raise InputError(f"engine.hook: must return a dict of placeholders or None; "
@@ -196,8 +204,12 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
     t0 = time.perf_counter()
     run_dir = _fresh_run_dir(engine, task.key)
     log = run_dir / LOG_NAME
-    cmd = _write_input(task, engine, run_dir)
-    failure, what = _execute(cmd, run_dir, log, float(engine["timeout_s"]))
+    try:
+        cmd = _write_input(task, engine, run_dir)
+    except HookFailed as exc:  # nothing to run: the run's failure, not the study's end
+        cmd, (failure, what) = [], ("engine_error", str(exc))
+    else:
+        failure, what = _execute(cmd, run_dir, log, float(engine["timeout_s"]))
     info: dict[str, Any] = {"command": cmd, "status": what, "run_dir": str(run_dir),
                             "log": str(log), "engine_wall_time_s": time.perf_counter() - t0}
     artefacts = {"run_dir": str(run_dir), "engine_log": str(log)}
