@@ -13,21 +13,45 @@ import contextlib
 import functools
 import logging
 import os
+import re
 import sqlite3
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any, TypeVar
 
 import typer
 from rich.console import Console
+from rich.segment import Segment
 from rich.text import Text
 
 from demcal.cli._stdout import EXIT_STDOUT_GONE, guarded_stdout, reset, stdout_gone
 from demcal.errors import DemcalError, InputError, SimulationUnstable, StudyError
 
+#: characters of user text never sent to a terminal raw: C0 controls but line break and tab
+#: (ESC starts a terminal sequence: colours, "set window title"), DEL, C1 controls, and the
+#: bidirectional overrides that make a file name read backwards
+_UNSAFE_CHARS = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
+
+
+def printable(text: str) -> str:
+    """``text`` with every terminal control character written as an escape (``\\x1b``)."""
+    return _UNSAFE_CHARS.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 256
+                             else f"\\u{ord(m.group()):04x}", text)
+
+
+class SafeConsole(Console):
+    """A console that escapes control characters in the text it prints (study names, file
+    names, messages), never in rich's own control output (cursor moves, styles)."""
+
+    def _render_buffer(self, buffer: Iterable[Segment]) -> str:
+        return super()._render_buffer(
+            seg if seg.control else Segment(printable(seg.text), seg.style, seg.control)
+            for seg in buffer)
+
+
 # stdout through a guard: a closed pipe or a hung-up terminal ends no command midway
-console = Console(file=guarded_stdout, markup=False, highlight=False)
-err_console = Console(stderr=True, markup=False, highlight=False)
+console = SafeConsole(file=guarded_stdout, markup=False, highlight=False)
+err_console = SafeConsole(stderr=True, markup=False, highlight=False)
 log = logging.getLogger("demcal")
 
 F = TypeVar("F", bound=Callable[..., Any])
