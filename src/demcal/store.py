@@ -204,6 +204,17 @@ def _loads(text: Any, where: str) -> Any:
                          "store salvage` copies the readable runs into a new store)") from None
 
 
+def _loads_object(text: Any, where: str, what: str, *, none: bool = False) -> Any:
+    """:func:`_loads` of a cell that must hold a JSON object (or null when ``none``): a
+    crafted list there was a TypeError deep in a resumed study."""
+    value = _loads(text, where)
+    if isinstance(value, dict) or (none and value is None):
+        return value
+    raise StoreError(f"{where}: {what} is a JSON {type(value).__name__}, not an object; the "
+                     "store is damaged (`demcal store salvage` copies the readable runs into "
+                     "a new store)")
+
+
 def _proc_start(pid: int) -> str | None:
     """Start time of process ``pid`` (Linux clock ticks since boot), or None if unknown."""
     try:
@@ -521,11 +532,12 @@ class RunStore:
          reason, attempts, started, finished, wall, artefacts) = row
         where = f"{self.path}: run {key!r}"
         return RunRecord(key=key, stage=stage, point=point, replicate=replicate,
-                         params=_loads(params, where), seed=seed, status=status,
-                         outcome=outcome, aor_deg=aor, result=_loads(result, where),
+                         params=_loads_object(params, where, "params"), seed=seed,
+                         status=status, outcome=outcome, aor_deg=aor,
+                         result=_loads_object(result, where, "result", none=True),
                          reason=reason, attempts=attempts, engine_version=engine,
                          started_at=started, finished_at=finished, wall_time_s=wall,
-                         artefacts=_loads(artefacts, where))
+                         artefacts=_loads_object(artefacts, where, "artefacts", none=True))
 
     def get_run(self, key: str) -> RunRecord | None:
         """The stored run with this key, or None."""
@@ -639,6 +651,22 @@ def _patch_header(path: Path, *, keep_wal: bool) -> None:
         fh.write(head)
 
 
+def _refuse_newer_schema(conn: sqlite3.Connection, src: Path) -> None:
+    """Refuse to salvage a store of a newer schema: copied into this demcal's schema, what
+    only the newer demcal stores would be dropped without a word."""
+    try:
+        row = conn.execute("SELECT value_json FROM meta WHERE key = 'schema_version'").fetchone()
+        version = json.loads(row[0]) if row is not None else None
+    except (sqlite3.DatabaseError, ValueError, TypeError, IndexError, RecursionError):
+        return  # unreadable: salvage what it can, as for any damaged store
+    if isinstance(version, int) and not isinstance(version, bool) and \
+            version > SCHEMA_VERSION:
+        raise StoreError(f"{src}: store schema version {version}, this demcal writes "
+                         f"{SCHEMA_VERSION}: salvaging it here would turn it into schema "
+                         f"{SCHEMA_VERSION} and drop what the newer demcal stores; salvage "
+                         "it with that demcal (upgrade demcal)")
+
+
 def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
     """Copy what can still be read of a damaged store into a new store.
 
@@ -683,6 +711,7 @@ def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
     conn = sqlite3.connect(copy)
     counts = {"runs": 0, "runs_skipped": 0, "stages": 0, "meta": 0}
     try:
+        _refuse_newer_schema(conn, src)  # before the target is created
         out = RunStore(dst)
         with out:
             for row in _readable_rows(conn, "runs"):
@@ -695,7 +724,7 @@ def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
                 try:
                     out.set_stage(row[0], row[1], json.loads(row[2]), row[3])
                     counts["stages"] += 1
-                except (ValueError, TypeError, IndexError):
+                except (ValueError, TypeError, IndexError, RecursionError):
                     pass
             for row in _readable_rows(conn, "meta"):
                 if row[0] in ("schema_version", LOCK_KEY):
@@ -703,7 +732,7 @@ def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
                 try:
                     out.set_meta(row[0], json.loads(row[1]))
                     counts["meta"] += 1
-                except (ValueError, TypeError, IndexError):
+                except (ValueError, TypeError, IndexError, RecursionError):
                     pass
             try:
                 total = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
