@@ -45,8 +45,7 @@ def _print_result(result: dict) -> None:
         f"{v['relative_error_percent']:.2f} %"
     console.print(f"target AoR {result['target_aor_deg']:.2f} deg; predicted "
                   f"{result['predicted_aor_deg']:.2f} deg; verification ({v['n']} runs): "
-                  f"{mean} +/- {std} deg, relative error {rel}; {result['n_runs']} runs stored "
-                  f"({result['n_runs_executed']} run now)")
+                  f"{mean} +/- {std} deg, relative error {rel}; {_runs_stored(result)}")
     _print_verification(result)
     a = result.get("rsm_adequacy") or {}
     if a:
@@ -65,6 +64,15 @@ def _print_result(result: dict) -> None:
         console.print(styled(("warning:", "yellow"), " the response-surface model is not "
                              "adequate (see the rsm stage's warnings): its optimum is a guess "
                              "within the noise"))
+
+
+def _runs_stored(result: dict) -> str:
+    """How many runs the store holds, how many this study used, how many ran now."""
+    stored, used = result["n_runs"], result.get("n_runs_used", result["n_runs"])
+    other = "" if used >= stored else (
+        f", {stored - used} of them not used by this study's stages (another study's, or "
+        "this study's under earlier settings)")
+    return f"{stored} runs stored{other} ({result['n_runs_executed']} run now)"
 
 
 def _print_rounds(result: dict) -> None:

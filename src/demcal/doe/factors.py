@@ -26,6 +26,10 @@ from demcal.safety import regular_input
 
 __all__ = ["Factor", "FactorSpace", "as_factor_space", "load_factors"]
 
+#: largest |low| or |high| of a factor: its designs' levels (axial points beyond the range)
+#: and its model's squares stay finite
+MAX_FACTOR_VALUE = 1e150
+
 
 def _finite(value: Any, field: str) -> float:
     try:
@@ -76,6 +80,10 @@ class Factor:
             raise InputError(
                 f"low must be < high for factor {self.name}; got low={low:g}, high={high:g}"
             )
+        if not math.isfinite(high - low) or max(abs(low), abs(high)) > MAX_FACTOR_VALUE:
+            # a +-1e308 range overflowed to inf levels (a sheet of inf, exit 0)
+            raise InputError(f"factor {self.name}: low and high must lie within "
+                             f"+-{MAX_FACTOR_VALUE:g}; got low={low:g}, high={high:g}")
         object.__setattr__(self, "low", low)
         object.__setattr__(self, "high", high)
         if self.fixed is not None:
