@@ -204,6 +204,27 @@ def _loads(text: Any, where: str) -> Any:
                          "store salvage` copies the readable runs into a new store)") from None
 
 
+def _connect_readonly(path: Path) -> sqlite3.Connection:
+    """A read-only connection to the store ``path``.
+
+    SQLite reads a WAL-mode database by creating its ``-shm`` file beside it; in a read-only
+    folder (a finished study archived, a colleague's share) it cannot, and a healthy store
+    was called damaged. No writer can work in such a folder, so the file is then read as it
+    is (``immutable``: no ``-shm``, no lock) unless its write-ahead log still holds changes,
+    which only a writable folder lets SQLite merge: that is said in one line.
+    """
+    uri = path.resolve().as_uri()
+    if os.access(path.parent, os.W_OK | os.X_OK):  # a writer may run: the usual reader
+        return sqlite3.connect(f"{uri}?mode=ro", uri=True, timeout=60.0, isolation_level=None)
+    wal = path.with_name(path.name + "-wal")
+    if wal.is_file() and wal.stat().st_size > 0:
+        raise StoreError(f"{path}: its folder is read-only and its write-ahead log "
+                         f"{wal.name} holds changes SQLite must merge into the store first; "
+                         "copy the study folder somewhere writable to read it")
+    return sqlite3.connect(f"{uri}?mode=ro&immutable=1", uri=True, timeout=60.0,
+                           isolation_level=None)
+
+
 def _loads_object(text: Any, where: str, what: str, *, none: bool = False) -> Any:
     """:func:`_loads` of a cell that must hold a JSON object (or null when ``none``): a
     crafted list there was a TypeError deep in a resumed study."""
@@ -301,8 +322,7 @@ class RunStore:
         self._check_file(path)
         try:
             if readonly:
-                self._conn = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True,
-                                             timeout=60.0, isolation_level=None)
+                self._conn = _connect_readonly(path)
             else:
                 self._conn = sqlite3.connect(path, timeout=60.0, isolation_level=None)
             self._open(exists)
