@@ -54,3 +54,19 @@ def test_a_vanishing_time_step_is_refused_before_the_first_step():
     with pytest.raises(InputError, match=r"time step would be .* below 1e-09 s"):
         run_aor([params], config=config, seeds=[0])
     assert time.monotonic() - t0 < 120
+
+
+def test_a_photo_whose_measurement_would_not_fit_in_memory_is_refused(tmp_path,
+                                                                       monkeypatch):
+    from PIL import Image
+
+    import demcal.safety as safety
+
+    photo = tmp_path / "pile.png"
+    Image.new("L", (400, 300), 200).save(photo)  # 0.12 MP: about 17 MB to measure
+    monkeypatch.setattr(safety, "available_memory", lambda: 8 * 2**20)
+    res = CliRunner().invoke(app, ["measure", str(photo)])
+    assert res.exit_code == 2, res.output
+    assert "megapixels need about" in res.output and "GiB is available" in res.output
+    monkeypatch.setattr(safety, "available_memory", lambda: 64 * 2**20)
+    assert safety.photo_too_large(photo) is None
