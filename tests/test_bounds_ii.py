@@ -64,11 +64,23 @@ def test_a_huge_engine_value_is_quoted_not_echoed(tmp_path):
     with pytest.raises(ResultUnreadable) as err:
         read_value(tmp_path, {"file": "aor.json", "key": "aor_deg"})
     assert len(str(err.value)) < 300
-    extra = {"aor_deg": 31.0, "trace": list(range(1_000_000)), "ok": 1}
+    extra = {"aor_deg": 31.0, "trace": list(range(100_000)), "ok": 1}
     (tmp_path / "aor.json").write_text(json.dumps(extra))
     read = read_value(tmp_path, {"file": "aor.json", "key": "aor_deg"})
     assert read["aor_deg"] == 31.0 and read["engine_values"]["ok"] == 1
     assert len(json.dumps(read["engine_values"])) < 70_000  # kept with the run, per run
+
+
+def test_a_value_file_is_bounded_and_a_sparse_result_refused_before_parsing(tmp_path):
+    (tmp_path / "aor.json").write_text(" " * (2 * 2**20) + "31.0")
+    with pytest.raises(ResultUnreadable, match="larger than 1 MB"):
+        read_value(tmp_path, {"file": "aor.json", "key": "aor_deg"})
+    with open(tmp_path / "pile.csv", "wb") as fh:  # a sparse file: NUL bytes, no text
+        fh.write(b"x,y,z,radius\n")
+        fh.truncate(64 * 2**20)
+    with pytest.raises(ResultUnreadable, match="NUL bytes"):
+        read_positions(tmp_path, {"file": "pile.csv", "format": "csv", "columns": {
+            "x": "x", "y": "y", "z": "z", "radius": "radius"}})
 
 
 # --- class 7: depth ---------------------------------------------------------------------
@@ -130,3 +142,9 @@ def test_a_template_outside_the_study_folder_is_refused(tmp_path):
                                           "result": {"kind": "value", "file": "aor.txt"}})
     with pytest.raises(InputError, match="outside the study folder"):
         load_engine(spec, study, set(PARAMETERS))
+
+
+def test_calibrate_workers_has_the_studys_upper_bound(tmp_path):
+    res = CliRunner().invoke(app, ["calibrate", str(tmp_path / "study.toml"), "--workers",
+                                   "100000"])
+    assert res.exit_code == 2 and "less than or equal to 1024" in res.output, res.output

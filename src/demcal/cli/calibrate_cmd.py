@@ -167,7 +167,8 @@ def calibrate_cmd(
         "--dask-timeout", help="Give up after this many seconds with no Dask worker "
         "(default: the study's, else wait and say so).")] = None,
     workers: Annotated[int | None, typer.Option(
-        min=1, help="Local worker processes (default: the study's, else the CPU count).")]
+        min=1, max=1024, help="Local worker processes, 1-1024 (default: the study's, else the "
+        "CPU count).")]
     = None,
     report: Annotated[bool, typer.Option(help="Build the HTML report at the end.")] = True,
     break_lock: Annotated[bool, typer.Option(

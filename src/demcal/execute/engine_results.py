@@ -27,6 +27,9 @@ NO_PILE_OUTCOMES = ("column", "plug", "scattered", "unsettled", "unstable")
 
 #: largest result file read, bytes (spheres: about 60 bytes a line)
 MAX_RESULT_BYTES = max(MAX_INPUT_FILE_BYTES, 100 * MAX_SPHERES)
+#: largest value file read, bytes: a number or a small JSON object (a 3M-number list took
+#: 9 MB of every run's reason and result)
+MAX_VALUE_BYTES = 1024 * 1024
 
 
 #: longest quote of an engine's value in a reason (a 3M-number list was echoed whole: 9 MB)
@@ -62,14 +65,19 @@ def _inside(run_dir: Path, name: str) -> Path:
     return path
 
 
-def _text(path: Path) -> str:
+def _text(path: Path, limit: int = MAX_RESULT_BYTES) -> str:
+    """The result file's text, refused by its size before it is read (``limit`` bytes),
+    and refused when it holds NUL bytes (a sparse or binary file, not text)."""
     if not path.is_file():
         raise ResultUnreadable(f"result file {path.name} not found in {path.parent}")
-    if path.stat().st_size > MAX_RESULT_BYTES:
-        raise ResultUnreadable(f"result file {path} is larger than "
-                               f"{MAX_RESULT_BYTES // 2**20} MB")
+    if path.stat().st_size > limit:
+        size = f"{limit // 2**20} MB" if limit >= 2**20 else f"{limit // 1024} KB"
+        raise ResultUnreadable(f"result file {path} is larger than {size}")
     try:
-        return path.read_bytes().decode("utf-8")
+        data = path.read_bytes()
+        if b"\x00" in data:
+            raise ResultUnreadable(f"result file {path} holds NUL bytes: not a text file")
+        return data.decode("utf-8")
     except UnicodeDecodeError:
         raise ResultUnreadable(f"result file {path} is not a text (UTF-8) file") from None
     except OSError as exc:
@@ -140,6 +148,9 @@ def read_positions(run_dir: str | Path, spec: dict[str, Any]) -> tuple[np.ndarra
     """
     path = _inside(Path(run_dir), spec["file"])
     text = _text(path)
+    if text.count("\n") > MAX_SPHERES + 100_000:  # refused before the lines are split
+        raise ResultUnreadable(f"result file {path.name}: more than {MAX_SPHERES:,} lines of "
+                               "spheres")
     cols: dict[str, str | int] = spec["columns"]
     fmt = spec["format"]
     if fmt == "table":
@@ -215,7 +226,7 @@ def read_value(run_dir: str | Path, spec: dict[str, Any]) -> dict[str, Any]:
         Missing file, not a number or JSON, an unknown outcome, an angle outside (0, 90).
     """
     path = _inside(Path(run_dir), spec["file"])
-    text = _text(path).strip()
+    text = _text(path, MAX_VALUE_BYTES).strip()
     key = spec.get("key") or "aor_deg"
     try:
         doc: Any = json.loads(text) if text else None
