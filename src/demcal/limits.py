@@ -14,8 +14,8 @@ from typing import Any
 
 __all__ = ["MAX_CHUNK", "MAX_DESIGN_RUNS", "MAX_INPUT_FILE_BYTES", "MAX_PARTICLES_PER_RUN",
            "MAX_REPLICATES", "MAX_SEED", "MAX_SPHERES", "MAX_STUDY_SEED",
-           "MAX_TEMPLATE_SPHERES", "check_finite", "check_test_size", "particles_of",
-           "spheres_of"]
+           "MAX_TEMPLATE_SPHERES", "MIN_TIME_STEP_S", "check_finite", "check_test_size",
+           "check_time_step", "particles_of", "spheres_of"]
 
 #: largest seed of ``demcal simulate`` and of the DoE run orders (fits numpy and SQLite)
 MAX_SEED = 2**32 - 1
@@ -36,6 +36,21 @@ MAX_DESIGN_RUNS = 100_000
 MAX_CHUNK = 100_000
 #: largest text input read whole (study, factors, measurements TOML; run sheets)
 MAX_INPUT_FILE_BYTES = 50 * 1024 * 1024
+#: shortest time step of demcal's engine, s: a 0.1 mm glass bead's is ~2e-8 s; far below,
+#: a run needs more steps than it could take in days (``particle.density = 1e-300`` hung)
+MIN_TIME_STEP_S = 1e-9
+
+
+def check_time_step(dt: float, what: str = "the time step") -> float:
+    """``dt`` (s) if a run with it can end, else ValueError naming the bound and the
+    parameters that set it."""
+    if not (math.isfinite(dt) and dt >= MIN_TIME_STEP_S):
+        raise ValueError(f"{what} would be {dt:.3g} s, below {MIN_TIME_STEP_S:g} s (a "
+                         "fraction of the smallest sphere's Rayleigh step, which grows with "
+                         "R sqrt(density / shear modulus)): the run would not end; check "
+                         "particle.density (kg/m^3), particle.shear_modulus (Pa) and the "
+                         "particle size")
+    return dt
 
 
 def check_finite(value: float, what: str) -> float:

@@ -11,25 +11,66 @@ Bounds
     Largest image file read (50 MB).
 :data:`MAX_IMAGE_PIXELS`
     Largest image decoded (100 megapixels; a decompression bomb is refused before decoding).
+:data:`MEASURE_BYTES_PER_PIXEL`
+    Memory a photo's measurement takes per pixel; a photo needing more than is available
+    is refused before decoding (:func:`memory_problem`).
 """
 
 from __future__ import annotations
 
 import math
+import os
 import re
+import stat
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-__all__ = ["MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "csv_cell", "csv_safe", "image_problem",
-           "photo_too_large", "safe_filename", "study_image"]
+__all__ = ["MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "MEASURE_BYTES_PER_PIXEL", "available_memory",
+           "csv_cell", "csv_safe", "image_problem", "memory_problem", "not_regular",
+           "photo_too_large", "regular_input", "safe_filename", "study_image"]
 
 MAX_IMAGE_BYTES = 50 * 1024 * 1024
 MAX_IMAGE_PIXELS = 100_000_000
+#: memory the measurement of a photo takes per pixel, bytes (probe 2026-11-27: a 48 MP JPEG
+#: peaked at 6.6 GB, 137 bytes a pixel): the 100 MP bound needs ~14 GB, within 24 GiB
+MEASURE_BYTES_PER_PIXEL = 140
 _MAGIC = {b"\x89PNG\r\n\x1a\n": "PNG", b"\xff\xd8\xff": "JPEG"}
 _FORMULA_START = ("=", "+", "-", "@", "\t", "\r", "|", "%")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def not_regular(path: str | Path) -> str | None:
+    """Why ``path`` (links followed) is not a regular file demcal may read, else None.
+
+    A named pipe (FIFO) blocks its reader until a writer comes, forever when none does; a
+    device may never end (``/dev/zero``, ``/dev/urandom``). Neither is an input file, so
+    every input is refused unless it is a regular file. A missing file passes: its reader
+    says "not found" as it always did.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "a folder, not a file"
+    kind = "a named pipe (FIFO)" if stat.S_ISFIFO(mode) else \
+        "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else \
+        "a socket" if stat.S_ISSOCK(mode) else "not a regular file"
+    return f"{kind}, not a regular file: reading it could block forever"
+
+
+def regular_input(path: str | Path, what: str) -> Path:
+    """``path`` as a Path if it is a regular file (or missing: its reader says so), else
+    InputError naming ``what`` and why (see :func:`not_regular`)."""
+    from demcal.errors import InputError
+
+    if why := not_regular(path):
+        raise InputError(f"{what} {path}: {why}")
+    return Path(path)
 
 
 def safe_filename(text: str, max_len: int = 100) -> str:
@@ -77,6 +118,11 @@ def csv_safe(frame: pd.DataFrame) -> pd.DataFrame:
 
 def image_problem(path: Path) -> str | None:
     """Why ``path`` is not an image demcal will read (None: a PNG or JPEG within bounds)."""
+    return not_regular(path) or _image_problem(path)  # a named pipe is never opened
+
+
+def _image_problem(path: Path) -> str | None:
+    """:func:`image_problem` of a regular file."""
     try:
         size = path.stat().st_size
         with path.open("rb") as fh:
@@ -109,7 +155,11 @@ def photo_too_large(path: str | Path) -> str | None:
     Only the header is read, so a decompression bomb is refused before it takes memory. A
     file that is not an image passes: its reader says so.
     """
-    p = Path(path)
+    return not_regular(path) or _photo_too_large(Path(path))  # a named pipe is never opened
+
+
+def _photo_too_large(p: Path) -> str | None:
+    """:func:`photo_too_large` of a regular file."""
     try:
         if p.stat().st_size > MAX_IMAGE_BYTES:
             return f"larger than {MAX_IMAGE_BYTES // (1024 * 1024)} MB"
@@ -130,7 +180,44 @@ def photo_too_large(path: str | Path) -> str | None:
         return None
     if w * h > MAX_IMAGE_PIXELS:
         return f"{w} x {h} pixels, more than {MAX_IMAGE_PIXELS:,} (a decompression bomb?)"
-    return None
+    return memory_problem(w * h)
+
+
+def available_memory() -> int | None:
+    """Bytes of memory this process may still take (Linux: ``MemAvailable``, capped by a
+    cgroup's ``memory.max``); None where unknown."""
+    avail = None
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                avail = int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    try:
+        cap = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        current = Path("/sys/fs/cgroup/memory.current").read_text().strip()
+        if cap.isdigit() and current.isdigit():
+            left = int(cap) - int(current)
+            avail = left if avail is None else min(avail, left)
+    except OSError:
+        pass
+    return avail
+
+
+def memory_problem(pixels: int) -> str | None:
+    """Why measuring a photo of ``pixels`` would not fit in memory now, else None.
+
+    The measurement takes about :data:`MEASURE_BYTES_PER_PIXEL` bytes a pixel (grey levels,
+    thresholds, masks and labels of the whole frame); a photo that needs more than the
+    memory available is refused before it is decoded, rather than taking the machine.
+    """
+    need = int(pixels) * MEASURE_BYTES_PER_PIXEL
+    avail = available_memory()
+    if avail is None or need <= avail:
+        return None
+    return (f"{pixels / 1e6:.1f} megapixels need about {need / 2**30:.1f} GiB to measure, "
+            f"{max(avail, 0) / 2**30:.1f} GiB is available: scale the photo down or free "
+            "memory")
 
 
 def study_image(path: str | Path | None, study_dir: str | Path) -> tuple[Path | None, str]:

@@ -236,9 +236,45 @@ def _loads(text: Any, where: str) -> Any:
     """``json.loads`` of a stored cell; a damaged cell is a StoreError naming ``where``."""
     try:
         return json.loads(text)
+    except RecursionError:  # a crafted cell: refused like any damaged one
+        raise StoreError(f"{where}: unreadable JSON (nested too deeply); the store is damaged "
+                         "(`demcal store salvage` copies the readable runs into a new "
+                         "store)") from None
     except (TypeError, ValueError) as exc:
         raise StoreError(f"{where}: unreadable JSON ({exc}); the store is damaged (`demcal "
                          "store salvage` copies the readable runs into a new store)") from None
+
+
+def _connect_readonly(path: Path) -> sqlite3.Connection:
+    """A read-only connection to the store ``path``.
+
+    SQLite reads a WAL-mode database by creating its ``-shm`` file beside it; in a read-only
+    folder (a finished study archived, a colleague's share) it cannot, and a healthy store
+    was called damaged. No writer can work in such a folder, so the file is then read as it
+    is (``immutable``: no ``-shm``, no lock) unless its write-ahead log still holds changes,
+    which only a writable folder lets SQLite merge: that is said in one line.
+    """
+    uri = path.resolve().as_uri()
+    if os.access(path.parent, os.W_OK | os.X_OK):  # a writer may run: the usual reader
+        return sqlite3.connect(f"{uri}?mode=ro", uri=True, timeout=60.0, isolation_level=None)
+    wal = path.with_name(path.name + "-wal")
+    if wal.is_file() and wal.stat().st_size > 0:
+        raise StoreError(f"{path}: its folder is read-only and its write-ahead log "
+                         f"{wal.name} holds changes SQLite must merge into the store first; "
+                         "copy the study folder somewhere writable to read it")
+    return sqlite3.connect(f"{uri}?mode=ro&immutable=1", uri=True, timeout=60.0,
+                           isolation_level=None)
+
+
+def _loads_object(text: Any, where: str, what: str, *, none: bool = False) -> Any:
+    """:func:`_loads` of a cell that must hold a JSON object (or null when ``none``): a
+    crafted list there was a TypeError deep in a resumed study."""
+    value = _loads(text, where)
+    if isinstance(value, dict) or (none and value is None):
+        return value
+    raise StoreError(f"{where}: {what} is a JSON {type(value).__name__}, not an object; the "
+                     "store is damaged (`demcal store salvage` copies the readable runs into "
+                     "a new store)")
 
 
 def _proc_start(pid: int) -> str | None:
@@ -329,8 +365,7 @@ class RunStore:
         self._check_file(path)
         try:
             if readonly:
-                self._conn = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True,
-                                             timeout=60.0, isolation_level=None)
+                self._conn = _connect_readonly(path)
             else:
                 self._conn = sqlite3.connect(path, timeout=60.0, isolation_level=None)
             self._open(exists)
@@ -611,12 +646,12 @@ class RunStore:
         if responses is None:
             responses = self._responses("key = ?", (key,)).get(key, {})
         return RunRecord(key=key, stage=stage, point=point, replicate=replicate,
-                         params=_loads(params, where), seed=seed, status=status,
-                         outcome=outcome, responses=dict(responses),
-                         result=_loads(result, where),
+                         params=_loads_object(params, where, "params"), seed=seed,
+                         status=status, outcome=outcome, responses=dict(responses),
+                         result=_loads_object(result, where, "result", none=True),
                          reason=reason, attempts=attempts, engine_version=engine,
                          started_at=started, finished_at=finished, wall_time_s=wall,
-                         artefacts=_loads(artefacts, where))
+                         artefacts=_loads_object(artefacts, where, "artefacts", none=True))
 
     def get_run(self, key: str) -> RunRecord | None:
         """The stored run with this key, or None."""
@@ -745,6 +780,22 @@ def _salvage_responses(conn: sqlite3.Connection) -> dict[str, dict[str, float]]:
     return out
 
 
+def _refuse_newer_schema(conn: sqlite3.Connection, src: Path) -> None:
+    """Refuse to salvage a store of a newer schema: copied into this demcal's schema, what
+    only the newer demcal stores would be dropped without a word."""
+    try:
+        row = conn.execute("SELECT value_json FROM meta WHERE key = 'schema_version'").fetchone()
+        version = json.loads(row[0]) if row is not None else None
+    except (sqlite3.DatabaseError, ValueError, TypeError, IndexError, RecursionError):
+        return  # unreadable: salvage what it can, as for any damaged store
+    if isinstance(version, int) and not isinstance(version, bool) and \
+            version > SCHEMA_VERSION:
+        raise StoreError(f"{src}: store schema version {version}, this demcal writes "
+                         f"{SCHEMA_VERSION}: salvaging it here would turn it into schema "
+                         f"{SCHEMA_VERSION} and drop what the newer demcal stores; salvage "
+                         "it with that demcal (upgrade demcal)")
+
+
 def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
     """Copy what can still be read of a damaged store into a new store.
 
@@ -789,6 +840,7 @@ def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
     conn = sqlite3.connect(copy)
     counts = {"runs": 0, "runs_skipped": 0, "stages": 0, "meta": 0}
     try:
+        _refuse_newer_schema(conn, src)  # before the target is created
         out = RunStore(dst)
         with out:
             responses = _salvage_responses(conn)
@@ -805,7 +857,7 @@ def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
                 try:
                     out.set_stage(row[0], row[1], json.loads(row[2]), row[3])
                     counts["stages"] += 1
-                except (ValueError, TypeError, IndexError):
+                except (ValueError, TypeError, IndexError, RecursionError):
                     pass
             for row in _readable_rows(conn, "meta"):
                 if row[0] in ("schema_version", LOCK_KEY):
@@ -813,7 +865,7 @@ def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
                 try:
                     out.set_meta(row[0], json.loads(row[1]))
                     counts["meta"] += 1
-                except (ValueError, TypeError, IndexError):
+                except (ValueError, TypeError, IndexError, RecursionError):
                     pass
             try:
                 total = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]

@@ -102,8 +102,10 @@ AoRResult.to_dict() or the stand-in's dict), reason, attempts, timings, artefact
 Also written (extra keys, readers may ignore them): steepest "message"; optimize
 "classifier" and each candidate's "desirability"; verification "n_piles"; a retried run's
 result "first_attempt"; meta "result" also holds "optimum_full" (every parameter),
-"n_runs_executed", "ranges" (final factor ranges), "rounds" (one row per verification
-round: its optimum, prediction, piles and confirmation; the study's answer is the last),
+"n_runs_executed", "n_runs_used" (the runs this study's stages used; "n_runs" counts every
+stored run, a reused store's others included), "ranges" (final factor ranges), "rounds"
+(one row per verification round: its optimum, prediction, piles and confirmation; the
+study's answer is the last),
 "rsm_adequate" and "stages" (per stage: design, factors, responses, selected). Each stage
 row's inputs_hash is a hash of the stage's inputs (ranges, options, fixed values, test); runs
 are reused by run key, so a changed study re-runs only the runs whose key changed.

@@ -55,7 +55,8 @@ def import_results(csv: str | Path, runner: Runner) -> int:
         raise InputError(f"{path}: larger than {MAX_INPUT_FILE_BYTES // 2**20} MB; not a run "
                          "sheet")
     try:
-        frame = pd.read_csv(path, encoding="utf-8")
+        # only an empty cell is "not done yet": a typed 'nan' or 'NA' is refused, not skipped
+        frame = pd.read_csv(path, encoding="utf-8", keep_default_na=False, na_values=[""])
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text (UTF-8) file; a run sheet is a CSV file") \
             from None
@@ -87,23 +88,9 @@ def import_results(csv: str | Path, runner: Runner) -> int:
             raise InputError(f"{where}: the same run (key {row['key']}) as row "
                              f"{seen[row['key']]}; give each run once")
         seen[row["key"]] = line
-        aor = row["aor_deg"]
-        try:
-            aor = None if aor is None or (isinstance(aor, float) and math.isnan(aor)) \
-                else float(aor)
-        except ValueError:
-            raise InputError(f"{where}: aor_deg must be a number; got {aor!r}") from None
-        outcome = row["outcome"]
-        outcome = None if not isinstance(outcome, str) or not outcome.strip() else \
-            outcome.strip()
-        if outcome is None and aor is None:
+        if (response := _response(row, where)) is None:
             continue  # not done yet
-        outcome = outcome or "pile"
-        if outcome not in OUTCOMES:
-            raise InputError(f"{where}: outcome must be one of {', '.join(OUTCOMES)}; "
-                             f"got {outcome!r}")
-        if outcome == "pile" and (aor is None or not 0 < aor < 90):
-            raise InputError(f"{where}: aor_deg must be in (0, 90) for a pile; got {aor!r}")
+        outcome, aor = response
         todo.append((stage, p, _imported(runner.key(stage, p), outcome, aor, path),
                      2 if outcome in ("unstable", "unsettled") else 1))
     with runner.store.batch():
@@ -117,6 +104,31 @@ def _imported(key: str, outcome: str, aor: float | None, path: Path) -> RunResul
     pile = outcome == "pile"
     return RunResult(key, outcome, responses={"aor_deg": aor} if pile else {},
                      reason=None if pile else "imported", detail={"imported_from": str(path)})
+
+
+def _response(row: pd.Series, where: str) -> tuple[str, float | None] | None:
+    """A row's ``(outcome, aor_deg)``; None when both cells are empty (not done yet)."""
+    aor = row["aor_deg"]
+    try:
+        aor = None if aor is None or (isinstance(aor, float) and math.isnan(aor)) \
+            else float(aor)
+    except ValueError:
+        raise InputError(f"{where}: aor_deg must be a number; got {aor!r}") from None
+    outcome = row["outcome"]
+    outcome = None if not isinstance(outcome, str) or not outcome.strip() else outcome.strip()
+    if outcome is None and aor is None:
+        return None
+    if outcome not in (None, "pile") and aor is not None:
+        raise InputError(f"{where}: aor_deg {aor!r} given for a run whose outcome is "
+                         f"{outcome!r}; give an angle for a pile, or an outcome without an "
+                         "angle")
+    outcome = outcome or "pile"
+    if outcome not in OUTCOMES:
+        raise InputError(f"{where}: outcome must be one of {', '.join(OUTCOMES)}; got "
+                         f"{outcome!r}")
+    if outcome == "pile" and (aor is None or not 0 < aor < 90):
+        raise InputError(f"{where}: aor_deg must be in (0, 90) for a pile; got {aor!r}")
+    return outcome, aor
 
 
 def _int(value: object, name: str) -> int:

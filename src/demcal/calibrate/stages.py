@@ -198,6 +198,29 @@ def _replicated(design: doe.Design, runs: list[list[float]], n_reps: int
     return rep, y
 
 
+def no_variation(y: np.ndarray, unit: str = "deg") -> str | None:
+    """Why the responses ``y`` (NaN: no response) cannot be modelled, else None.
+
+    A response that does not vary (every run gave the same angle: the factors' ranges move
+    nothing the test measures, or the engine writes a constant), or whose spread is not a
+    finite number (a crafted or broken result of 1e308), has no effect to estimate: the
+    ANOVA would divide 0 by 0.
+    """
+    y = np.asarray(y, dtype=float)
+    y = y[~np.isnan(y)]
+    if y.size < 2:
+        return None  # too few responses: the fit says so
+    lo, hi = float(np.min(y)), float(np.max(y))
+    if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(hi - lo)):
+        return (f"the responses are not finite numbers of a usable size (from {lo:.6g} to "
+                f"{hi:.6g} {unit}); check the test's results")
+    if hi - lo <= 1e-9 * max(1.0, abs(hi)):
+        return (f"the response does not vary: all {y.size} runs gave {hi:.6g} {unit}; the "
+                "factors' ranges move nothing the test measures (widen them) or the test "
+                "gives a constant (check its result)")
+    return None
+
+
 def _fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_seeds: bool
               ) -> tuple[doe.ResponseSurface, list[str]]:
     """The quadratic fitted to every replicate row; with common seeds, in blocks.
@@ -207,6 +230,8 @@ def _fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_se
     pure error. A run without a pile unbalances the blocks; then the rows are fitted without
     blocks and a note (the list returned) says so.
     """
+    if (flat := no_variation(y_rows)) is not None:  # a clear statement, not a 0/0 in the ANOVA
+        raise InputError(flat)
     if not common_seeds or n_reps < 2:
         return doe.fit(rep_design, y_rows, model="quadratic"), []
     blocks = np.tile(np.arange(1, n_reps + 1), rep_design.n_runs // n_reps)
@@ -391,6 +416,8 @@ def screening(ctx: Context) -> dict[str, Any]:
         "dummies": [f"dummy{j + 1}" for j in range(design.dummies.shape[1])],
         "runs": _run_rows(design, y, outcomes, point_runs), "excluded_points": excluded}
     try:
+        if (flat := no_variation(y)) is not None:  # no effect to screen: say it, now
+            raise InputError(flat)
         rs = doe.fit(design, y, model="linear")
         if rs.df_resid < 1:
             raise InputError("no residual degrees of freedom")

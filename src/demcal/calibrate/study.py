@@ -506,6 +506,8 @@ def load_study(path: str | Path) -> Study:
             from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:  # x = [[[...]]] 100 000 deep: one line, not a traceback
+        raise InputError(f"{path}: not valid TOML: nested too deeply") from None
     return parse_study(data, base=path.parent.resolve())
 
 

@@ -46,6 +46,9 @@ def main() -> None:
     """
     import sys
 
+    from demcal.cli._stdout import survive_hangup
+
+    survive_hangup()  # a dropped terminal ends no study midway (its output is guarded)
     # the click exceptions typer raises (typer may vendor its own click)
     errors = importlib.import_module(typer.BadParameter.__module__)
     try:

@@ -9,18 +9,22 @@ parts), never from markup in an f-string.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import os
+import re
 import sqlite3
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any, TypeVar
 
 import typer
 from rich.console import Console
+from rich.segment import Segment
 from rich.text import Text
 
+from demcal.cli._stdout import EXIT_STDOUT_GONE, guarded_stdout, reset, stdout_gone
 from demcal.errors import (
     DemcalError,
     InputError,
@@ -29,8 +33,31 @@ from demcal.errors import (
     validation_message,
 )
 
-console = Console(markup=False, highlight=False)
-err_console = Console(stderr=True, markup=False, highlight=False)
+#: characters of user text never sent to a terminal raw: C0 controls but line break and tab
+#: (ESC starts a terminal sequence: colours, "set window title"), DEL, C1 controls, and the
+#: bidirectional overrides that make a file name read backwards
+_UNSAFE_CHARS = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
+
+
+def printable(text: str) -> str:
+    """``text`` with every terminal control character written as an escape (``\\x1b``)."""
+    return _UNSAFE_CHARS.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 256
+                             else f"\\u{ord(m.group()):04x}", text)
+
+
+class SafeConsole(Console):
+    """A console that escapes control characters in the text it prints (study names, file
+    names, messages), never in rich's own control output (cursor moves, styles)."""
+
+    def _render_buffer(self, buffer: Iterable[Segment]) -> str:
+        return super()._render_buffer(
+            seg if seg.control else Segment(printable(seg.text), seg.style, seg.control)
+            for seg in buffer)
+
+
+# stdout through a guard: a closed pipe or a hung-up terminal ends no command midway
+console = SafeConsole(file=guarded_stdout, markup=False, highlight=False)
+err_console = SafeConsole(stderr=True, markup=False, highlight=False)
 log = logging.getLogger("demcal")
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -56,10 +83,17 @@ def styled(*parts: str | tuple[str, str]) -> Text:
     return Text.assemble(*parts)
 
 
-def one_line(text: object) -> str:
-    """``text`` on one line: line breaks (and other control characters) become spaces."""
+#: longest error line printed (a screenful): a message quoting a 9 MB value is cut here
+MAX_LINE_CHARS = 2000
+
+
+def one_line(text: object, limit: int = MAX_LINE_CHARS) -> str:
+    """``text`` on one line, at most ``limit`` characters: line breaks and other control
+    characters (ESC of a terminal sequence included) become spaces."""
     s = str(text)
-    return "".join(" " if (c in "\r\n\t" or ord(c) < 32) else c for c in s).strip()
+    if len(s) > limit:
+        s = s[:limit] + f"... ({len(s) - limit:,} more characters)"
+    return "".join(" " if (ord(c) < 32 or 0x7f <= ord(c) < 0xa0) else c for c in s).strip()
 
 
 def format_validation_error(exc: Exception) -> str:
@@ -175,46 +209,78 @@ def check_report_problems(html_path: Path) -> None:
 
 
 def _fail(prefix: str, message: object, code: int) -> typer.Exit:
-    err_console.print(styled((prefix, "red"), " ", one_line(message)), soft_wrap=True)
+    with contextlib.suppress(OSError):  # stderr gone too: the exit code still says it
+        err_console.print(styled((prefix, "red"), " ", one_line(message)), soft_wrap=True)
     return typer.Exit(code)
+
+
+def _check_stdout() -> None:
+    """After a command that ran to its end: if its standard output went away meanwhile,
+    say so on stderr and exit with EXIT_STDOUT_GONE (its files are all written)."""
+    if stdout_gone():
+        raise _fail("failed:", "standard output was closed (a closed pipe or a hung-up "
+                    "terminal); the command ran to its end and wrote its files, but not all "
+                    "of its output was shown", EXIT_STDOUT_GONE)
+
+
+def _os_message(exc: OSError) -> str:
+    where = f"{exc.filename}: " if exc.filename else ""
+    return f"{where}{exc.strerror or exc}"
+
+
+#: expected errors: (types, prefix, message, exit code), the first match wins
+_ERRORS: tuple[tuple[Any, str, Callable[[Any], str], int], ...] = (
+    (InputError, "error:", str, EXIT_INPUT),
+    ((SimulationUnstable, StudyError, DemcalError), "failed:", str, EXIT_FAILURE),
+    ((FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError), "error:",
+     _os_message, EXIT_INPUT),
+    (UnicodeDecodeError, "error:", lambda e: f"an input file is not text (UTF-8): {e.reason} "
+     f"at byte {e.start}", EXIT_INPUT),
+    # a structure nested too deeply, wherever it was read: one line, not a traceback
+    (RecursionError, "error:", lambda e: "an input is nested too deeply (thousands of "
+     "levels) to be read", EXIT_INPUT),
+    (MemoryError, "failed:", lambda e: "out of memory; reduce the problem size", EXIT_FAILURE),
+    (sqlite3.DatabaseError, "failed:", lambda e: f"run store: {e}", EXIT_FAILURE),
+    (OSError, "failed:", str, EXIT_FAILURE),
+)
+
+
+def _as_exit(exc: Exception) -> typer.Exit | None:
+    """The exit (after its one line) of an expected error; None: a bug, keep its traceback."""
+    for types, prefix, message, code in _ERRORS:
+        if isinstance(exc, types):
+            return _fail(prefix, message(exc), code)
+    if type(exc).__name__ == "ValidationError" and hasattr(exc, "errors"):
+        return _fail("error:", format_validation_error(exc), EXIT_INPUT)
+    return None
 
 
 def cli_errors(func: F) -> F:
     """Decorate a command: expected errors become one red line and an exit code.
 
-    InputError, pydantic validation errors and unreadable input files (missing, a folder,
-    not text, no permission) exit with 2; a failed simulation or study, a damaged store or a
-    full disk exit with 3; Ctrl-C exits with 130. Anything else is a bug and keeps its
-    traceback.
+    InputError, pydantic validation errors, unreadable input files (missing, a folder,
+    not text, no permission) and inputs nested too deeply exit with 2; a failed simulation or
+    study, a damaged store or a full disk exit with 3; Ctrl-C exits with 130; a standard
+    output that went away during a command that ran to its end exits with 141. Anything else
+    is a bug and keeps its traceback.
     """
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        reset()
         try:
-            return func(*args, **kwargs)
-        except InputError as exc:
-            raise _fail("error:", exc, EXIT_INPUT) from None
-        except (SimulationUnstable, StudyError, DemcalError) as exc:
-            raise _fail("failed:", exc, EXIT_FAILURE) from None
-        except (FileNotFoundError, IsADirectoryError, NotADirectoryError,
-                PermissionError) as exc:
-            where = f"{exc.filename}: " if exc.filename else ""
-            raise _fail("error:", f"{where}{exc.strerror or exc}", EXIT_INPUT) from None
-        except UnicodeDecodeError as exc:
-            raise _fail("error:", f"an input file is not text (UTF-8): {exc.reason} at byte "
-                        f"{exc.start}", EXIT_INPUT) from None
-        except MemoryError:
-            raise _fail("failed:", "out of memory; reduce the problem size", EXIT_FAILURE) \
-                from None
-        except sqlite3.DatabaseError as exc:
-            raise _fail("failed:", f"run store: {exc}", EXIT_FAILURE) from None
-        except OSError as exc:
-            raise _fail("failed:", exc, EXIT_FAILURE) from None
+            out = func(*args, **kwargs)
+        except typer.Exit as done:
+            if not done.exit_code:  # a failure's own exit code says more
+                _check_stdout()
+            raise
         except KeyboardInterrupt:
             raise _fail("interrupted", "", EXIT_INTERRUPTED) from None
         except Exception as exc:
-            if type(exc).__name__ == "ValidationError" and hasattr(exc, "errors"):
-                raise _fail("error:", format_validation_error(exc), EXIT_INPUT) from None
-            raise
+            if (exit_ := _as_exit(exc)) is None:
+                raise
+            raise exit_ from None
+        _check_stdout()
+        return out
 
     return wrapper  # type: ignore[return-value]

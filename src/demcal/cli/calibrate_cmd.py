@@ -46,8 +46,7 @@ def _print_result(result: dict) -> None:
         f"{v['relative_error_percent']:.2f} %"
     console.print(f"target AoR {result['target_aor_deg']:.2f} deg; predicted "
                   f"{result['predicted_aor_deg']:.2f} deg; verification ({v['n']} runs): "
-                  f"{mean} +/- {std} deg, relative error {rel}; {result['n_runs']} runs stored "
-                  f"({result['n_runs_executed']} run now)")
+                  f"{mean} +/- {std} deg, relative error {rel}; {_runs_stored(result)}")
     _print_verification(result)
     a = result.get("rsm_adequacy") or {}
     if a:
@@ -66,6 +65,15 @@ def _print_result(result: dict) -> None:
         console.print(styled(("warning:", "yellow"), " the response-surface model is not "
                              "adequate (see the rsm stage's warnings): its optimum is a guess "
                              "within the noise"))
+
+
+def _runs_stored(result: dict) -> str:
+    """How many runs the store holds, how many this study used, how many ran now."""
+    stored, used = result["n_runs"], result.get("n_runs_used", result["n_runs"])
+    other = "" if used >= stored else (
+        f", {stored - used} of them not used by this study's stages (another study's, or "
+        "this study's under earlier settings)")
+    return f"{stored} runs stored{other} ({result['n_runs_executed']} run now)"
 
 
 def _print_rounds(result: dict) -> None:
@@ -160,6 +168,18 @@ def _build_report(study_dir: Path) -> Path:
     return Path(build_report(study_dir))
 
 
+def _refuse_json_onto_inputs(study: Path, json_out: Path | None) -> None:
+    """Refuse a ``--json`` that is the study file, its store or any file the study reads
+    (written at the end, it would replace them: every run lost)."""
+    if json_out is None:
+        return
+    from demcal.calibrate.study import load_study
+    from demcal.cli._outputs import refuse_overwrites, study_inputs
+
+    refuse_overwrites({"--json": json_out}, study_inputs(study))  # before parsing the study
+    refuse_overwrites({"--json": json_out}, study_inputs(study, load_study(study)))
+
+
 @app.command("calibrate")
 @cli_errors
 def calibrate_cmd(
@@ -175,7 +195,8 @@ def calibrate_cmd(
         "--dask-timeout", help="Give up after this many seconds with no Dask worker "
         "(default: the study's, else wait and say so).")] = None,
     workers: Annotated[int | None, typer.Option(
-        min=1, help="Local worker processes (default: the study's, else the CPU count).")]
+        min=1, max=1024, help="Local worker processes, 1-1024 (default: the study's, else the "
+        "CPU count).")]
     = None,
     report: Annotated[bool, typer.Option(help="Build the HTML report at the end.")] = True,
     break_lock: Annotated[bool, typer.Option(
@@ -192,6 +213,7 @@ def calibrate_cmd(
     study_dir = study_folder(study)
     if not Path(study).is_file():
         raise InputError(f"study file not found (or not a file): {study}")
+    _refuse_json_onto_inputs(study, json_out)
     if report:
         check_output_dir(study_dir / "report", "report folder")
     if dask_timeout is not None and not 0 < dask_timeout <= 7 * 86400:
@@ -242,32 +264,41 @@ def calibrate_cmd(
             ctx.store.close()
     finally:
         progress.stop()
-    if json_out is not None:  # first: the result is kept whatever the printing does
+    # every file first (the JSON, the card or report), the console last: a console that
+    # is gone (a closed pipe, a hung-up terminal) or blocks costs no result
+    if json_out is not None:
         json_out.write_text(json.dumps(result, indent=2))
+    lines, report_path = _write_card_or_report(study_dir, report)
     _print_result(result)
     if json_out is not None:
         console.print(f"result: {json_out}")
-    if not report:  # the material card all the same (report/material.toml)
-        from demcal.report.material import write_material_card
-
-        try:
-            files = write_material_card(study_dir)
-        except OSError as exc:  # the result is stored; the card can be written by `report`
-            console.print(f"note: no material card written ({exc.strerror}: "
-                          f"{exc.filename}); `demcal report` writes it", markup=False,
-                          highlight=False)
-            files = None
-        if files is not None:
-            console.print(f"material card: {files[0]}")
-    if report:
-        path = _build_report(study_dir)
-        if path is not None:
-            console.print(f"report: {path}")
-            if (path.parent / "material.toml").is_file():
-                console.print(f"material card: {path.parent / 'material.toml'}")
-            check_report_problems(path)
+    for line in lines:
+        console.print(line, markup=False, highlight=False)
+    if report_path is not None:
+        check_report_problems(report_path)
     if demonstration:  # last, where a first run's reader looks
         _print_demonstration_worth(result)
+
+
+def _write_card_or_report(study_dir: Path, report: bool) -> tuple[list[str], Path | None]:
+    """Write the report (with its material card), or the card alone; return the lines
+    that name them and the report's path (None: no report)."""
+    if report:
+        path = _build_report(study_dir)
+        if path is None:
+            return [], None
+        lines = [f"report: {path}"]
+        if (path.parent / "material.toml").is_file():
+            lines.append(f"material card: {path.parent / 'material.toml'}")
+        return lines, path
+    from demcal.report.material import write_material_card
+
+    try:  # the material card all the same (report/material.toml)
+        files = write_material_card(study_dir)
+    except OSError as exc:  # the result is stored; the card can be written by `report`
+        return [f"note: no material card written ({exc.strerror}: {exc.filename}); "
+                "`demcal report` writes it"], None
+    return [f"material card: {files[0]}"], None
 
 
 @app.command("init")

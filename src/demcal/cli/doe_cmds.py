@@ -21,9 +21,11 @@ from rich.table import Table
 from demcal import doe
 from demcal.cli import app
 from demcal.cli._common import check_output_file, cli_errors, console, log
+from demcal.cli._outputs import refuse_overwrites
 from demcal.cli.optimize_goals import GoalsRun, check_goal_options, optimize_goals
 from demcal.errors import InputError
 from demcal.limits import MAX_DESIGN_RUNS, MAX_SEED, check_finite
+from demcal.safety import regular_input
 
 BOOKKEEPING = ("run", "std", "point_type", "block")
 
@@ -149,6 +151,7 @@ def _write_sheet(design: doe.Design, out: Path | None) -> None:
 def _read_csv(path: Path) -> pd.DataFrame:
     if not path.exists():
         raise InputError(f"runs file {str(path)!r} does not exist")
+    regular_input(path, "runs file")  # a named pipe would block the read
     try:
         frame = pd.read_csv(path, skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
@@ -618,14 +621,29 @@ def analyze(
 ) -> None:
     """Fit a model to a run sheet and print Design-Expert's ANOVA and fit statistics."""
     check_output_file(json_out, "--json", make_parents=True)
+    refuse_overwrites({"--json": json_out}, [(runs, "the run sheet"), (factors, "factors")])
     rs = _load_surface(runs, response, model, factors, columns, units, block=block)
     if reduce is not None:
         rs = rs.reduce(alpha_out=reduce)
     _print_analysis(rs)
+    if not rs.ss_total > 0:  # 0/0 above: say why every statistic is 0 or n/a
+        console.print(f"note: {response} does not vary (every run gave the same value): there "
+                      "is no effect to estimate", highlight=False)
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
         json_out.write_text(json.dumps(analysis_dict(rs), indent=2))
         console.print(f"results written to {json_out}", highlight=False)
+
+
+def _optimize_headline(frame: Any, response: str, target: float, model: str) -> str:
+    """The solutions table's title; a target no setting reaches (every desirability 0:
+    every prediction outside the limits) is called unreachable, never "predicted to give"."""
+    if len(frame) and float(frame["desirability"].max()) > 0:
+        return f"Settings predicted to give {response} = {target:g} ({model} model)"
+    closest = "" if not len(frame) else \
+        f"; the closest settings predict {float(frame['predicted'].iloc[0]):.5g}"
+    return (f"Target {response} = {target:g} is unreachable within the factors' ranges "
+            f"({model} model, desirability 0{closest})")
 
 
 @app.command("optimize")
@@ -667,6 +685,8 @@ def optimize_cmd(
     """Propose factor settings whose predicted response hits --target (ranked), or that
     maximise the overall desirability of several responses (--goals)."""
     check_output_file(json_out, "--json", make_parents=True)
+    refuse_overwrites({"--json": json_out}, [(runs, "the run sheet"), (factors, "factors"),
+                                             (goals, "the goals")])
     check_goal_options(goals, response, target)
     if goals is not None:
         _bounded(solutions, "--solutions", 1, 1000)
@@ -693,7 +713,7 @@ def optimize_cmd(
         seed=seed,
     )
     frame = res.to_frame()
-    t = Table(title=f"Settings predicted to give {response} = {target:g} ({rs.model} model)")
+    t = Table(title=_optimize_headline(frame, response, target, rs.model))
     for c in ("rank", *rs.names, "predicted", "desirability", "95% CI", "95% PI"):
         t.add_column(c, justify="right")
     for _, row in frame.iterrows():

@@ -12,6 +12,7 @@ from rich.text import Text
 
 from demcal.cli import app
 from demcal.cli._common import check_output_dir, check_output_file, cli_errors, console, log
+from demcal.cli._outputs import refuse_overwrites
 from demcal.errors import InputError
 from demcal.measure import (
     DEFAULT_FIT_WINDOW,
@@ -118,6 +119,8 @@ def measure(
     check_output_file(csv, "--csv", make_parents=True)
     check_output_file(json_out, "--json", make_parents=True)
     check_output_dir(plot_dir, "--plot-dir")
+    refuse_overwrites({"--plot": plot, "--csv": csv, "--json": json_out},
+                      [(p, "an input photo") for p in photos])
     for photo in photos:
         if why := photo_too_large(photo):
             raise InputError(f"photo {photo}: {why}")

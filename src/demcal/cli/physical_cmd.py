@@ -11,6 +11,7 @@ from rich.table import Table
 
 from demcal.cli import app
 from demcal.cli._common import check_output_file, cli_errors, console, log, styled
+from demcal.cli._outputs import refuse_overwrites
 from demcal.physical import PARAMETERS, PhysicalResult, derive_parameters, load_measurements
 from demcal.physical.stats import RepeatSummary
 
@@ -158,6 +159,7 @@ def physical(
 ) -> None:
     """Derive fixed parameters, factor ranges and the particle template from measurements."""
     check_output_file(json_out, "--json", make_parents=True)
+    refuse_overwrites({"--json": json_out}, [(measurements, "the measurements file")])
     log.info("reading %s", measurements)
     result = derive_parameters(
         load_measurements(measurements), ci_level=ci_level, range_rule=range_rule, range_k=k

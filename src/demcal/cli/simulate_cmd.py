@@ -22,6 +22,7 @@ from demcal.cli._common import (
     console,
     styled,
 )
+from demcal.cli._outputs import refuse_overwrites
 from demcal.errors import InputError
 from demcal.limits import MAX_REPLICATES, MAX_SEED, check_test_size
 from demcal.physical.stats import std_interval
@@ -238,6 +239,8 @@ def simulate_aor(
     check_output_file(plot, "--plot")
     check_output_file(json_out, "--json")
     check_output_dir(vtk, "--vtk")
+    refuse_overwrites({"--plot": plot, "--json": json_out},
+                      [(material, "the material card"), (hostfile, "the MPI hostfile")])
     overrides = parse_assignments(set_ or [])
     test_overrides = parse_test_overrides(test or [])
     if material is not None:
@@ -311,13 +314,13 @@ def simulate_aor(
     summary["engine"] = engine
     summary["preset"] = preset
     summary["material"] = None if material is None else str(material)
+    if json_out is not None:  # first: the console may be gone (a closed pipe)
+        json_out.write_text(json.dumps(summary, indent=1, default=float))
     _print_runs(results, summary, title=f"angle of repose ({preset}, {fidelity}"
                 + (", LAMMPS)" if engine == "lammps" else ")"))
     if plot is not None and "pile_png" not in results[0].artefacts:
         console.print(styled((f"no pile picture: the first run ended as "
                               f"{results[0].outcome}", "yellow")))
-    if json_out is not None:
-        json_out.write_text(json.dumps(summary, indent=1, default=float))
     if any(r.outcome == "unstable" for r in results):
         raise typer.Exit(EXIT_FAILURE)
 

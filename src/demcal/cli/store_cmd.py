@@ -9,6 +9,7 @@ import typer
 
 from demcal.cli import app
 from demcal.cli._common import check_output_file, cli_errors, console
+from demcal.cli._outputs import refuse_overwrites, store_files
 from demcal.store import STORE_NAME, salvage
 
 store_app = typer.Typer(help="Inspect and repair a study's run store.", no_args_is_help=True)
@@ -32,6 +33,7 @@ def salvage_cmd(
     folder = study_dir if study_dir.is_dir() else study_dir.parent
     out = out or folder / "demcal.salvaged.sqlite"
     check_output_file(out, "--out")
+    refuse_overwrites({"--out": out}, store_files(folder / STORE_NAME))
     counts = salvage(study_dir, out)
     console.print(f"salvaged {counts['runs']} runs ({counts['runs_skipped']} unreadable), "
                   f"{counts['stages']} stages and {counts['meta']} meta rows into {out}; move "

@@ -269,21 +269,24 @@ def screening_effects(rs: ResponseSurface) -> pd.DataFrame:
     coefs = rs.coefficients_coded.drop("intercept", errors="ignore")
     ss = rs.ss_partial
     terms = list(ss.index)
-    f = (ss / rs.mse).to_numpy() if rs.df_resid > 0 else np.full(len(terms), np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a flat response: 0/0 is NaN
+        f = (ss / rs.mse).to_numpy() if rs.df_resid > 0 and rs.ss_total > 0 else \
+            np.full(len(terms), np.nan)
+        share = 100.0 * ss.to_numpy() / rs.ss_total
     p = stats.f.sf(f, 1, rs.df_resid) if rs.df_resid > 0 else np.full(len(terms), np.nan)
     frame = pd.DataFrame(
         {
             "coefficient": coefs[terms].to_numpy(),
             "effect": 2.0 * coefs[terms].to_numpy(),
             "ss": ss.to_numpy(),
-            "contribution_percent": 100.0 * ss.to_numpy() / rs.ss_total,
+            "contribution_percent": share,
             "f": f,
             "p": p,
         },
         index=pd.Index(terms, name="term"),
     )
     frame["significance"] = [significance(v) for v in frame["p"]]
-    key = frame["p"] if rs.df_resid > 0 else -frame["effect"].abs()
+    key = frame["p"] if np.isfinite(frame["p"]).all() else -frame["effect"].abs()
     frame["rank"] = key.rank(method="min").astype(int)
     return frame.sort_values("rank", kind="stable")
 

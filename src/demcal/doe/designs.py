@@ -27,6 +27,7 @@ from scipy.stats import qmc
 
 from demcal.doe.factors import Factor, FactorSpace, as_factor_space
 from demcal.errors import InputError
+from demcal.limits import MAX_DESIGN_RUNS
 
 __all__ = [
     "FRACTION_GENERATORS",
@@ -469,6 +470,19 @@ def _word(word: frozenset[int]) -> str:
     return "".join(_LETTERS[i] for i in sorted(word))
 
 
+def _check_factorial_size(k: int, p: int, center_points: int) -> None:
+    """Refuse a 2^(k-p) design beyond :data:`demcal.limits.MAX_DESIGN_RUNS` runs (or with a
+    defining relation of more words) before it is built: a 2^20 full factorial took 3.4 GB."""
+    runs = 2 ** (k - p) + center_points
+    if runs > MAX_DESIGN_RUNS:
+        raise InputError(f"a 2^({k}-{p}) factorial has {runs:,} runs; at most "
+                         f"{MAX_DESIGN_RUNS:,}: use a fraction (fraction/generators) or fewer "
+                         "factors")
+    if 2 ** p - 1 > MAX_DESIGN_RUNS:
+        raise InputError(f"{p} generators give a defining relation of {2 ** p - 1:,} words; at "
+                         f"most {MAX_DESIGN_RUNS:,}")
+
+
 def factorial(
     factors: Any,
     *,
@@ -524,6 +538,7 @@ def factorial(
     p = len(gens)
     if k - p < 1:
         raise InputError("generators leave no basic factor")
+    _check_factorial_size(k, p, center_points)
     generated = {t for t, _, _ in gens}
     basic = [i for i in range(k) if i not in generated]
     base = _full_two_level(len(basic))

@@ -22,8 +22,13 @@ from typing import Any
 import numpy as np
 
 from demcal.errors import InputError
+from demcal.safety import regular_input
 
 __all__ = ["Factor", "FactorSpace", "as_factor_space", "load_factors"]
+
+#: largest |low| or |high| of a factor: its designs' levels (axial points beyond the range)
+#: and its model's squares stay finite
+MAX_FACTOR_VALUE = 1e150
 
 
 def _finite(value: Any, field: str) -> float:
@@ -75,6 +80,10 @@ class Factor:
             raise InputError(
                 f"low must be < high for factor {self.name}; got low={low:g}, high={high:g}"
             )
+        if not math.isfinite(high - low) or max(abs(low), abs(high)) > MAX_FACTOR_VALUE:
+            # a +-1e308 range overflowed to inf levels (a sheet of inf, exit 0)
+            raise InputError(f"factor {self.name}: low and high must lie within "
+                             f"+-{MAX_FACTOR_VALUE:g}; got low={low:g}, high={high:g}")
         object.__setattr__(self, "low", low)
         object.__setattr__(self, "high", high)
         if self.fixed is not None:
@@ -378,13 +387,13 @@ def load_factors(path: str | Path) -> FactorSpace:
         If the file is missing or not TOML, has no ``factors``, or a factor is invalid
         (the message names the field, e.g. ``factors.x3.low``).
     """
-    p = Path(path)
+    p = regular_input(path, "factors file")  # a named pipe would block the read
     try:
         with p.open("rb") as fh:
             data = tomllib.load(fh)
     except FileNotFoundError:
         raise InputError(f"factors file {str(p)!r} does not exist") from None
-    except tomllib.TOMLDecodeError as exc:
+    except (tomllib.TOMLDecodeError, RecursionError) as exc:  # RecursionError: too deep
         raise InputError(f"factors file {str(p)!r} is not valid TOML: {exc}") from None
     section = data.get("factors")
     if section is None:

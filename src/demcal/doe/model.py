@@ -300,7 +300,7 @@ class ResponseSurface:
         ``V(yhat_i) = h_i s^2`` so that ``mean V(yhat) = p s^2 / n``. Above 4 is adequate.
         Reproduces the paper's 26.586 for its Table 7 data.
         """
-        if self.df_resid <= 0:
+        if self.df_resid <= 0 or not self.mse > 0:  # no noise estimate (an exact fit)
             return math.nan
         mean_var = self.n_params * self.mse / self.n_runs
         return float((self.fitted.max() - self.fitted.min()) / math.sqrt(mean_var))
@@ -372,6 +372,10 @@ class ResponseSurface:
         """Model F value, (SS_model / df_model) / MSE."""
         if self.df_resid <= 0 or self.df_model <= 0:
             return math.nan
+        if not self.ss_total > 0:  # a response that does not vary: no model to test
+            return math.nan
+        if not self.mse > 0:  # an exact fit: no noise to test the model against
+            return math.inf
         return (self.ss_model / self.df_model) / self.mse
 
     @cached_property
@@ -592,9 +596,16 @@ def _build(
             f"too few runs for the {label} model: it has {p} terms but only {n} runs have a "
             f"response ({len(excluded)} excluded)"
         )
-    x = model_matrix(coded, terms)
-    # singular design: find the first term that adds no rank (is aliased with earlier ones)
-    scale = np.sqrt((x**2).sum(axis=0))
+    with np.errstate(over="ignore", invalid="ignore"):
+        x = model_matrix(coded, terms)
+        # singular design: find the first term that adds no rank (aliased with earlier ones)
+        scale = np.sqrt((x**2).sum(axis=0))
+    if not np.all(np.isfinite(scale)):  # a 1e308 cell: its square overflows
+        j = int(np.flatnonzero(~np.isfinite(scale))[0])
+        raise InputError(
+            f"the {label} model cannot be fitted: term {term_name(terms[j], names)} overflows "
+            f"(largest |coded value| {float(np.max(np.abs(coded))):.3g}); check the run sheet"
+        )
     if np.any(scale == 0):
         j = int(np.flatnonzero(scale == 0)[0])
         raise InputError(
@@ -777,18 +788,23 @@ def fit(
             raise InputError(f"blocks has {labels_b.shape[0]} labels but the design has "
                              f"{x.shape[0]} runs")
         y_fit, block_stats = _block_adjust(x[keep], y_fit, labels_b[keep], used)
-    return _build(
-        nm,
-        parsed,
-        x[keep],
-        y_fit,
-        factors=space,
-        run_labels=used,
-        excluded=excluded,
-        model=kind,
-        response_name=response_name or "response",
-        blocks=block_stats,
-    )
+    try:
+        return _build(
+            nm,
+            parsed,
+            x[keep],
+            y_fit,
+            factors=space,
+            run_labels=used,
+            excluded=excluded,
+            model=kind,
+            response_name=response_name or "response",
+            blocks=block_stats,
+        )
+    except (np.linalg.LinAlgError, OverflowError) as exc:  # e.g. a 1e308 cell: inf squares
+        raise InputError(f"the {kind} model cannot be fitted ({exc}): a factor value is too "
+                         f"large for its squares and products (largest |coded value| "
+                         f"{float(np.max(np.abs(x))):.3g}); check the run sheet") from None
 
 
 def _block_adjust(x: np.ndarray, y: np.ndarray, blocks: np.ndarray, labels: tuple[Any, ...]

@@ -25,12 +25,13 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import time
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 __all__ = ["AnalyticOptions", "PlantedResponse", "analytic_aor", "true_aor", "true_responses"]
 
@@ -70,6 +71,28 @@ class AnalyticOptions(BaseModel):
     responses: dict[str, PlantedResponse] = Field(default_factory=dict, max_length=20,
                                                   description="more responses by name")
 
+    @model_validator(mode="after")
+    def _known_names(self) -> AnalyticOptions:
+        """Every name is a parameter of the virtual test (a typo was a KeyError per run)."""
+        from demcal.virtual import PARAMETERS
+
+        for field in ("centre", "linear", "quadratic", "cubic", "no_pile_above",
+                      "unstable_above"):
+            for name in getattr(self, field):
+                if name not in PARAMETERS:
+                    raise ValueError(f"{field}: unknown parameter {name!r}; known: "
+                                     f"{', '.join(PARAMETERS)}")
+        for r in self.responses.values():
+            for name in (*r.linear, *r.quadratic):
+                if name not in PARAMETERS:
+                    raise ValueError(f"responses: unknown parameter {name!r}; known: "
+                                     f"{', '.join(PARAMETERS)}")
+        for pq in self.interaction:
+            names = [n.strip() for n in pq.split("*")]
+            if len(names) != 2 or any(n not in PARAMETERS for n in names):
+                raise ValueError(f"interaction: {pq!r} must be 'p*q' of two parameter names")
+        return self
+
 
 def _surface(params: Mapping[str, float], centre: Mapping[str, float], base: float,
              terms: tuple[Mapping[str, float], ...]) -> float:
@@ -92,6 +115,7 @@ def true_responses(params: Mapping[str, float],
     o = options if isinstance(options, AnalyticOptions) else AnalyticOptions(**options)
     return {name: _surface(params, o.centre, r.base, (r.linear, r.quadratic, {}, r.interaction))
             for name, r in o.responses.items()}
+
 
 
 def true_aor(params: Mapping[str, float], options: AnalyticOptions | Mapping[str, Any]) -> float:
@@ -120,7 +144,14 @@ def analytic_aor(params: Mapping[str, float], seed: int,
     text = json.dumps({"p": {k: repr(float(v)) for k, v in sorted(params.items())},
                        "s": int(seed)})
     rng = np.random.default_rng(int(hashlib.sha256(text.encode()).hexdigest()[:15], 16))
-    aor = true_aor(params, o) + o.noise_deg * float(rng.standard_normal())
+    try:
+        aor = true_aor(params, o) + o.noise_deg * float(rng.standard_normal())
+    except OverflowError:
+        aor = float("nan")
+    if not math.isfinite(aor):  # the planted surface overflows: a typed failed run
+        return {"outcome": "unstable", "aor_deg": None, "seed": int(seed),
+                "reason": "stand-in: the planted surface is not finite here",
+                "params": dict(params), "stand_in": True}
     out = {"outcome": "pile", "aor_deg": float(min(max(aor, 0.5), 89.5)), "seed": int(seed),
            "reason": None, "params": dict(params), "stand_in": True}
     if o.responses:  # drawn after the angle's noise: the angle stays as it was without them

@@ -27,20 +27,57 @@ NO_PILE_OUTCOMES = ("column", "plug", "scattered", "unsettled", "unstable")
 
 #: largest result file read, bytes (spheres: about 60 bytes a line)
 MAX_RESULT_BYTES = max(MAX_INPUT_FILE_BYTES, 100 * MAX_SPHERES)
+#: largest value file read, bytes: a number or a small JSON object (a 3M-number list took
+#: 9 MB of every run's reason and result)
+MAX_VALUE_BYTES = 1024 * 1024
+
+
+#: longest quote of an engine's value in a reason (a 3M-number list was echoed whole: 9 MB)
+QUOTE_CHARS = 60
+#: longest reason an engine may give for a run without a pile
+REASON_CHARS = 500
+#: largest JSON of an engine's extra values kept with a run (in the store, per run)
+MAX_EXTRA_BYTES = 64 * 1024
 
 
 class ResultUnreadable(Exception):
     """The engine's result file is missing, unreadable or out of range (one-line message)."""
 
 
-def _text(path: Path) -> str:
+def _quote(value: Any, limit: int = QUOTE_CHARS) -> str:
+    """``repr(value)`` cut to ``limit`` characters (a reason is one line, not a dump)."""
+    text = repr(value) if not isinstance(value, list | dict) or len(value) < 1000 else \
+        f"<a {type(value).__name__} of {len(value):,} items>"
+    return text if len(text) <= limit else text[:limit] + f"... ({len(text):,} characters)"
+
+
+def _inside(run_dir: Path, name: str) -> Path:
+    """The result file ``name`` of the run folder; one outside it (an absolute or ``..``
+    path, or a symlink out, made by the study or the engine) is never read."""
+    path = run_dir / name
+    try:
+        inside = path.resolve().is_relative_to(run_dir.resolve())
+    except (OSError, RuntimeError):  # a symlink loop
+        inside = False
+    if not inside:
+        raise ResultUnreadable(f"result file {name!r} lies outside the run folder {run_dir} "
+                               "(an absolute or '..' path, or a symlink out of it): not read")
+    return path
+
+
+def _text(path: Path, limit: int = MAX_RESULT_BYTES) -> str:
+    """The result file's text, refused by its size before it is read (``limit`` bytes),
+    and refused when it holds NUL bytes (a sparse or binary file, not text)."""
     if not path.is_file():
         raise ResultUnreadable(f"result file {path.name} not found in {path.parent}")
-    if path.stat().st_size > MAX_RESULT_BYTES:
-        raise ResultUnreadable(f"result file {path} is larger than "
-                               f"{MAX_RESULT_BYTES // 2**20} MB")
+    if path.stat().st_size > limit:
+        size = f"{limit // 2**20} MB" if limit >= 2**20 else f"{limit // 1024} KB"
+        raise ResultUnreadable(f"result file {path} is larger than {size}")
     try:
-        return path.read_bytes().decode("utf-8")
+        data = path.read_bytes()
+        if b"\x00" in data:
+            raise ResultUnreadable(f"result file {path} holds NUL bytes: not a text file")
+        return data.decode("utf-8")
     except UnicodeDecodeError:
         raise ResultUnreadable(f"result file {path} is not a text (UTF-8) file") from None
     except OSError as exc:
@@ -109,8 +146,11 @@ def read_positions(run_dir: str | Path, spec: dict[str, Any]) -> tuple[np.ndarra
     ResultUnreadable
         Missing file, missing column, a non-number, a non-finite value or a radius <= 0.
     """
-    path = Path(run_dir) / spec["file"]
+    path = _inside(Path(run_dir), spec["file"])
     text = _text(path)
+    if text.count("\n") > MAX_SPHERES + 100_000:  # refused before the lines are split
+        raise ResultUnreadable(f"result file {path.name}: more than {MAX_SPHERES:,} lines of "
+                               "spheres")
     cols: dict[str, str | int] = spec["columns"]
     fmt = spec["format"]
     if fmt == "table":
@@ -149,6 +189,30 @@ def read_positions(run_dir: str | Path, spec: dict[str, Any]) -> tuple[np.ndarra
     return centres, radii
 
 
+def _json_size(value: Any) -> int:
+    """Characters of ``value``'s JSON (a structure nested too deeply to write: no bound)."""
+    try:
+        return len(json.dumps(value, default=str))
+    except (RecursionError, ValueError):
+        return 2**62
+
+
+def _bounded_extra(extra: dict[str, Any]) -> dict[str, Any]:
+    """An engine's extra JSON values, kept whole up to :data:`MAX_EXTRA_BYTES`; beyond,
+    each value too large is replaced by a note of its size (the run is kept, not the dump)."""
+    if _json_size(extra) <= MAX_EXTRA_BYTES:
+        return extra
+    out: dict[str, Any] = {}
+    for k, v in extra.items():
+        n = _json_size(v)
+        out[str(k)[:100]] = v if n <= MAX_EXTRA_BYTES // 16 else \
+            f"<not kept: {n:,} bytes of JSON, more than {MAX_EXTRA_BYTES // 16:,}>"
+        if len(out) >= 100:
+            out["..."] = f"<{len(extra) - 100:,} more values not kept>"
+            break
+    return out
+
+
 def read_value(run_dir: str | Path, spec: dict[str, Any]) -> dict[str, Any]:
     """The engine's own answer: ``{"outcome", "aor_deg", "reason"}``.
 
@@ -161,35 +225,39 @@ def read_value(run_dir: str | Path, spec: dict[str, Any]) -> dict[str, Any]:
     ResultUnreadable
         Missing file, not a number or JSON, an unknown outcome, an angle outside (0, 90).
     """
-    path = Path(run_dir) / spec["file"]
-    text = _text(path).strip()
+    path = _inside(Path(run_dir), spec["file"])
+    text = _text(path, MAX_VALUE_BYTES).strip()
     key = spec.get("key") or "aor_deg"
     try:
         doc: Any = json.loads(text) if text else None
+    except RecursionError:  # this run's result, not the study's end
+        raise ResultUnreadable(f"result file {path.name}: JSON nested too deeply") from None
     except json.JSONDecodeError:
         doc = None
         try:
             doc = float(text)
         except ValueError:
             raise ResultUnreadable(f"result file {path.name}: neither a number nor a JSON "
-                                   f"object: {text[:60]!r}") from None
+                                   f"object: {_quote(text)}") from None
     extra: dict[str, Any] = {}
     if isinstance(doc, dict):
         outcome = doc.get("outcome", "pile")
-        extra = {k: v for k, v in doc.items() if k not in (key, "outcome", "reason")}
+        extra = _bounded_extra({k: v for k, v in doc.items()
+                                if k not in (key, "outcome", "reason")})
         if outcome != "pile":
-            if outcome not in NO_PILE_OUTCOMES:
+            if not isinstance(outcome, str) or outcome not in NO_PILE_OUTCOMES:
                 raise ResultUnreadable(f"result file {path.name}: outcome must be pile or one"
-                                       f" of {', '.join(NO_PILE_OUTCOMES)}; got {outcome!r}")
+                                       f" of {', '.join(NO_PILE_OUTCOMES)}; got "
+                                       f"{_quote(outcome)}")
             reason = doc.get("reason")
             return {"outcome": outcome, "aor_deg": None, "engine_values": extra,
-                    "reason": None if reason is None else str(reason)}
+                    "reason": None if reason is None else str(reason)[:REASON_CHARS]}
         if key not in doc:
             raise ResultUnreadable(f"result file {path.name}: no {key!r} in its JSON object")
         doc = doc[key]
     if isinstance(doc, bool) or not isinstance(doc, int | float):
         raise ResultUnreadable(f"result file {path.name}: the angle must be a number; "
-                               f"got {doc!r}")
+                               f"got {_quote(doc)}")
     aor = float(doc)
     if not (math.isfinite(aor) and 0 < aor < 90):
         raise ResultUnreadable(f"result file {path.name}: the angle must be in (0, 90) deg; "

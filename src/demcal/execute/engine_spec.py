@@ -30,9 +30,16 @@ from __future__ import annotations
 import hashlib
 import shlex
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    field_validator,
+    model_validator,
+)
 
 from demcal.errors import InputError
 from demcal.limits import MAX_INPUT_FILE_BYTES
@@ -49,6 +56,15 @@ MAX_TIMEOUT_S = 30 * 86400.0
 
 class _M(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+def _in_run_folder(v: str) -> str:
+    """A result file's path: relative and inside the run folder (no absolute path, no
+    ``..``); the reader also refuses a symlink out of the folder, made by the engine."""
+    p = Path(v)
+    if p.is_absolute() or ".." in p.parts or v.startswith("~"):
+        raise ValueError(f"a path inside the run folder (no absolute path, no '..'); got {v!r}")
+    return v
 
 
 class Measurement(MeasurementOptions):
@@ -68,7 +84,7 @@ class PositionsResult(_M):
     """
 
     kind: Literal["positions"] = "positions"
-    file: str = Field(min_length=1)
+    file: Annotated[str, AfterValidator(_in_run_folder)] = Field(min_length=1)
     format: Literal["csv", "table", "lammps_dump"] = "csv"
     columns: dict[Literal["x", "y", "z", "radius"], str | int] = Field(default_factory=dict)
     radius: float | None = Field(None, gt=0, le=10, description="one radius for every sphere "
@@ -109,7 +125,7 @@ class ValueResult(_M):
     """
 
     kind: Literal["value"] = "value"
-    file: str = Field(min_length=1)
+    file: Annotated[str, AfterValidator(_in_run_folder)] = Field(min_length=1)
     key: str = Field("aor_deg", min_length=1, description="the angle's key in a JSON file")
 
 
@@ -198,6 +214,10 @@ def load_engine(spec: EngineSpec, base: Path, known: set[str]) -> dict[str, Any]
     from demcal.execute.template_fill import BUILTINS, placeholders
 
     template = (base / spec.template).resolve()
+    if not template.is_relative_to(base.resolve()):  # copied into every run folder
+        raise InputError(f"study: engine.template: {spec.template} lies outside the study "
+                         f"folder {base} (an absolute or '..' path, or a symlink out of it); "
+                         "keep the template beside the study")
     text = _read_text(template, "template")
     hook, hook_sha = spec.hook, None
     if hook is not None:

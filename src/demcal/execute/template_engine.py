@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from demcal.errors import InputError
+from demcal.execute.engine_guard import engine_watchdog, note_engine, stop_leftover_engine
 from demcal.execute.engine_results import ResultUnreadable, read_positions, read_value
 from demcal.execute.signals import sigterm_raises
 from demcal.execute.template_fill import fill
@@ -51,6 +52,8 @@ KILL_GRACE_S = 5.0
 LOG_NAME = "engine.log"
 #: lines of the log's end quoted in a failure's reason
 TAIL_LINES = 3
+#: bytes read from the log's end to find them
+TAIL_BYTES = 16 * 1024
 #: measured pile values (angles in deg, lengths in m) copied to the top of a run's result
 MEASURED_KEYS = ("aor_deg", "aor_left_deg", "aor_right_deg", "aor_std_deg", "pile_height_m",
                  "base_diameter_m")
@@ -62,6 +65,10 @@ def run_dir_name(key: str) -> str:
     if not digest:
         digest = hashlib.sha256(key.encode()).hexdigest()[:16]
     return f"{stage}_{digest}"
+
+
+class HookFailed(Exception):
+    """The study's hook raised for this run: the run fails as ``engine_error``."""
 
 
 def _load_hook(ref: str) -> Callable[..., Any]:
@@ -93,8 +100,12 @@ def _values(task: Any, engine: dict[str, Any], run_dir: Path) -> dict[str, objec
                   template_dir=str(Path(engine["template_path"]).parent),
                   python=sys.executable)
     if engine.get("hook"):
-        extra = _load_hook(engine["hook"])(params=dict(task.params), seed=int(task.seed),
-                                           run_dir=run_dir)
+        hook = _load_hook(engine["hook"])
+        try:
+            extra = hook(params=dict(task.params), seed=int(task.seed), run_dir=run_dir)
+        except (Exception, SystemExit) as exc:  # the user's code: this run fails, typed
+            raise HookFailed(f"engine.hook {engine['hook']} raised {type(exc).__name__}: "
+                             f"{str(exc)[:300]}") from None
         if extra is not None:
             if not isinstance(extra, dict):
                 raise InputError(f"engine.hook: must return a dict of placeholders or None; "
@@ -104,11 +115,16 @@ def _values(task: Any, engine: dict[str, Any], run_dir: Path) -> dict[str, objec
 
 
 def _tail(log: Path) -> str:
+    """The log's last :data:`TAIL_LINES` lines, read from its end (a 300 MB log was read
+    whole to quote three lines)."""
     try:
-        lines = [ln.strip() for ln in log.read_text(errors="replace").splitlines()
-                 if ln.strip()]
+        with open(log, "rb") as fh:
+            fh.seek(0, os.SEEK_END)
+            fh.seek(max(0, fh.tell() - TAIL_BYTES))
+            text = fh.read(TAIL_BYTES).decode("utf-8", errors="replace")
     except OSError:
         return ""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
     tail = " | ".join(lines[-TAIL_LINES:])
     return tail[-300:]
 
@@ -146,14 +162,17 @@ def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[
             return "engine_error", f"command not executable: {cmd[0]!r}"
         except OSError as exc:
             return "engine_error", f"cannot start {cmd[0]!r}: {exc.strerror}"
-        try:
-            code = proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            _kill_group(proc)
-            return "timeout", f"no end within {timeout:g} s; the engine was killed"
-        except BaseException:  # Ctrl-C, a terminated pool worker: take the engine down too
-            _kill_group(proc)
-            raise
+        note_engine(run_dir, proc.pid)
+        # the watchdog ends the engine's group if this process dies first (kill -9)
+        with engine_watchdog(proc.pid):
+            try:
+                code = proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                _kill_group(proc)
+                return "timeout", f"no end within {timeout:g} s; the engine was killed"
+            except BaseException:  # Ctrl-C, a terminated pool worker: take the engine down
+                _kill_group(proc)
+                raise
     if code != 0:
         return "engine_error", f"exit code {code}"
     return None, "exit code 0"
@@ -187,8 +206,12 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
     t0 = time.perf_counter()
     run_dir = _fresh_run_dir(engine, task.key)
     log = run_dir / LOG_NAME
-    cmd = _write_input(task, engine, run_dir)
-    failure, what = _execute(cmd, run_dir, log, float(engine["timeout_s"]))
+    try:
+        cmd = _write_input(task, engine, run_dir)
+    except HookFailed as exc:  # nothing to run: the run's failure, not the study's end
+        cmd, (failure, what) = [], ("engine_error", str(exc))
+    else:
+        failure, what = _execute(cmd, run_dir, log, float(engine["timeout_s"]))
     info: dict[str, Any] = {"command": cmd, "status": what, "run_dir": str(run_dir),
                             "log": str(log), "engine_wall_time_s": time.perf_counter() - t0}
     artefacts = {"run_dir": str(run_dir), "engine_log": str(log)}
@@ -221,6 +244,7 @@ def _fresh_run_dir(engine: dict[str, Any], key: str) -> Path:
     """The run's own folder under ``engine["runs_dir"]``, emptied (a re-run replaces it)."""
     run_dir = Path(engine["runs_dir"]) / run_dir_name(key)
     if run_dir.exists():
+        stop_leftover_engine(run_dir)  # a killed study's engine: never two in one folder
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True)
     return run_dir

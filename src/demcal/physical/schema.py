@@ -73,6 +73,7 @@ from demcal.physical.conversions import (
     youngs_modulus_from_shear,
 )
 from demcal.physical.parameters import PARAMETERS
+from demcal.safety import regular_input
 
 __all__ = [
     "AngleOfRepose",
@@ -539,7 +540,7 @@ def load_measurements(path: str | Path) -> Measurements:
     InputError
         File missing or unreadable, bad TOML, or invalid fields (one line per field).
     """
-    p = Path(path)
+    p = regular_input(path, "measurements file")  # a named pipe would block the read
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -550,6 +551,8 @@ def load_measurements(path: str | Path) -> Measurements:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{p}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{p}: invalid TOML: nested too deeply") from None
     if "measurements" in doc:
         return parse_measurements(doc["measurements"], prefix="measurements")
     return parse_measurements(doc, prefix="measurements")

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from demcal.errors import InputError
+from demcal.errors import InputError, StoreError
 from demcal.store import STAGES, STORE_NAME, RunRecord, RunStore
 
 __all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
@@ -26,6 +26,22 @@ RUNS_OF: dict[str, str] = {"steepest_anchor": "steepest"}
 #: The meta keys of the store contract that the report reads.
 META_KEYS = ("study", "study_file", "study_dir", "target", "physical", "fixed_params",
              "factors", "versions", "engine", "result")
+
+
+#: the JSON type each meta key must have (a crafted one was an AttributeError in the report)
+META_TYPES: dict[str, type | tuple[type, ...]] = {
+    "study": dict, "study_file": str, "study_dir": str, "target": dict, "physical": dict,
+    "fixed_params": dict, "factors": list, "versions": dict, "engine": dict, "result": dict}
+
+
+def _check_meta_types(meta: dict[str, Any], store_path: Path) -> None:
+    """Refuse a meta value of the wrong JSON type, in one line naming the key."""
+    for key, value in meta.items():
+        want = META_TYPES.get(key)
+        if want is not None and not isinstance(value, want):
+            raise StoreError(f"{store_path}: meta {key!r} is a JSON {type(value).__name__}, "
+                             "not what demcal writes there; the store is damaged (`demcal "
+                             "calibrate` with its study file writes the meta rows anew)")
 
 
 @dataclass(frozen=True)
@@ -144,6 +160,7 @@ def load_report_data(study_dir: str | Path) -> ReportData:
                          "(run `demcal calibrate` first)")
     with RunStore(store_path, readonly=True) as store:
         meta = {k: v for k in META_KEYS if (v := store.meta(k)) is not None}
+        _check_meta_types(meta, store_path)
         runs = store.runs()
         stored = {s.name: s for s in store.stages()}
     by_stage: dict[str, list[RunRecord]] = {}

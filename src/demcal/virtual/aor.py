@@ -29,6 +29,7 @@ from demcal.dem.simulation import Simulation
 from demcal.dem.state import ClumpGroup, World
 from demcal.dem.walls import PlaneWall, TubeWall
 from demcal.errors import InputError
+from demcal.limits import check_time_step
 from demcal.results import finite_responses
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.factory import (
@@ -245,6 +246,10 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
                                                                       z_top)))
     sim = Simulation(worlds, backend=backend, dt_fraction=config.dt_fraction,
                      rolling_friction=config.rolling_model, raise_on_unstable=False)
+    try:  # a run of 1e150 steps would hang, not fail: refused before the first step
+        check_time_step(float(np.min(sim.dt)))
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
     n_template = len(template.radii)
     t_start = time.perf_counter()
     for run in runs:

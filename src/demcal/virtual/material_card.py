@@ -330,6 +330,8 @@ def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
             doc = json.loads(text)
         else:
             doc = tomllib.loads(text)
+    except RecursionError:
+        raise InputError(f"{name}: not a valid material card (nested too deeply)") from None
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise InputError(f"{name}: not a valid material card ({msg})") from None

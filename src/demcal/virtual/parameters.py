@@ -44,35 +44,43 @@ class ParameterSpec:
         return v
 
 
-_INF = math.inf
+#: physical upper bounds: far above any granular material (osmium 22 590 kg/m^3, diamond's
+#: shear modulus 4.8e11 Pa, friction and rolling coefficients of order 1, JKR surface
+#: energies below 1 J/m^2); beyond, a typo (1e308) overflowed the models or hung the engine
+MAX_DENSITY = 1e5
+MAX_MODULUS = 1e12
+MAX_FRICTION = 10.0
+MAX_SURFACE_ENERGY = 1e3
 PARAMETERS: dict[str, ParameterSpec] = {p.name: p for p in [
     ParameterSpec("particle.poisson", "Poisson ratio of the particle", "", 0.0, 0.5,
                   high_open=True, paper_symbol="x1"),
-    ParameterSpec("particle.density", "solid density of the particle", "kg/m^3", 0.0, _INF,
+    ParameterSpec("particle.density", "solid density of the particle", "kg/m^3", 0.0, MAX_DENSITY,
                   low_open=True, paper_symbol="rho1"),
-    ParameterSpec("particle.shear_modulus", "shear modulus of the particle", "Pa", 0.0, _INF,
+    ParameterSpec("particle.shear_modulus", "shear modulus of the particle", "Pa", 0.0, MAX_MODULUS,
                   low_open=True, paper_symbol="G1"),
     ParameterSpec("wall.poisson", "Poisson ratio of the walls (plate, cylinder)", "", 0.0, 0.5,
                   high_open=True, paper_symbol="v2"),
-    ParameterSpec("wall.shear_modulus", "shear modulus of the walls", "Pa", 0.0, _INF,
+    ParameterSpec("wall.shear_modulus", "shear modulus of the walls", "Pa", 0.0, MAX_MODULUS,
                   low_open=True, paper_symbol="G2"),
-    ParameterSpec("wall.density", "density of the walls", "kg/m^3", 0.0, _INF, low_open=True,
+    ParameterSpec("wall.density", "density of the walls", "kg/m^3", 0.0, MAX_DENSITY,
+                  low_open=True,
                   paper_symbol="rho2"),
     ParameterSpec("pp.restitution", "particle-particle coefficient of restitution", "", 0.0,
                   1.0, low_open=True, paper_symbol="x2"),
     ParameterSpec("pp.static_friction", "particle-particle static friction coefficient", "",
-                  0.0, _INF, paper_symbol="x3"),
+                  0.0, MAX_FRICTION, paper_symbol="x3"),
     ParameterSpec("pp.rolling_friction", "particle-particle rolling friction coefficient", "",
-                  0.0, _INF, paper_symbol="x4"),
+                  0.0, MAX_FRICTION, paper_symbol="x4"),
     ParameterSpec("pw.restitution", "particle-wall coefficient of restitution", "", 0.0, 1.0,
                   low_open=True, paper_symbol="x5"),
     ParameterSpec("pw.static_friction", "particle-wall static friction coefficient", "", 0.0,
-                  _INF, paper_symbol="x6"),
+                  MAX_FRICTION, paper_symbol="x6"),
     ParameterSpec("pw.rolling_friction", "particle-wall rolling friction coefficient", "", 0.0,
-                  _INF, paper_symbol="x7"),
+                  MAX_FRICTION, paper_symbol="x7"),
     ParameterSpec("pp.surface_energy", "particle-particle JKR surface energy", "J/m^2", 0.0,
-                  _INF, paper_symbol="x8"),
-    ParameterSpec("pw.surface_energy", "particle-wall JKR surface energy", "J/m^2", 0.0, _INF),
+                  MAX_SURFACE_ENERGY, paper_symbol="x8"),
+    ParameterSpec("pw.surface_energy", "particle-wall JKR surface energy", "J/m^2", 0.0,
+                  MAX_SURFACE_ENERGY),
 ]}
 
 

@@ -1,0 +1,105 @@
+"""Issue 38, class 3: an external engine dies with the demcal process that started it,
+whatever kills that one (SIGKILL included), and a resumed run never runs beside it."""
+
+from __future__ import annotations
+
+import pickle
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from demcal.execute.engine_guard import PID_FILE, note_engine
+from demcal.execute.engine_spec import TemplateEngine, load_engine
+from demcal.execute.tasks import RunTask, TestDef
+from demcal.execute.template_engine import run_dir_name, run_template
+from demcal.virtual import PARAMETERS, preset_parameters
+
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux /proc")
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "stand_in_engine"
+
+
+def _task(tmp_path: Path, command: list[str]) -> RunTask:
+    shutil.copy(EXAMPLE / "engine.py", tmp_path / "engine.py")
+    shutil.copy(EXAMPLE / "input.txt.template", tmp_path / "input.txt.template")
+    spec = TemplateEngine.model_validate({
+        "template": "input.txt.template", "command": command, "timeout_s": 120.0,
+        "result": {"kind": "positions", "file": "pile.csv"}})
+    engine = load_engine(spec, tmp_path, set(PARAMETERS))
+    engine.update(runs_dir=str(tmp_path / "runs"))
+    params = {**preset_parameters("corn_stalk"), "pp.static_friction": 0.6}
+    return RunTask("screening:0123456789abcdef", TestDef(kind="template", external=engine),
+                   params, 3)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def _wait_gone(pids: list[int], timeout: float = 20.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if not any(_alive(p) for p in pids):
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def test_kill_9_of_demcal_takes_the_engine_and_its_children_down(tmp_path):
+    # the engine (sh) starts a child of its own: a parent-death signal would miss that one
+    task = _task(tmp_path, ["sh", "-c", "sleep 120 & echo $! > child.pid; echo $$ > "
+                            "engine.pid; wait"])
+    (tmp_path / "task.pkl").write_bytes(pickle.dumps(task))
+    code = ("import pickle, sys; from demcal.execute.template_engine import run_template; "
+            "run_template(pickle.load(open(sys.argv[1], 'rb')))")
+    worker = subprocess.Popen([sys.executable, "-c", code, str(tmp_path / "task.pkl")])
+    run_dir = tmp_path / "runs" / run_dir_name(task.key)
+    deadline = time.monotonic() + 60
+    while not all((run_dir / f).is_file() and (run_dir / f).read_text().strip()
+                  for f in ("engine.pid", "child.pid")):
+        assert time.monotonic() < deadline and worker.poll() is None
+        time.sleep(0.05)
+    pids = [int((run_dir / f).read_text()) for f in ("engine.pid", "child.pid")]
+    time.sleep(0.5)  # the watchdog is up
+    worker.kill()  # SIGKILL: no clean-up code of demcal runs
+    worker.wait()
+    assert _wait_gone(pids), f"the engine's processes {pids} outlived demcal"
+
+
+def test_a_resumed_run_ends_the_killed_studys_engine_first(tmp_path):
+    task = _task(tmp_path, ["{python}", "{template_dir}/engine.py", "{input}"])
+    run_dir = tmp_path / "runs" / run_dir_name(task.key)
+    run_dir.mkdir(parents=True)
+    # a killed study's engine, still running in the run's folder (its watchdog gone too)
+    orphan = subprocess.Popen(["sleep", "120"], cwd=run_dir, start_new_session=True)
+    try:
+        note_engine(run_dir, orphan.pid)
+        assert (run_dir / PID_FILE).is_file()
+        res = run_template(task)
+        assert res["outcome"] == "pile", res
+        assert orphan.wait(timeout=20) == -signal.SIGTERM
+    finally:
+        if orphan.poll() is None:
+            orphan.kill()
+
+
+def test_a_pid_file_naming_another_process_touches_nothing(tmp_path):
+    task = _task(tmp_path, ["{python}", "{template_dir}/engine.py", "{input}"])
+    run_dir = tmp_path / "runs" / run_dir_name(task.key)
+    run_dir.mkdir(parents=True)
+    other = subprocess.Popen(["sleep", "120"], start_new_session=True)
+    try:  # the pid was reused: its start time differs from the one noted
+        (run_dir / PID_FILE).write_text(f"{other.pid} 1\n")
+        assert run_template(task)["outcome"] == "pile"
+        assert other.poll() is None
+    finally:
+        other.kill()
+        other.wait()

@@ -1,0 +1,73 @@
+"""Issue 38, class 2: a standard output that goes away (``| head``, a hung-up terminal)
+costs no result: the command runs to its end, writes its files, then exits with 141 and one
+line on stderr."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import typer
+
+from demcal.cli._common import cli_errors, console
+from demcal.cli._stdout import EXIT_STDOUT_GONE, stdout_gone
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "analytic" / "study.toml"
+
+
+class _GoneStdout:
+    """A stdout whose reader went away: every write fails like a closed pipe (or a
+    hung-up terminal, with ``code=errno.EIO``)."""
+
+    def __init__(self, code: int = errno.EPIPE) -> None:
+        self.code = code
+
+    def write(self, text: str) -> int:
+        raise OSError(self.code, os.strerror(self.code))
+
+    def flush(self) -> None:
+        raise OSError(self.code, os.strerror(self.code))
+
+    def isatty(self) -> bool:
+        return False
+
+
+@pytest.mark.parametrize("code", [errno.EPIPE, errno.EIO])
+def test_a_gone_stdout_costs_no_file_and_exits_141(tmp_path, monkeypatch, code):
+    out = tmp_path / "result.json"
+
+    @cli_errors
+    def command() -> None:
+        console.print("first line")  # the console is gone already
+        out.write_text(json.dumps({"done": True}))  # ... the work goes on
+        console.print("wrote it")
+
+    monkeypatch.setattr(sys, "stdout", _GoneStdout(code))
+    with pytest.raises(typer.Exit) as done:
+        command()
+    assert done.value.exit_code == EXIT_STDOUT_GONE
+    assert json.loads(out.read_text()) == {"done": True}
+    assert stdout_gone()
+
+
+def test_calibrate_into_a_closed_pipe_writes_its_json_and_card(tmp_path):
+    study = tmp_path / "study.toml"
+    shutil.copy(EXAMPLE, study)
+    proc = subprocess.Popen([sys.executable, "-m", "demcal", "calibrate", str(study),
+                             "--json", str(tmp_path / "res.json"), "--no-report"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path)
+    proc.stdout.close()  # the reader is gone before the first line: `| head -c 0`
+    with proc.stderr:
+        err = proc.stderr.read().decode()
+    assert proc.wait(timeout=300) == EXIT_STDOUT_GONE, err
+    assert err.strip().splitlines() == [
+        "failed: standard output was closed (a closed pipe or a hung-up terminal); the "
+        "command ran to its end and wrote its files, but not all of its output was shown"]
+    assert json.loads((tmp_path / "res.json").read_text())["optimum"]
+    assert (tmp_path / "report" / "material.toml").is_file()
