@@ -17,7 +17,8 @@ def _store(tmp_path, n=3):
         for i in range(n):
             store.record_run(RunRecord(key=f"screening:{i}", stage="screening", point=i,
                                        replicate=0, params={"pp.static_friction": 0.5 + i},
-                                       seed=i, status="done", outcome="pile", aor_deg=40.0,
+                                       seed=i, status="done", outcome="pile",
+                                       responses={"aor_deg": 40.0},
                                        result={"aor_deg": 40.0}))
     return tmp_path / STORE_NAME
 

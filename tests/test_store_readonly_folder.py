@@ -38,7 +38,8 @@ def test_a_store_in_a_read_only_folder_is_read(tmp_path):
         for i in range(3):
             store.record_run(RunRecord(key=f"screening:{i}", stage="screening", point=i,
                                        replicate=0, params={"pp.static_friction": 0.5},
-                                       seed=i, status="done", outcome="pile", aor_deg=40.0,
+                                       seed=i, status="done", outcome="pile",
+                                       responses={"aor_deg": 40.0},
                                        result={}))
     before = sorted(p.name for p in folder.iterdir())
     assert before == [STORE_NAME]  # a closed store leaves no side file

@@ -37,7 +37,7 @@ def test_a_hook_that_raises_fails_its_run_typed(tmp_path, body, what):
     task = RunTask("screening:0123456789abcdef", TestDef(kind="template", external=engine),
                    preset_parameters("corn_stalk"), 1)
     res = run_template(task)
-    assert res["outcome"] == "engine_error" and what in res["reason"], res
+    assert res.outcome == "engine_error" and what in res.reason, res
 
 
 def _study(tmp_path: Path, old: str, new: str) -> Path:

@@ -20,7 +20,8 @@ def test_a_reused_stores_other_runs_are_named(study_file, tmp_path):
         for i in range(7):
             store.record_run(RunRecord(key=f"other:{i}", stage="screening", point=i,
                                        replicate=0, params={"pp.static_friction": 0.1 * i},
-                                       seed=i, status="done", outcome="pile", aor_deg=33.0,
+                                       seed=i, status="done", outcome="pile",
+                                       responses={"aor_deg": 33.0},
                                        result={}))
     res = CliRunner().invoke(app, ["calibrate", str(study_file), "--no-report", "--json",
                                    str(out)])

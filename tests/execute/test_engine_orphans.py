@@ -84,7 +84,7 @@ def test_a_resumed_run_ends_the_killed_studys_engine_first(tmp_path):
         note_engine(run_dir, orphan.pid)
         assert (run_dir / PID_FILE).is_file()
         res = run_template(task)
-        assert res["outcome"] == "pile", res
+        assert res.outcome == "pile", res
         assert orphan.wait(timeout=20) == -signal.SIGTERM
     finally:
         if orphan.poll() is None:
@@ -98,7 +98,7 @@ def test_a_pid_file_naming_another_process_touches_nothing(tmp_path):
     other = subprocess.Popen(["sleep", "120"], start_new_session=True)
     try:  # the pid was reused: its start time differs from the one noted
         (run_dir / PID_FILE).write_text(f"{other.pid} 1\n")
-        assert run_template(task)["outcome"] == "pile"
+        assert run_template(task).outcome == "pile"
         assert other.poll() is None
     finally:
         other.kill()
