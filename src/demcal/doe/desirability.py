@@ -29,7 +29,6 @@ surrogate serve alike.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -39,6 +38,7 @@ import pandas as pd
 from scipy import optimize as sopt
 from scipy.stats import qmc
 
+from demcal.doe.factors import finite_number
 from demcal.errors import InputError
 
 __all__ = [
@@ -58,16 +58,6 @@ WEIGHT_RANGE = (0.1, 10.0)
 IMPORTANCE_RANGE = (1, 5)
 
 Predictor = Callable[[np.ndarray], np.ndarray]
-
-
-def _finite(value: Any, field: str) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{field} must be a number; got {value!r}") from None
-    if not math.isfinite(out):
-        raise InputError(f"{field} must be finite; got {value!r}")
-    return out
 
 
 @dataclass(frozen=True)
@@ -105,18 +95,18 @@ class ResponseGoal:
         if self.goal not in GOALS:
             raise InputError(f"{where}: goal must be one of {', '.join(GOALS)}; "
                              f"got {self.goal!r}")
-        low = _finite(self.low, f"{where}: low")
-        high = _finite(self.high, f"{where}: high")
+        low = finite_number(self.low, f"{where}: low")
+        high = finite_number(self.high, f"{where}: high")
         if not low < high:
             raise InputError(f"{where}: low must be < high; got low={low:g}, high={high:g}")
         if self.goal == "target":
             if self.target is None:
                 raise InputError(f"{where}: goal 'target' needs a target value")
-            t = _finite(self.target, f"{where}: target")
+            t = finite_number(self.target, f"{where}: target")
             if not low <= t <= high:
                 raise InputError(f"{where}: target must be in low..high ({low:g}..{high:g}); "
                                  f"got {t:g}")
-        w = _finite(self.weight, f"{where}: weight")
+        w = finite_number(self.weight, f"{where}: weight")
         if not WEIGHT_RANGE[0] <= w <= WEIGHT_RANGE[1]:
             raise InputError(f"{where}: weight must be in {WEIGHT_RANGE[0]:g}..{WEIGHT_RANGE[1]:g}"
                              f"; got {w:g}")
@@ -337,7 +327,7 @@ def _box(names: Sequence[str], bounds: Mapping[str, tuple[float, float]] | None
     for name, (a, b) in (bounds or {}).items():
         if name not in names:
             raise InputError(f"bounds: {name!r} is not a factor ({', '.join(names)})")
-        a, b = _finite(a, f"bounds[{name!r}]"), _finite(b, f"bounds[{name!r}]")
+        a, b = finite_number(a, f"bounds[{name!r}]"), finite_number(b, f"bounds[{name!r}]")
         if not a <= b:
             raise InputError(f"bounds[{name!r}]: low must be <= high; got {a:g}, {b:g}")
         j = list(names).index(name)

@@ -24,14 +24,15 @@ import numpy as np
 from demcal.errors import InputError
 from demcal.safety import regular_input
 
-__all__ = ["Factor", "FactorSpace", "as_factor_space", "load_factors"]
+__all__ = ["Factor", "FactorSpace", "as_factor_space", "finite_number", "load_factors"]
 
 #: largest |low| or |high| of a factor: its designs' levels (axial points beyond the range)
 #: and its model's squares stay finite
 MAX_FACTOR_VALUE = 1e150
 
 
-def _finite(value: Any, field: str) -> float:
+def finite_number(value: Any, field: str) -> float:
+    """``value`` as a float if it is a finite number, else an InputError naming ``field``."""
     try:
         out = float(value)
     except (TypeError, ValueError):
@@ -74,8 +75,8 @@ class Factor:
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
             raise InputError(f"factor name must be a non-empty string; got {self.name!r}")
-        low = _finite(self.low, f"low of factor {self.name}")
-        high = _finite(self.high, f"high of factor {self.name}")
+        low = finite_number(self.low, f"low of factor {self.name}")
+        high = finite_number(self.high, f"high of factor {self.name}")
         if not low < high:
             raise InputError(
                 f"low must be < high for factor {self.name}; got low={low:g}, high={high:g}"
@@ -87,7 +88,8 @@ class Factor:
         object.__setattr__(self, "low", low)
         object.__setattr__(self, "high", high)
         if self.fixed is not None:
-            object.__setattr__(self, "fixed", _finite(self.fixed, f"fixed of factor {self.name}"))
+            object.__setattr__(self, "fixed",
+                               finite_number(self.fixed, f"fixed of factor {self.name}"))
 
     @property
     def center(self) -> float:
@@ -342,10 +344,11 @@ def _factor_from_table(name: str, table: Mapping[str, Any], where: str) -> Facto
             raise InputError(f"{where}.{key} is missing")
     return Factor(
         name=name,
-        low=_finite(table["low"], f"{where}.low"),
-        high=_finite(table["high"], f"{where}.high"),
+        low=finite_number(table["low"], f"{where}.low"),
+        high=finite_number(table["high"], f"{where}.high"),
         unit=str(table.get("unit", "")),
-        fixed=None if table.get("fixed") is None else _finite(table["fixed"], f"{where}.fixed"),
+        fixed=None if table.get("fixed") is None
+        else finite_number(table["fixed"], f"{where}.fixed"),
         description=str(table.get("description", "")),
     )
 
