@@ -208,6 +208,41 @@ def test_a_clump_on_a_turning_end_wall_spins_up_at_mu_g():
     assert np.hypot(pos[-1, 0], pos[-1, 1]) == pytest.approx(x0, rel=0.05)
 
 
+def test_a_turning_end_wall_gives_twice_the_kinetic_energy_it_leaves():
+    """Energy bookkeeping of the spin-up: the wall's work on the clump (its contact forces
+    times the wall's surface velocity at the contact points, step by step) is twice the
+    kinetic energy the clump gains, as a belt's on a block it brings up to its speed (the
+    impulse m V times V; half of it dissipated by sliding), and that gain plus the sliding
+    dissipation (force times slip velocity at the contacts) is the wall's work. Measured
+    2026-11-27: work / (2 gain) = 0.999997, (gain + dissipation) / work = 0.997 (the contact
+    points taken on the plane, the clump's on-step velocity estimate)."""
+    mu, x0, omega = 0.3, 0.05, 2.0
+    sim = Simulation([end_wall_world(mu, x0)], rolling_friction="none")
+    sim.run(0.2)
+    before = sim.kinetic_energy(0)
+    sim.set_wall_angular_velocity(0, 0, [0.0, 0.0, omega])
+    a = sim.arrays
+    dt = float(sim.dt[0])
+    work = dissipated = 0.0
+    for _ in range(1000):  # 0.086 s: the slip ends after ~0.055 s
+        sim.advance(1)
+        force = -a["s_wall_force"][:, 0, :]  # on the clump's spheres
+        contact = a["s_pos"].copy()
+        contact[:, 2] = 0.0
+        surface = np.cross([0.0, 0.0, omega], contact)
+        body = a["c_veval"][0] + np.cross(a["c_omega"][0], contact - a["c_pos"][0])
+        work += float(np.sum(force * surface)) * dt
+        dissipated -= float(np.sum(force * (body - surface))) * dt
+    gain = sim.kinetic_energy(0) - before
+    print(f"wall's work {work:.5e} J, kinetic energy gained {gain:.5e} J, dissipated "
+          f"{dissipated:.5e} J; work / (2 gain) {work / (2 * gain):.6f}, (gain + dissipated) "
+          f"/ work {(gain + dissipated) / work:.4f}")
+    assert gain == pytest.approx(0.5 * float(sim.clump_masses(0)[0]) * (omega * x0) ** 2,
+                                 rel=0.02)
+    assert work == pytest.approx(2.0 * gain, rel=1e-3)
+    assert gain + dissipated == pytest.approx(work, rel=0.01)
+
+
 # ----------------------------------------------------------------------- the reference
 @pytest.mark.parametrize(("seed", "rolling"), [(11, "A"), (12, "C"), (13, "none")])
 def test_turning_walls_equal_the_naive_reference(seed, rolling):
