@@ -36,7 +36,7 @@ from demcal.dem.materials import Interaction, Material
 from demcal.dem.shapes import template_from_spheres
 from demcal.dem.simulation import Simulation
 from demcal.dem.state import ClumpGroup, World
-from demcal.dem.walls import PlaneWall, TubeWall
+from demcal.dem.walls import Drum, PlaneWall, TubeWall, surface_velocity
 from demcal.errors import InputError
 
 G = 9.81
@@ -98,29 +98,33 @@ def sled_template():
                                  [RADIUS] * 3), s
 
 
+def drum(drum_radius: float) -> Drum:
+    """A horizontal drum (axis y, centre at the origin), 4 cm wide."""
+    return Drum(centre=np.zeros(3), axis=np.array([0.0, 1.0, 0.0]), radius=drum_radius,
+                width=0.04, thickness=0.01)
+
+
 def drum_world(mu: float, drum_radius: float, mu_r: float = 0.0) -> World:
-    """A sled at the bottom of a horizontal drum (axis y, through the origin), its two end
-    spheres touching the wall."""
+    """A sled at the bottom of a horizontal drum (walls 0-2), its two end spheres touching
+    the shell, its sides clear of the end walls."""
     mats = table(Interaction(0.5, mu), Interaction(0.5, mu, rolling_friction=mu_r),
                  particle=SOFT)
     sled, s = sled_template()
     z = -math.sqrt((drum_radius - RADIUS) ** 2 - s**2) - 1e-6
     group = ClumpGroup(sled, "p", 1, positions=np.array([[0.0, 0.0, z]]))
-    drum = TubeWall(base=np.array([0.0, -0.02, 0.0]), axis=np.array([0.0, 1.0, 0.0]),
-                    inner_radius=drum_radius, thickness=0.01, length=0.04, name="drum")
     lim = drum_radius + 0.1
-    return World(mats, [group], walls=[drum], domain_lo=(-lim, -0.1, -lim),
+    return World(mats, [group], walls=drum(drum_radius).walls(), domain_lo=(-lim, -0.1, -lim),
                  domain_hi=(lim, 0.1, lim))
 
 
-def drum_angles(sim: Simulation, world: int, omega: float, duration: float, chunk: int = 10):
-    """Turn the drum of ``world`` at ``omega`` (about +y) and record the sled's angle from the
-    bottom (deg), rising with the wall, every ``chunk`` steps."""
-    sim.set_wall_angular_velocity(world, 0, [0.0, omega, 0.0])
+def drum_angles(sim: Simulation, omega: float, duration: float, chunk: int = 10):
+    """Turn the drum of world 0 at ``omega`` (rad/s, about +y) and record the sled's angle
+    from the bottom (deg), rising with the wall, every ``chunk`` steps."""
+    drum(1.0).set_speed(sim, 0, 0, omega)  # walls 0-2 (only the drum's axis matters here)
     angles = []
-    for _ in range(int(duration / (float(sim.dt[world]) * chunk))):
+    for _ in range(int(duration / (float(sim.dt[0]) * chunk))):
         sim.advance(chunk)
-        x, _, z = sim.clump_positions(world)[0]
+        x, _, z = sim.clump_positions(0)[0]
         # +y spin: the bottom moves towards -x, so the sled rises on the -x side
         angles.append(math.degrees(math.atan2(-x, -z)))
     return np.array(angles)
@@ -143,7 +147,7 @@ def test_a_sled_in_a_turning_drum_slips_at_the_friction_angle(rolling):
                      rolling_friction=rolling)
     sim.run(0.2)  # settle at the bottom
     swing = 2 * math.pi * math.sqrt((drum_radius - RADIUS) / G)  # a pendulum's period
-    angles = drum_angles(sim, 0, omega, math.radians(27.0) / omega + swing)
+    angles = drum_angles(sim, omega, math.radians(27.0) / omega + swing)
     top = int(np.argmax(angles))
     assert top < len(angles) - 5, "the sled never stopped rising"
     low = top + int(np.argmin(angles[top:]))
@@ -324,7 +328,8 @@ def test_batched_worlds_turning_at_different_rates_equal_each_alone():
 
     def run(sim, pairs):
         for w, rate in pairs:
-            sim.set_wall_angular_velocity(w, 0, rate)
+            for k in range(len(sim.worlds[w].walls)):  # a drum's three walls, or the plate
+                sim.set_wall_angular_velocity(w, k, rate)
         sim.advance(800)
 
     batch = Simulation(worlds(), rolling_friction="C")
@@ -339,7 +344,7 @@ def test_batched_worlds_turning_at_different_rates_equal_each_alone():
 
 def test_a_wall_may_only_turn_about_its_axis():
     world = drum_world(0.5, 0.3)
-    world.walls[0].angular_velocity = np.array([0.1, 1.0, 0.0])
+    world.walls[0].angular_velocity = np.array([0.1, 1.0, 0.0])  # the shell
     with pytest.raises(InputError, match="along its axis"):
         Simulation([world])
     sim = Simulation([end_wall_world(0.3, 0.05)])
@@ -366,3 +371,26 @@ def test_a_snapshot_keeps_the_walls_spin():
     older.set_wall_angular_velocity(0, 0, [0.0, 0.0, 1.5])
     older.advance(10)
     assert digest(older, 0) == digest(sim, 0)
+
+
+def test_a_drums_walls_turn_as_one_rigid_body():
+    """The shell and both end walls of a :class:`Drum` (tilted axis, off the origin): the
+    surface velocity at points of each is ``omega x (p - centre)``, and the end walls lie
+    across the shell's ends."""
+    centre = np.array([0.1, -0.2, 0.3])
+    axis = np.array([1.0, 2.0, 2.0]) / 3.0
+    rig = Drum(centre=centre, axis=3.0 * axis, radius=0.2, width=0.1, angular_speed=-1.5)
+    shell, low, high = rig.walls()
+    omega = -1.5 * axis
+    side = np.cross(axis, [1.0, 0.0, 0.0])
+    side /= np.linalg.norm(side)
+    points = [(shell, centre + 0.2 * side + 0.03 * axis), (low, centre - 0.05 * axis + 0.1 * side),
+              (high, centre + 0.05 * axis - 0.07 * side)]
+    for wall, p in points:
+        origin = wall.base if isinstance(wall, TubeWall) else wall.origin
+        got = surface_velocity((0.0, 0.0, 0.0), tuple(wall.angular_velocity), tuple(p - origin))
+        np.testing.assert_allclose(got, np.cross(omega, p - centre), atol=1e-15)
+    np.testing.assert_allclose(low.origin, shell.base)
+    np.testing.assert_allclose(high.origin, shell.base + 0.1 * axis)
+    with pytest.raises(InputError, match="radius"):
+        Drum(centre=centre, axis=axis, radius=0.0, width=0.1).walls()

@@ -32,7 +32,7 @@ from numba import njit
 
 from demcal.errors import InputError
 
-__all__ = ["GEOM_SIZE", "WALL_NONE", "WALL_PLANE", "WALL_TUBE", "PlaneWall", "TubeWall",
+__all__ = ["GEOM_SIZE", "WALL_NONE", "WALL_PLANE", "WALL_TUBE", "Drum", "PlaneWall", "TubeWall",
            "check_spin_axis", "closest_point", "pack_walls", "spin_relative_to", "surely_beyond",
            "surface_velocity"]
 
@@ -176,6 +176,75 @@ class TubeWall:
         geom[4] = self.inner_radius + self.thickness
         geom[5] = self.length
         return WALL_TUBE, _vec3(self.base, f"wall {self.name!r} base"), geom
+
+
+@dataclass
+class Drum:
+    """A drum: a tube turning about its axis between two end walls that turn with it.
+
+    Parameters
+    ----------
+    centre : (3,) array_like
+        Centre of the drum (on its axis, half-way between the end walls), m.
+    axis : (3,) array_like
+        Axis direction (need not be unit); the drum turns about it by the right-hand rule.
+    radius, width : float
+        Inner radius and inner width (between the end walls), m.
+    angular_speed : float
+        rad/s (0: at rest; negative: the other way).
+    material : str
+        Name of the walls' material (shell and end walls).
+    thickness : float
+        Shell thickness, m (only its inner side is meant to be touched).
+
+    :meth:`walls` gives the three walls (shell, then the end walls at the axis' start and
+    end); their origins lie on the axis, so their surface velocities are one rigid body's,
+    ``omega x (p - centre)``. A world's walls may hold several drums or other walls;
+    :meth:`set_speed` turns the three at once during a run.
+    """
+
+    centre: np.ndarray
+    axis: np.ndarray
+    radius: float
+    width: float
+    angular_speed: float = 0.0
+    material: str = "wall"
+    thickness: float = 1e-3
+
+    def walls(self) -> list[PlaneWall | TubeWall]:
+        """``[shell, end at -axis, end at +axis]``: a :class:`TubeWall` and two
+        :class:`PlaneWall` squares (half-size ``radius + thickness``, normals inwards)."""
+        a = _unit(self.axis, "drum axis")
+        c = _vec3(self.centre, "drum centre")
+        for label, val in (("radius", self.radius), ("width", self.width),
+                           ("thickness", self.thickness)):
+            if not (np.isfinite(val) and val > 0):
+                raise InputError(f"drum {label} must be > 0 m; got {val}")
+        if not np.isfinite(self.angular_speed):
+            raise InputError(f"drum angular_speed must be finite; got {self.angular_speed}")
+        spin = float(self.angular_speed) * a
+        base = c - 0.5 * self.width * a
+        half = self.radius + self.thickness
+        return [
+            TubeWall(base=base, axis=a, inner_radius=self.radius, thickness=self.thickness,
+                     length=self.width, material=self.material, name="drum shell",
+                     angular_velocity=spin.copy()),
+            PlaneWall(origin=base, normal=a, half_size=(half, half), material=self.material,
+                      name="drum end -", angular_velocity=spin.copy()),
+            PlaneWall(origin=c + 0.5 * self.width * a, normal=-a, half_size=(half, half),
+                      material=self.material, name="drum end +", angular_velocity=spin.copy()),
+        ]
+
+    def set_speed(self, sim, world: int, first_wall: int, angular_speed: float) -> None:
+        """Turn the drum whose three walls are walls ``first_wall`` to ``first_wall + 2`` of
+        ``world`` in the simulation ``sim`` at ``angular_speed`` (rad/s) from the next step
+        (:meth:`Simulation.set_wall_angular_velocity
+        <demcal.dem.simulation.Simulation.set_wall_angular_velocity>`)."""
+        if not np.isfinite(angular_speed):
+            raise InputError(f"drum angular_speed must be finite; got {angular_speed}")
+        spin = float(angular_speed) * _unit(self.axis, "drum axis")
+        for k in range(first_wall, first_wall + 3):
+            sim.set_wall_angular_velocity(world, k, spin)
 
 
 def pack_walls(walls_per_world: list[list[PlaneWall | TubeWall]], max_walls: int):
