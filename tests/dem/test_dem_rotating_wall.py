@@ -33,7 +33,7 @@ from worlds import random_world, table
 
 from demcal.dem import _config
 from demcal.dem.materials import Interaction, Material
-from demcal.dem.shapes import template_from_spheres
+from demcal.dem.shapes import sphere_template, template_from_spheres
 from demcal.dem.simulation import Simulation
 from demcal.dem.state import ClumpGroup, World
 from demcal.dem.walls import Drum, PlaneWall, TubeWall, surface_velocity
@@ -159,6 +159,39 @@ def test_a_sled_in_a_turning_drum_slips_at_the_friction_angle(rolling):
     assert angles[top] > want + 1.0  # carried to the slip angle and beyond (the swing)
     assert abs(slip - want) < 0.15
     assert abs(slip - math.degrees(math.atan(mu))) < 1.0
+
+
+@pytest.mark.parametrize(("rolling", "mu_r"), [("C", 0.1), ("A", 0.1), ("none", 0.0)])
+def test_a_sphere_rolling_in_a_turning_drum_sits_where_tan_theta_is_mu_r(rolling, mu_r):
+    """A single sphere in a drum turning at 1 rad/s (0.1 m drum) is not carried up to the
+    friction angle: it rolls on the wall (its spin omega R / r keeps its contact point moving
+    with the surface) and sits where the wall's friction, m g sin(theta), turns it against the
+    rolling resistance, mu_r r m g cos(theta): tan(theta) = mu_r (the bottom without rolling
+    friction). Started there with that spin, its mean angle over the second second: measured
+    2026-11-27 5.715 deg (type C), 5.711 deg (type A) against atan(0.1) = 5.711 (swinging
+    +-0.006 deg), -0.0001 deg without rolling friction."""
+    drum_radius, omega = 0.1, 1.0
+    mats = table(Interaction(0.5, 0.5), Interaction(0.5, 0.5, rolling_friction=mu_r),
+                 particle=SOFT)
+    theta = math.atan(mu_r)
+    centre = drum_radius - RADIUS + 2e-6
+    group = ClumpGroup(sphere_template(RADIUS), "p", 1,
+                       positions=np.array([[-centre * math.sin(theta), 0.0,
+                                            -centre * math.cos(theta)]]),
+                       angular_velocities=np.array([[0.0, omega * drum_radius / RADIUS, 0.0]]))
+    world = World(mats, [group], walls=drum(drum_radius).walls(),
+                  domain_lo=(-0.2, -0.1, -0.2), domain_hi=(0.2, 0.1, 0.2))
+    sim = Simulation([world], rolling_friction=rolling)
+    drum(drum_radius).set_speed(sim, 0, 0, omega)
+    sim.run(1.0)
+    angles = drum_angles(sim, omega, 1.0, chunk=20)
+    spin = sim.arrays["c_omega"][0, 1]
+    print(f"rolling {rolling} mu_r {mu_r}: mean angle {angles.mean():.4f} deg "
+          f"(+-{angles.std():.4f}), atan(mu_r) {math.degrees(theta):.4f}; spin {spin:.3f} "
+          f"rad/s, omega R / r {omega * drum_radius / RADIUS:.3f}")
+    assert abs(angles.mean() - math.degrees(theta)) < 0.02
+    assert angles.std() < 0.05
+    assert spin == pytest.approx(omega * drum_radius / RADIUS, rel=0.01)
 
 
 # ----------------------------------------------------------------------- the end wall
