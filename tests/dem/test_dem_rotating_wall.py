@@ -192,6 +192,13 @@ def test_a_sphere_rolling_in_a_turning_drum_sits_where_tan_theta_is_mu_r(rolling
     assert abs(angles.mean() - math.degrees(theta)) < 0.02
     assert angles.std() < 0.05
     assert spin == pytest.approx(omega * drum_radius / RADIUS, rel=0.01)
+    # the drum's drive holds the sphere's weight off the bottom: the contact force's torque
+    # on the shell about its axis (y), against the turning, is m g sin(theta) R (the other
+    # components are about the shell's origin, its base, off the sphere's plane)
+    torque = sim.wall_torques(0)[0]
+    hold = float(sim.clump_masses(0)[0]) * G * math.sin(math.radians(angles[-1])) * drum_radius
+    print(f"torque on the shell {torque} N m; m g sin(theta) R {hold:.4e}")
+    assert -torque[1] == pytest.approx(hold, rel=0.005, abs=1e-8)
 
 
 # ----------------------------------------------------------------------- the end wall
@@ -260,9 +267,10 @@ def test_a_turning_end_wall_gives_twice_the_kinetic_energy_it_leaves():
     sim.set_wall_angular_velocity(0, 0, [0.0, 0.0, omega])
     a = sim.arrays
     dt = float(sim.dt[0])
-    work = dissipated = 0.0
+    work = dissipated = drive = 0.0
     for _ in range(1000):  # 0.086 s: the slip ends after ~0.055 s
         sim.advance(1)
+        drive -= omega * float(sim.wall_torques(0)[0, 2]) * dt  # -omega . torque
         force = -a["s_wall_force"][:, 0, :]  # on the clump's spheres
         contact = a["s_pos"].copy()
         contact[:, 2] = 0.0
@@ -277,6 +285,7 @@ def test_a_turning_end_wall_gives_twice_the_kinetic_energy_it_leaves():
     assert gain == pytest.approx(0.5 * float(sim.clump_masses(0)[0]) * (omega * x0) ** 2,
                                  rel=0.02)
     assert work == pytest.approx(2.0 * gain, rel=1e-3)
+    assert drive == pytest.approx(work, rel=1e-9)  # Simulation.wall_torques: the same work
     assert gain + dissipated == pytest.approx(work, rel=0.01)
 
 

@@ -34,7 +34,7 @@ from demcal.dem.kernels import (
     ROLLING_NONE,
 )
 from demcal.dem.state import World, rotate, rotate_inverse
-from demcal.dem.walls import check_spin_axis, pack_walls
+from demcal.dem.walls import check_spin_axis, contact_point, pack_walls
 from demcal.errors import InputError, SimulationUnstable
 
 __all__ = ["ROLLING_MODELS", "Simulation"]
@@ -571,6 +571,31 @@ class Simulation:
         self._check_wall(world, wall)
         self.runner.pull("wall_omega")
         return self.arrays["wall_omega"][world, wall].copy()
+
+    def wall_torques(self, world: int) -> np.ndarray:
+        """Torque the particles exert on each wall of a world about the wall's origin,
+        ``(n_walls, 3)``, N m (at the last step).
+
+        The sum over the wall's contacts of the lever from its origin to the contact point
+        (the middle of the overlap, where the kernels apply the force) times the force on the
+        wall. About a drum's axis it is what the drum's drive must overcome:
+        ``-omega . torque`` is the power the wall gives the particles through the contact
+        forces, W. Rolling-resistance couples are not in it (the kernels keep no per-wall
+        record of them; type A is no couple between two bodies at all).
+        """
+        self._check_world(world)
+        self.runner.pull("s_wall_force", "s_pos", "wall_origin")
+        a = self.arrays
+        lo, hi = self.sphere_range[world]
+        out = np.zeros((len(self.worlds[world].walls), 3))
+        for k in range(len(out)):
+            forces = a["s_wall_force"][lo:hi, k]
+            wall = (int(a["wall_type"][world, k]), a["wall_origin"][world, k],
+                    a["wall_geom"][world, k])
+            for i in np.flatnonzero(np.any(forces != 0.0, axis=1)):
+                lever = contact_point(wall, a["s_pos"][lo + i], a["s_radius"][lo + i]) - wall[1]
+                out[k] += np.cross(lever, forces[i])
+        return out
 
     def wall_origin(self, world: int, wall: int) -> np.ndarray:
         """Current origin (plane centre / tube base) of a wall, m."""

@@ -33,8 +33,8 @@ from numba import njit
 from demcal.errors import InputError
 
 __all__ = ["GEOM_SIZE", "WALL_NONE", "WALL_PLANE", "WALL_TUBE", "Drum", "PlaneWall", "TubeWall",
-           "check_spin_axis", "closest_point", "pack_walls", "spin_relative_to", "surely_beyond",
-           "surface_velocity"]
+           "check_spin_axis", "closest_point", "contact_point", "pack_walls", "spin_relative_to",
+           "surely_beyond", "surface_velocity"]
 
 WALL_NONE = 0
 WALL_PLANE = 1
@@ -270,6 +270,21 @@ def pack_walls(walls_per_world: list[list[PlaneWall | TubeWall]], max_walls: int
             # geom[0:3]: the plane's normal, the tube's axis (the only spin axis allowed)
             spin[w, k] = check_spin_axis(wall.angular_velocity, g[0:3], wall.name)
     return wtype, origin, geom, (vel, spin)
+
+
+def contact_point(wall, centre, radius: float) -> np.ndarray:
+    """Where a sphere touches a wall, m: the middle of the overlap, as the kernels take it.
+
+    ``wall`` = ``(type, origin (3,) m, geom)`` as packed; ``centre`` (3,) m and ``radius`` m
+    of the sphere. (Host side, for queries such as :meth:`Simulation.wall_torques
+    <demcal.dem.simulation.Simulation.wall_torques>`.)
+    """
+    wtype, origin, geom = wall
+    d, nx, ny, nz, _, _, _ = closest_point(wtype, float(origin[0]), float(origin[1]),
+                                           float(origin[2]), geom, float(centre[0]),
+                                           float(centre[1]), float(centre[2]))
+    lever = radius - 0.5 * (radius - d)
+    return np.asarray(centre, dtype=np.float64) - lever * np.array([nx, ny, nz])
 
 
 @njit(cache=True)
