@@ -280,7 +280,9 @@ def contact_forces(st: dict, worlds, rolling: str) -> Result:
             p = pair_props(tab.material(wall["material"]), tab.material(mat),
                            tab.interaction(wall["material"], mat))
             cpt = pos[i] - nrm * (ri - 0.5 * delta)
-            vrel = vel_at(c, cpt) - wall["velocity"]
+            # the wall's surface velocity there: translation + spin about its origin
+            spin = wall.get("omega", np.zeros(3))
+            vrel = vel_at(c, cpt) - (wall["velocity"] + np.cross(spin, cpt - wall["origin"]))
             vn = np.dot(vrel, nrm)
             out = normal_force(delta, vn, ri, st["c_mass"][c], p)
             if out is None:
@@ -298,7 +300,8 @@ def contact_forces(st: dict, worlds, rolling: str) -> Result:
             if rolling == "A":
                 roll_a(i, c, cpt, rep, p.mu_r)
             elif rolling == "C":
-                m = rolling_epsd(st["w_rhist"][i, k], nrm, st["c_omega"][c], st["world_dt"][w],
+                m = rolling_epsd(st["w_rhist"][i, k], nrm, st["c_omega"][c] - spin,
+                                 st["world_dt"][w],
                                  arad, ri, rep, p)
                 res.wall_rhist[i, k] = m
                 res.torque[i] += m

@@ -78,19 +78,27 @@ def _necks(rng: np.random.Generator, table: MaterialTable) -> World:
                          domain_hi=(0.1, 0.1, 0.1))
 
 
-def build(seed: int, rolling: str, backend: str = "cpu") -> Simulation:
+def build(seed: int, rolling: str, backend: str = "cpu", spin: float = 0.0) -> Simulation:
+    """The reference's worlds; ``spin`` (rad/s): every wall of the two random worlds turns
+    about its axis (a plane's normal, a tube's axis) at that rate, in alternating senses."""
     rng = np.random.default_rng(seed)
     t0, t1 = _tables()
     worlds = [random_world(rng, t0, 12, materials=("p", "q", "p")),
               random_world(rng, t1, 9, materials=("q", "p", "q")), _necks(rng, t0)]
-    return Simulation(worlds, backend=backend, rolling_friction=rolling, dt_fraction=0.2)
+    sim = Simulation(worlds, backend=backend, rolling_friction=rolling, dt_fraction=0.2)
+    if spin:
+        for w in (0, 1):
+            for k in range(len(worlds[w].walls)):
+                axis = sim.arrays["wall_geom"][w, k, 0:3]
+                sim.set_wall_angular_velocity(w, k, (-1) ** (w + k) * spin * axis)
+    return sim
 
 
-def compare(seed: int, rolling: str, backend: str = "cpu") -> dict:
+def compare(seed: int, rolling: str, backend: str = "cpu", spin: float = 0.0) -> dict:
     """Step once (build lists, histories), randomise the histories, snapshot, step again and
     compare with the reference. Returns the largest relative deviations and contact counts."""
     rng = np.random.default_rng(seed + 1000)
-    sim = build(seed, rolling, backend)
+    sim = build(seed, rolling, backend, spin)
     saved = _config.MAX_OVERLAP_FRACTION, _config.MAX_SPEED
     # random crowding: deep overlaps (and the speeds they give) are wanted here
     _config.MAX_OVERLAP_FRACTION, _config.MAX_SPEED = 10.0, 1e9
@@ -155,10 +163,10 @@ def test_cpu_kernels_equal_the_naive_reference(seed, rolling):
     _check(out)
 
 
-def _run_cudasim(rolling: str) -> str:
+def _run_cudasim(rolling: str, spin: float = 0.0) -> str:
     env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
     code = (f"import sys; sys.path.insert(0, {str(HERE)!r}); import test_dem_reference as t; "
-            f"import json; print(json.dumps(t.compare(5, {rolling!r}, 'cuda')))")
+            f"import json; print(json.dumps(t.compare(5, {rolling!r}, 'cuda', {spin!r})))")
     proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                           text=True, timeout=600, cwd=HERE)
     assert proc.returncode == 0, proc.stderr[-3000:]

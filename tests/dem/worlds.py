@@ -84,13 +84,14 @@ def slot_pairs(sim: Simulation):
 
 def wall_descriptions(sim: Simulation) -> list[list[dict]]:
     """Walls of each world for :mod:`naive`, at their current origins."""
-    sim.runner.pull("wall_origin", "wall_vel")
+    sim.runner.pull("wall_origin", "wall_vel", "wall_omega")
     out = []
     for w, world in enumerate(sim.worlds):
         walls = []
         for k, wall in enumerate(world.walls):
             origin = sim.arrays["wall_origin"][w, k].copy()
             vel = sim.arrays["wall_vel"][w, k].copy()
+            spin = sim.arrays["wall_omega"][w, k].copy()
             if isinstance(wall, PlaneWall):
                 n = np.asarray(wall.normal, float) / np.linalg.norm(wall.normal)
                 u = np.asarray(wall.u_axis, float)
@@ -98,12 +99,12 @@ def wall_descriptions(sim: Simulation) -> list[list[dict]]:
                 u /= np.linalg.norm(u)
                 walls.append(dict(type="plane", origin=origin, normal=n, u=u, v=np.cross(n, u),
                                   hu=float(wall.half_size[0]), hv=float(wall.half_size[1]),
-                                  velocity=vel, material=wall.material))
+                                  velocity=vel, omega=spin, material=wall.material))
             else:
                 ax = np.asarray(wall.axis, float) / np.linalg.norm(wall.axis)
                 walls.append(dict(type="tube", origin=origin, axis=ax, r_in=wall.inner_radius,
                                   r_out=wall.inner_radius + wall.thickness, length=wall.length,
-                                  velocity=vel, material=wall.material))
+                                  velocity=vel, omega=spin, material=wall.material))
         out.append(walls)
     return out
 

@@ -100,6 +100,7 @@ class Walls(NamedTuple):
     origin: np.ndarray  #: (n_w, n_k, 3) current origin, m
     geom: np.ndarray  #: (n_w, n_k, GEOM_SIZE) shape (see demcal.dem.walls)
     vel: np.ndarray  #: (n_w, n_k, 3) translation velocity, m/s
+    omega: np.ndarray  #: (n_w, n_k, 3) spin about the origin, along the axis/normal, rad/s
     material: np.ndarray  #: (n_w, n_k) int32 material index
     ref: np.ndarray  #: (n_w, n_k, 3) origin at the last neighbour build, m
     near: np.ndarray  #: (n_s,) int64 candidate walls of each sphere (bit k: wall k)
@@ -173,7 +174,8 @@ KEYS: dict[type, tuple[str, ...]] = {
               "s_force", "s_torque", "s_roll"),
     Clumps: ("c_pos", "c_quat", "c_vel", "c_veval", "c_angmom", "c_omega", "c_mass",
              "c_inertia", "c_world", "c_state", "c_first", "c_count", "c_scratch"),
-    Walls: ("wall_type", "wall_origin", "wall_geom", "wall_vel", "wall_material", "wall_ref",
+    Walls: ("wall_type", "wall_origin", "wall_geom", "wall_vel", "wall_omega", "wall_material",
+            "wall_ref",
             "s_wall_near", "w_hist", "w_rhist", "s_wall_force"),
     Grid: ("grid_lo", "bucket_count", "bucket_members"),
     Worlds: ("world_dt", "world_gravity", "world_active", "world_lo", "world_hi", "world_time",

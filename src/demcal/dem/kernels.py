@@ -44,7 +44,13 @@ from demcal.dem.contact import (  # noqa: F401 (re-exported: the launchers' impo
     contact_response,
     pair_row,
 )
-from demcal.dem.walls import WALL_NONE, closest_point, surely_beyond
+from demcal.dem.walls import (
+    WALL_NONE,
+    closest_point,
+    spin_relative_to,
+    surely_beyond,
+    surface_velocity,
+)
 
 #: most walls per world: a sphere's wall candidates are the bits of one int64
 MAX_WALLS = 64
@@ -401,6 +407,7 @@ def wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags):
     wall_origin = walls.origin
     wall_geom = walls.geom
     wall_vel = walls.vel
+    wall_omega = walls.omega
     wall_material = walls.material
     w_hist = walls.hist
     w_rhist = walls.rhist
@@ -470,14 +477,23 @@ def wall_contacts(lo, hi, sph, clu, walls, worlds, prm, flags):
             px = cx - com_ix
             py = cy - com_iy
             pz = cz - com_iz
-            vx = vix + oiy * pz - oiz * py - wall_vel[w, k, 0]
-            vy = viy + oiz * px - oix * pz - wall_vel[w, k, 1]
-            vz = viz + oix * py - oiy * px - wall_vel[w, k, 2]
+            # the wall's surface velocity at the contact point: its translation plus its
+            # spin about its origin (a drum), so that a sphere carried round with a turning
+            # wall has no tangential slip and a type-C spring no rolling on it
+            wall_spin = load3(wall_omega, w, k)
+            wvx, wvy, wvz = surface_velocity(
+                load3(wall_vel, w, k), wall_spin,
+                (cx - wall_origin[w, k, 0], cy - wall_origin[w, k, 1], cz - wall_origin[w, k, 2]))
+            vx = vix + oiy * pz - oiz * py - wvx
+            vy = viy + oiz * px - oix * pz - wvy
+            vz = viz + oix * py - oiy * px - wvz
             params = pair_row(pair_params, w, wall_material[w, k], mat_i)
+            # type A acts on the body's own spin (EDEM's law, as between spheres); type C on
+            # the spin relative to the wall
             arad, fb, xi, roll_a, roll_c = contact_response(
                 overlap, (nx, ny, nz), (vx, vy, vz), params,
                 ri, mass_i, dt, load3(w_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
-                spin, load3(w_rhist, i, k) if use_c else ZERO3)
+                spin_relative_to(spin, wall_spin), load3(w_rhist, i, k) if use_c else ZERO3)
             if arad <= 0.0:
                 zero3(w_hist, i, k)
                 if use_c:

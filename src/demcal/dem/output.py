@@ -302,17 +302,19 @@ def _wall_dict(wall: PlaneWall | TubeWall) -> dict[str, Any]:
     if isinstance(wall, PlaneWall):
         return {"type": "plane", "origin": vec(wall.origin), "normal": vec(wall.normal),
                 "half_size": [float(h) for h in wall.half_size], "u_axis": vec(wall.u_axis),
-                "material": wall.material, "velocity": vec(wall.velocity), "name": wall.name}
+                "material": wall.material, "velocity": vec(wall.velocity), "name": wall.name,
+                "angular_velocity": vec(wall.angular_velocity)}
     return {"type": "tube", "base": vec(wall.base), "axis": vec(wall.axis),
             "inner_radius": float(wall.inner_radius), "thickness": float(wall.thickness),
             "length": float(wall.length), "material": wall.material,
-            "velocity": vec(wall.velocity), "name": wall.name}
+            "velocity": vec(wall.velocity), "name": wall.name,
+            "angular_velocity": vec(wall.angular_velocity)}
 
 
 def _wall_from(d: dict[str, Any]) -> PlaneWall | TubeWall:
     d = dict(d)
     kind = d.pop("type")
-    for key in ("origin", "normal", "u_axis", "velocity", "base", "axis"):
+    for key in ("origin", "normal", "u_axis", "velocity", "base", "axis", "angular_velocity"):
         if d.get(key) is not None:
             d[key] = np.array(d[key])
     if kind == "plane":

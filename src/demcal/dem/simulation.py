@@ -34,7 +34,7 @@ from demcal.dem.kernels import (
     ROLLING_NONE,
 )
 from demcal.dem.state import World, rotate, rotate_inverse
-from demcal.dem.walls import pack_walls
+from demcal.dem.walls import check_spin_axis, contact_point, pack_walls
 from demcal.errors import InputError, SimulationUnstable
 
 __all__ = ["ROLLING_MODELS", "Simulation"]
@@ -48,10 +48,13 @@ DYNAMIC_ARRAYS = (
     "nb_count_a", "nb_index_a", "nb_hist_a", "nb_rhist_a", "nb_count_b", "nb_index_b",
     "nb_hist_b", "nb_rhist_b", "w_hist", "w_rhist", "wall_origin", "wall_vel", "world_time",
     "world_steps", "world_active", "flag_rebuild", "flag_nan", "flag_overlap", "stats",
-    "s_wall_near", "wall_ref",
+    "s_wall_near", "wall_ref", "wall_omega",
 )
 #: dynamic arrays a snapshot of an older demcal may lack: rebuilt by a neighbour build
 REBUILT_ARRAYS = ("s_wall_near", "wall_ref")
+#: dynamic arrays a snapshot of an older demcal may lack: kept as built from the walls'
+#: description (before walls could spin, none did)
+DESCRIBED_ARRAYS = ("wall_omega",)
 
 
 def _pow2_at_least(n: float) -> int:
@@ -243,7 +246,8 @@ class Simulation:
     def _build_walls(self, max_walls: int, n_sph: int) -> None:
         """The walls' arrays (packed per world) and the per-sphere wall contact state."""
         a = self.arrays
-        wtype, worigin, wgeom, wvel = pack_walls([w.walls for w in self.worlds], max_walls)
+        wtype, worigin, wgeom, (wvel, wspin) = pack_walls([w.walls for w in self.worlds],
+                                                          max_walls)
         wmat = np.zeros((len(self.worlds), max_walls), dtype=np.int32)
         for w, world in enumerate(self.worlds):
             for k, wall in enumerate(world.walls):
@@ -259,6 +263,7 @@ class Simulation:
         a["wall_origin"] = worigin
         a["wall_geom"] = wgeom
         a["wall_vel"] = wvel
+        a["wall_omega"] = wspin
         a["wall_material"] = wmat
         a["wall_ref"] = worigin.copy()
         a["s_wall_near"] = np.zeros(n_sph, dtype=np.int64)
@@ -545,17 +550,63 @@ class Simulation:
         self.runner.push("c_state", "flag_rebuild")
 
     # ------------------------------------------------------------------ walls
-    def set_wall_velocity(self, world: int, wall: int, velocity) -> None:
-        """Set the translation velocity of a wall, m/s."""
+    def _check_wall(self, world: int, wall: int) -> None:
         self._check_world(world)
         if not (0 <= wall < len(self.worlds[world].walls)):
             raise InputError(f"wall must be in [0, {len(self.worlds[world].walls) - 1}]")
+
+    def set_wall_velocity(self, world: int, wall: int, velocity) -> None:
+        """Set the translation velocity of a wall, m/s."""
+        self._check_wall(world, wall)
         v = np.asarray(velocity, dtype=np.float64)
         if v.shape != (3,) or not np.all(np.isfinite(v)):
             raise InputError("velocity must be 3 finite numbers (m/s)")
         self.runner.pull("wall_vel")
         self.arrays["wall_vel"][world, wall] = v
         self.runner.push("wall_vel")
+
+    def set_wall_angular_velocity(self, world: int, wall: int, omega) -> None:
+        """Set the spin of a wall about its origin, rad/s: along a tube's axis (a drum's
+        shell) or a plane's normal (a drum's end wall); see :mod:`demcal.dem.walls`. The
+        surface at ``p`` then moves at ``v + omega x (p - origin)``. Takes effect at the next
+        step; the walls' description (``World.walls``) keeps its initial value."""
+        self._check_wall(world, wall)
+        geom = self.arrays["wall_geom"][world, wall]
+        spin = check_spin_axis(omega, geom[0:3], self.worlds[world].walls[wall].name)
+        self.runner.pull("wall_omega")
+        self.arrays["wall_omega"][world, wall] = spin
+        self.runner.push("wall_omega")
+
+    def wall_angular_velocity(self, world: int, wall: int) -> np.ndarray:
+        """Current spin of a wall about its origin, rad/s."""
+        self._check_wall(world, wall)
+        self.runner.pull("wall_omega")
+        return self.arrays["wall_omega"][world, wall].copy()
+
+    def wall_torques(self, world: int) -> np.ndarray:
+        """Torque the particles exert on each wall of a world about the wall's origin,
+        ``(n_walls, 3)``, N m (at the last step).
+
+        The sum over the wall's contacts of the lever from its origin to the contact point
+        (the middle of the overlap, where the kernels apply the force) times the force on the
+        wall. About a drum's axis it is what the drum's drive must overcome:
+        ``-omega . torque`` is the power the wall gives the particles through the contact
+        forces, W. Rolling-resistance couples are not in it (the kernels keep no per-wall
+        record of them; type A is no couple between two bodies at all).
+        """
+        self._check_world(world)
+        self.runner.pull("s_wall_force", "s_pos", "wall_origin")
+        a = self.arrays
+        lo, hi = self.sphere_range[world]
+        out = np.zeros((len(self.worlds[world].walls), 3))
+        for k in range(len(out)):
+            forces = a["s_wall_force"][lo:hi, k]
+            wall = (int(a["wall_type"][world, k]), a["wall_origin"][world, k],
+                    a["wall_geom"][world, k])
+            for i in np.flatnonzero(np.any(forces != 0.0, axis=1)):
+                lever = contact_point(wall, a["s_pos"][lo + i], a["s_radius"][lo + i]) - wall[1]
+                out[k] += np.cross(lever, forces[i])
+        return out
 
     def wall_origin(self, world: int, wall: int) -> np.ndarray:
         """Current origin (plane centre / tube base) of a wall, m."""
@@ -647,6 +698,8 @@ class Simulation:
         for name in DYNAMIC_ARRAYS:
             if name not in state and name in REBUILT_ARRAYS:
                 rebuild = True
+                continue
+            if name not in state and name in DESCRIBED_ARRAYS:
                 continue
             if name not in state:
                 raise InputError(f"snapshot lacks array {name!r}")

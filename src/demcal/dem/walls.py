@@ -5,6 +5,17 @@ walls are packed into ``wall_type`` (int32), ``wall_origin`` (3 floats, moves wi
 velocity) and ``wall_geom`` (:data:`GEOM_SIZE` floats), and :func:`closest_point` gives the
 distance from a sphere centre to the wall's surface.
 
+A wall moves by a translation velocity (its origin moves) and may also spin about an axis
+through its origin (``angular_velocity``, rad/s): a tube about its own axis, a plane about
+its normal. Such a spin leaves the surface where it is (a tube turned about its axis is the
+same tube; a plane turned about its normal is the same plane), so only the surface's velocity
+changes: at a point ``p`` of the surface it is ``v + omega x (p - origin)``
+(:func:`surface_velocity`), which enters the contact's tangential and rolling relative
+motion. This is a drum: a tube turning about its axis with two planes across its ends turning
+with it. A finite rectangle's outline is *not* turned (only its surface moves): use a
+turning rectangle where spheres stay clear of its edges, as a drum's end walls larger than
+the drum.
+
 A tube is the solid of revolution of the rectangle ``[r_in, r_out] x [0, length]`` in the
 ``(rho, z)`` plane around its axis, so its inner surface, outer surface, rims and edges are all
 handled by one closest-point query in that plane. Its curvature is ignored in the contact
@@ -21,8 +32,9 @@ from numba import njit
 
 from demcal.errors import InputError
 
-__all__ = ["GEOM_SIZE", "WALL_NONE", "WALL_PLANE", "WALL_TUBE", "PlaneWall", "TubeWall",
-           "closest_point", "pack_walls", "surely_beyond"]
+__all__ = ["GEOM_SIZE", "WALL_NONE", "WALL_PLANE", "WALL_TUBE", "Drum", "PlaneWall", "TubeWall",
+           "check_spin_axis", "closest_point", "contact_point", "pack_walls", "spin_relative_to",
+           "surely_beyond", "surface_velocity"]
 
 WALL_NONE = 0
 WALL_PLANE = 1
@@ -47,6 +59,22 @@ def _vec3(vec, name: str) -> np.ndarray:
     return v
 
 
+def check_spin_axis(omega, axis: np.ndarray, name: str) -> np.ndarray:
+    """A wall's angular velocity (rad/s) as 3 floats, checked to lie along ``axis``.
+
+    A wall may only spin about its axis of symmetry (a tube's axis, a plane's normal), so that
+    the spin leaves its surface in place and only the surface velocity changes; any other spin
+    would move the surface, which the engine does not do. Raises :class:`InputError` otherwise.
+    """
+    w = _vec3(omega, f"wall {name!r} angular_velocity")
+    rate = float(np.linalg.norm(w))
+    if rate > 0.0 and float(np.linalg.norm(np.cross(w, axis))) > 1e-9 * rate:
+        raise InputError(f"wall {name!r} angular_velocity {list(map(float, w))} rad/s must lie "
+                         f"along its axis (a tube's axis, a plane's normal) "
+                         f"{list(map(float, axis))}: only such a spin leaves the wall in place")
+    return w
+
+
 @dataclass
 class PlaneWall:
     """A flat rectangle (or an infinite plane), two-sided.
@@ -68,6 +96,10 @@ class PlaneWall:
         Translation velocity, m/s.
     name : str
         Label (used in wall-force reports).
+    angular_velocity : (3,) array_like
+        Spin about the normal through ``origin``, rad/s (along the normal; default 0): the
+        surface at ``p`` moves at ``velocity + angular_velocity x (p - origin)``, the outline
+        stays (a drum's end wall, see the module's notes).
     """
 
     origin: np.ndarray
@@ -77,6 +109,7 @@ class PlaneWall:
     material: str = "wall"
     velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     name: str = "plane"
+    angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def packed(self) -> tuple[int, np.ndarray, np.ndarray]:
         n = _unit(self.normal, f"wall {self.name!r} normal")
@@ -115,6 +148,10 @@ class TubeWall:
         Inner radius, wall thickness and length of the tube, m.
     material, velocity, name
         As for :class:`PlaneWall`.
+    angular_velocity : (3,) array_like
+        Spin about the tube's own axis (through ``base``), rad/s (along ``axis``; default 0):
+        a drum's shell. The surface at ``p`` moves at
+        ``velocity + angular_velocity x (p - base)``.
     """
 
     base: np.ndarray
@@ -125,6 +162,7 @@ class TubeWall:
     material: str = "wall"
     velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     name: str = "tube"
+    angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def packed(self) -> tuple[int, np.ndarray, np.ndarray]:
         a = _unit(self.axis, f"wall {self.name!r} axis")
@@ -140,17 +178,88 @@ class TubeWall:
         return WALL_TUBE, _vec3(self.base, f"wall {self.name!r} base"), geom
 
 
+@dataclass
+class Drum:
+    """A drum: a tube turning about its axis between two end walls that turn with it.
+
+    Parameters
+    ----------
+    centre : (3,) array_like
+        Centre of the drum (on its axis, half-way between the end walls), m.
+    axis : (3,) array_like
+        Axis direction (need not be unit); the drum turns about it by the right-hand rule.
+    radius, width : float
+        Inner radius and inner width (between the end walls), m.
+    angular_speed : float
+        rad/s (0: at rest; negative: the other way).
+    material : str
+        Name of the walls' material (shell and end walls).
+    thickness : float
+        Shell thickness, m (only its inner side is meant to be touched).
+
+    :meth:`walls` gives the three walls (shell, then the end walls at the axis' start and
+    end); their origins lie on the axis, so their surface velocities are one rigid body's,
+    ``omega x (p - centre)``. A world's walls may hold several drums or other walls;
+    :meth:`set_speed` turns the three at once during a run.
+    """
+
+    centre: np.ndarray
+    axis: np.ndarray
+    radius: float
+    width: float
+    angular_speed: float = 0.0
+    material: str = "wall"
+    thickness: float = 1e-3
+
+    def walls(self) -> list[PlaneWall | TubeWall]:
+        """``[shell, end at -axis, end at +axis]``: a :class:`TubeWall` and two
+        :class:`PlaneWall` squares (half-size ``radius + thickness``, normals inwards)."""
+        a = _unit(self.axis, "drum axis")
+        c = _vec3(self.centre, "drum centre")
+        for label, val in (("radius", self.radius), ("width", self.width),
+                           ("thickness", self.thickness)):
+            if not (np.isfinite(val) and val > 0):
+                raise InputError(f"drum {label} must be > 0 m; got {val}")
+        if not np.isfinite(self.angular_speed):
+            raise InputError(f"drum angular_speed must be finite; got {self.angular_speed}")
+        spin = float(self.angular_speed) * a
+        base = c - 0.5 * self.width * a
+        half = self.radius + self.thickness
+        return [
+            TubeWall(base=base, axis=a, inner_radius=self.radius, thickness=self.thickness,
+                     length=self.width, material=self.material, name="drum shell",
+                     angular_velocity=spin.copy()),
+            PlaneWall(origin=base, normal=a, half_size=(half, half), material=self.material,
+                      name="drum end -", angular_velocity=spin.copy()),
+            PlaneWall(origin=c + 0.5 * self.width * a, normal=-a, half_size=(half, half),
+                      material=self.material, name="drum end +", angular_velocity=spin.copy()),
+        ]
+
+    def set_speed(self, sim, world: int, first_wall: int, angular_speed: float) -> None:
+        """Turn the drum whose three walls are walls ``first_wall`` to ``first_wall + 2`` of
+        ``world`` in the simulation ``sim`` at ``angular_speed`` (rad/s) from the next step
+        (:meth:`Simulation.set_wall_angular_velocity
+        <demcal.dem.simulation.Simulation.set_wall_angular_velocity>`)."""
+        if not np.isfinite(angular_speed):
+            raise InputError(f"drum angular_speed must be finite; got {angular_speed}")
+        spin = float(angular_speed) * _unit(self.axis, "drum axis")
+        for k in range(first_wall, first_wall + 3):
+            sim.set_wall_angular_velocity(world, k, spin)
+
+
 def pack_walls(walls_per_world: list[list[PlaneWall | TubeWall]], max_walls: int):
     """Pack walls of every world into device arrays.
 
-    Returns ``wall_type (n_worlds, max_walls) int32``, ``wall_origin (n_worlds, max_walls, 3)``,
-    ``wall_geom (n_worlds, max_walls, GEOM_SIZE)`` and ``wall_velocity (n_worlds, max_walls, 3)``.
+    Returns ``wall_type (n_worlds, max_walls) int32``, ``wall_origin (n_worlds, max_walls, 3)``
+    (m), ``wall_geom (n_worlds, max_walls, GEOM_SIZE)``, and the motion as one tuple
+    ``(wall_velocity, wall_omega)``, each ``(n_worlds, max_walls, 3)`` (m/s, rad/s).
     """
     n_worlds = len(walls_per_world)
     wtype = np.zeros((n_worlds, max_walls), dtype=np.int32)
     origin = np.zeros((n_worlds, max_walls, 3))
     geom = np.zeros((n_worlds, max_walls, GEOM_SIZE))
     vel = np.zeros((n_worlds, max_walls, 3))
+    spin = np.zeros((n_worlds, max_walls, 3))
     for w, walls in enumerate(walls_per_world):
         for k, wall in enumerate(walls):
             t, o, g = wall.packed()
@@ -158,7 +267,59 @@ def pack_walls(walls_per_world: list[list[PlaneWall | TubeWall]], max_walls: int
             origin[w, k] = o
             geom[w, k] = g
             vel[w, k] = _vec3(wall.velocity, f"wall {wall.name!r} velocity")
-    return wtype, origin, geom, vel
+            # geom[0:3]: the plane's normal, the tube's axis (the only spin axis allowed)
+            spin[w, k] = check_spin_axis(wall.angular_velocity, g[0:3], wall.name)
+    return wtype, origin, geom, (vel, spin)
+
+
+def contact_point(wall, centre, radius: float) -> np.ndarray:
+    """Where a sphere touches a wall, m: the middle of the overlap, as the kernels take it.
+
+    ``wall`` = ``(type, origin (3,) m, geom)`` as packed; ``centre`` (3,) m and ``radius`` m
+    of the sphere. (Host side, for queries such as :meth:`Simulation.wall_torques
+    <demcal.dem.simulation.Simulation.wall_torques>`.)
+    """
+    wtype, origin, geom = wall
+    d, nx, ny, nz, _, _, _ = closest_point(wtype, float(origin[0]), float(origin[1]),
+                                           float(origin[2]), geom, float(centre[0]),
+                                           float(centre[1]), float(centre[2]))
+    lever = radius - 0.5 * (radius - d)
+    return np.asarray(centre, dtype=np.float64) - lever * np.array([nx, ny, nz])
+
+
+@njit(cache=True)
+def surface_velocity(vel, spin, arm):
+    """Velocity of a wall's surface at a point, m/s: ``vel + spin x arm``.
+
+    Parameters
+    ----------
+    vel : tuple of 3 floats
+        The wall's translation velocity, m/s.
+    spin : tuple of 3 floats
+        Its angular velocity about its origin, rad/s.
+    arm : tuple of 3 floats
+        From the wall's origin to the point, m.
+
+    Returns ``vel`` itself (the very floats) when the wall does not spin, so that a
+    non-spinning wall's contacts are bit for bit what they were before walls could spin.
+    """
+    if spin[0] == 0.0 and spin[1] == 0.0 and spin[2] == 0.0:
+        return vel
+    return (vel[0] + (spin[1] * arm[2] - spin[2] * arm[1]),
+            vel[1] + (spin[2] * arm[0] - spin[0] * arm[2]),
+            vel[2] + (spin[0] * arm[1] - spin[1] * arm[0]))
+
+
+@njit(cache=True)
+def spin_relative_to(body_spin, wall_spin):
+    """A body's angular velocity relative to a wall's, rad/s (tuples of 3 floats): what
+    type-C rolling resistance sees at a wall contact (a body carried round with a turning
+    wall does not roll on it). Returns ``body_spin`` itself when the wall does not spin (bit
+    for bit the non-spinning wall's contact)."""
+    if wall_spin[0] == 0.0 and wall_spin[1] == 0.0 and wall_spin[2] == 0.0:
+        return body_spin
+    return (body_spin[0] - wall_spin[0], body_spin[1] - wall_spin[1],
+            body_spin[2] - wall_spin[2])
 
 
 @njit(cache=True)
