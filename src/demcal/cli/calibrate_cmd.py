@@ -48,6 +48,7 @@ def _print_result(result: dict) -> None:
                   f"{mean} +/- {std} deg, relative error {rel}; {result['n_runs']} runs stored "
                   f"({result['n_runs_executed']} run now)")
     _print_verification(result)
+    _print_bayes(result)
     a = result.get("rsm_adequacy") or {}
     if a:
         def f(key: str, fmt: str) -> str:
@@ -65,6 +66,20 @@ def _print_result(result: dict) -> None:
         console.print(styled(("warning:", "yellow"), " the response-surface model is not "
                              "adequate (see the rsm stage's warnings): its optimum is a guess "
                              "within the noise"))
+
+
+def _print_bayes(result: dict) -> None:
+    """The posterior's 95 % intervals and the identifiability verdict (strategy bayes)."""
+    if result.get("strategy") != "bayes":
+        return
+    for name, p in result["posterior"].items():
+        console.print(f"{name}: median {p['median']:.4g}, 95 % credible interval "
+                      f"{p['ci95_low']:.4g}-{p['ci95_high']:.4g}", highlight=False)
+    console.print(f"{result['reason']} ({result['n_runs_strategy']} runs, stopped by "
+                  f"{result['stopped']})", highlight=False)
+    for s in result.get("shrinkage") or []:
+        console.print(f"adding {s['response']} would shrink the ridge '{s['ridge']}' by "
+                      f"{s['shrinkage']:.0%} (expected)", highlight=False)
 
 
 def _print_rounds(result: dict) -> None:
