@@ -21,6 +21,7 @@ from typing import Any
 
 from matplotlib.figure import Figure
 
+from demcal.report import bayes_section as BS
 from demcal.report import diagnostics as D
 from demcal.report import figures as F
 from demcal.report import material as M
@@ -668,9 +669,9 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
     if b.card is None:  # no stale card from an earlier build
         for name in ("material.toml", "material.json"):
             (out / name).unlink(missing_ok=True)
-    body = "".join([_overview(b), _material(b), _stages(b), _measurement(b), _rangefind(b),
-                    _screening(b), _steepest(b), _rsm(b), _optimize(b), _verification(b),
-                    _several_responses(b), _excluded(b)])
+    body = "".join([_overview(b), _material(b), _stages(b), BS.bayes_section(b),
+                    _measurement(b), _rangefind(b), _screening(b), _steepest(b), _rsm(b),
+                    _optimize(b), _verification(b), _several_responses(b), _excluded(b)])
     body += _footer(b)
     study = data.meta.get("study") or {}
     title = f"demcal calibration report: {study.get('name') or data.study_dir.name}"

@@ -1,0 +1,137 @@
+"""``[strategy] kind = "bayes"``: a study calibrated by a posterior (the analytic stand-in).
+
+The planted three-response, three-factor study of test_several_responses: with the three
+lab values the posterior must close around the planted point; with the angle alone it must
+say that the tests leave a ridge along which the two frictions trade, and that the drum
+(a response the runs report but the study does not aim at) would remove it.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from test_several_responses import FACTORS, PLANTED, write_study
+from typer.testing import CliRunner
+
+from demcal.calibrate import calibrate
+from demcal.cli import app
+from demcal.store import RunStore
+
+FRICTIONS = {"pp.static_friction", "pp.rolling_friction"}
+
+
+def bayes_study(folder: Path, *, responses: bool = True, strategy: str = "") -> Path:
+    return write_study(folder, responses=responses,
+                       aor_only_extra='\n[strategy]\nkind = "bayes"\nbatch = 6\n' + strategy)
+
+
+@pytest.fixture(scope="module")
+def three(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
+    folder = tmp_path_factory.mktemp("three")
+    return folder, calibrate(bayes_study(folder), workers=1)
+
+
+def test_three_responses_pin_the_planted_point(three: tuple[Path, dict]) -> None:
+    _folder, res = three
+    assert res["strategy"] == "bayes" and res["identifiable"] is True, res["reason"]
+    assert res["n_runs_strategy"] <= 90
+    for name, (_sym, lo, hi) in FACTORS.items():
+        p = res["posterior"][name]
+        assert p["ci95_low"] <= PLANTED[name] <= p["ci95_high"], (name, p)
+        assert p["ci95_high"] - p["ci95_low"] <= 0.25 * (hi - lo), (name, p)
+        assert p["ci95_low"] <= p["median"] <= p["ci95_high"]
+    assert res["ridge"] == []
+    assert set(res["correlation"]) == set(FACTORS)
+    # verified at the best point on fresh seeds, every response judged against its lab
+    ver = res["verification"]
+    assert ver["n"] >= 4 and ver["consistent"] is True, ver
+    assert set(res["responses"]["verification"]) == {"drum_deg", "bulk_density_kg_m3"}
+    assert set(res["optimum_full"]) > set(FACTORS)
+    assert res["optimum"] == {n: res["optimum_full"][n] for n in FACTORS}
+    assert res["n_runs_executed"] == res["n_runs_strategy"] + ver["n"]
+
+
+def test_resume_runs_nothing_and_gives_the_same_result(three: tuple[Path, dict]) -> None:
+    folder, res = three
+    again = calibrate(folder / "study.toml", workers=1)
+    assert again["n_runs_executed"] == 0
+    for key in ("posterior", "correlation", "optimum", "verification", "reason"):
+        assert again[key] == res[key], key
+
+
+def test_the_stage_and_the_runs_are_stored(three: tuple[Path, dict]) -> None:
+    folder, res = three
+    store = RunStore(folder)
+    try:
+        stages = {s.name: s for s in store.stages()}
+        runs = store.runs("bayes")
+    finally:
+        store.close()
+    assert stages["bayes"].status == "done" and stages["verification"].status == "done"
+    summary = stages["bayes"].summary
+    assert summary["posterior"] == res["posterior"]
+    assert len(summary["samples"][next(iter(FACTORS))]) >= 100
+    assert len(runs) == res["n_runs_strategy"]
+    assert sorted(r.point for r in runs) == list(range(len(runs)))  # a stable index per run
+    assert len({r.seed for r in runs}) == len(runs)
+
+
+def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
+    res = calibrate(bayes_study(tmp_path, responses=False, strategy="max_runs = 33\n"),
+                    workers=1)
+    assert res["identifiable"] is False
+    assert res["n_runs_strategy"] == 33 and res["stopped"] == "budget"
+    friction = [r for r in res["ridges"] if FRICTIONS <= set(r["parameters"])]
+    assert friction, res["reason"]
+    assert friction[0]["text"] in res["ridge"] and "pp.static_friction down" in res["reason"]
+    # the drum (planted: rolling friction 60, static 5) is what removes it
+    shrink = {s["response"]: s["shrinkage"] for s in res["shrinkage"]
+              if s["ridge"] == friction[0]["text"]}
+    assert shrink["drum_deg"] > 0.5 and shrink["drum_deg"] > shrink["bulk_density_kg_m3"]
+
+
+def test_the_doe_path_is_unchanged_by_a_default_strategy(tmp_path: Path) -> None:
+    """``kind = "doe"`` written out gives the very result of a study without the table."""
+    (tmp_path / "plain").mkdir()
+    (tmp_path / "doe").mkdir()
+    plain = calibrate(write_study(tmp_path / "plain"), workers=1)
+    doe = calibrate(write_study(tmp_path / "doe", aor_only_extra='\n[strategy]\nkind = "doe"\n'
+                                ), workers=1)
+    assert "posterior" not in doe and doe == plain
+
+
+@pytest.mark.parametrize(("setting", "field"), [
+    ('kind = "grid"', "strategy.kind"),
+    ("max_runs = 5", "strategy.max_runs"),
+    ("batch = 0", "strategy.batch"),
+    ("tolerance = 0", "strategy.tolerance"),
+    ("tolerance = 1.5", "strategy.tolerance"),
+    ("seed = -1", "strategy.seed"),
+    ("n_start = 50\nmax_runs = 40", "n_start"),
+    ("max_runs = 20", "max_runs"),  # below the 27-run start of three factors
+    ("runs = 3", "strategy.runs"),
+])
+def test_bad_strategy_settings_are_one_line_and_exit_2(tmp_path: Path, setting: str,
+                                                       field: str) -> None:
+    path = write_study(tmp_path, aor_only_extra=f'\n[strategy]\nkind = "bayes"\n{setting}\n'
+                       .replace('kind = "bayes"\nkind', "kind"))
+    out = CliRunner().invoke(app, ["calibrate", str(path), "--no-report"])
+    assert out.exit_code == 2, out.output
+    text = " ".join(out.output.split())
+    assert field in text and "Traceback" not in text, text
+    assert RunStore(tmp_path).count() == 0 if (tmp_path / "demcal.sqlite").exists() else True
+
+
+def test_the_report_has_the_bayesian_section(three: tuple[Path, dict]) -> None:
+    folder, res = three
+    out = CliRunner().invoke(app, ["report", str(folder)])
+    assert out.exit_code == 0, out.output
+    html = (folder / "report" / "report.html").read_text()
+    assert 'id="bayes"' in html and "identifiable" in html
+    doc = json.loads((folder / "report" / "report.json").read_text())
+    table = doc["tables"]["bayes_posterior"]
+    assert [r[0] for r in table["rows"]] == list(FACTORS)
+    assert "figures/bayes_corner.png" in doc["figures"]
+    assert doc["tables"]["bayes_history"]["rows"][-1][1] == res["n_runs_strategy"]
