@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 
 import pytest
-from test_several_responses import FACTORS, PLANTED, write_study
+from test_several_responses import ANALYTIC, FACTORS, PLANTED, write_study
 from typer.testing import CliRunner
 
 from demcal.calibrate import calibrate
@@ -135,3 +135,19 @@ def test_the_report_has_the_bayesian_section(three: tuple[Path, dict]) -> None:
     assert [r[0] for r in table["rows"]] == list(FACTORS)
     assert "figures/bayes_corner.png" in doc["figures"]
     assert doc["tables"]["bayes_history"]["rows"][-1][1] == res["n_runs_strategy"]
+
+
+def test_the_posterior_keeps_to_where_piles_form(tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """Runs above the stand-in's ``no_pile_above`` form no pile (no angle): the pile
+    indicator keeps the posterior out of that part of the box, which the angle alone (flat
+    in the wall friction) would fill."""
+    monkeypatch.setitem(ANALYTIC, "no_pile_above", {"pw.static_friction": 0.6})
+    # the start alone (27 runs); without the indicator the interval reaches 0.79
+    res = calibrate(bayes_study(tmp_path, responses=False, strategy="max_runs = 27\n"),
+                    workers=1)
+    runs = RunStore(tmp_path).runs("bayes")
+    assert any(r.outcome == "column" for r in runs)  # the start saw the region
+    wall = res["posterior"]["pw.static_friction"]
+    assert wall["ci95_high"] < 0.62, wall
+    assert "pile_formed" in res["labs"] and any("pile_formed" in n for n in res["notes"])

@@ -37,7 +37,8 @@ from demcal.doe import bayes
 from demcal.errors import InputError
 from demcal.store import RunRecord
 
-__all__ = ["DEFAULT_RELATIVE_STD", "STAGE", "lab_responses", "run_bayes", "settings"]
+__all__ = ["DEFAULT_RELATIVE_STD", "PILE", "STAGE", "can_fail", "lab_responses", "run_bayes",
+           "settings"]
 
 #: The runner's stage name of the loop's runs (and of its stored summary).
 STAGE = "bayes"
@@ -45,6 +46,15 @@ STAGE = "bayes"
 DEFAULT_RELATIVE_STD = 0.02
 #: Posterior samples kept in the stored summary (the report's corner plot).
 STORED_SAMPLES = 800
+#: The pile indicator: a pseudo-response, 1 for a run that formed a pile, 0 for any other
+#: outcome (as the DOE path's pile classifier counts them), that the posterior conditions
+#: on being 1 (the lab formed a pile) with :data:`PILE_SE`. A run without a pile has no
+#: angle, so without it the surrogates would extrapolate the angle into the region where
+#: no pile forms and the posterior would sit there as happily as anywhere.
+PILE = "pile_formed"
+#: Its standard error: where the indicator's surrogate reads 0.5 (the pile boundary) the
+#: likelihood is exp(-0.5 * 0.5^2 / 0.2^2) = 4 % of its value among piles; at 0, 4e-6.
+PILE_SE = 0.2
 #: A response the runs report beside the study's becomes a shrinkage candidate with at least
 #: this many finite values (fewer cannot hold a Gaussian process over the box).
 MIN_CANDIDATE_RUNS = 8
@@ -88,6 +98,9 @@ def _standard_error(spec: ResponseSpec, lab: LabValue) -> tuple[float, str | Non
 def lab_responses(ctx: st.Context) -> tuple[list[bayes.Response], list[str]]:
     """The study's responses as the posterior's lab values, and notes on assumed errors.
 
+    When the test can end without a pile (:func:`can_fail`), the pile indicator
+    :data:`PILE` is one more response, held at 1.
+
     Raises
     ------
     InputError
@@ -105,11 +118,26 @@ def lab_responses(ctx: st.Context) -> tuple[list[bayes.Response], list[str]]:
         out.append(bayes.Response(spec.name, lab.mean, se, spec.unit or ""))
         if note:
             notes.append(note)
+    if can_fail(ctx):
+        out.append(bayes.Response(PILE, 1.0, PILE_SE))
+        notes.append(f"{PILE}: 1 for a run that formed a pile, 0 otherwise; conditioned on 1 "
+                     f"(standard error {PILE_SE:g}) so the posterior keeps to where piles form")
     return out, notes
 
 
+def can_fail(ctx: st.Context) -> bool:
+    """Can the study's test end without a pile? (the analytic stand-in only with
+    ``no_pile_above``; the lift test and external engines always can)."""
+    t = ctx.study.test
+    return t.kind != "analytic" or ctx.study.engine is not None or bool(
+        (t.analytic or {}).get("no_pile_above"))
+
+
 def _value(rec: RunRecord, name: str) -> float:
-    """A run's response, NaN without a pile or without that response (the fit drops it)."""
+    """A run's response, NaN without a pile or without that response (the fit drops it);
+    the pile indicator 1 or 0."""
+    if name == PILE:
+        return 1.0 if rec.outcome == "pile" else 0.0
     v = rec.response(name) if rec.outcome == "pile" else None
     return math.nan if v is None else float(v)
 
