@@ -151,3 +151,25 @@ def test_the_posterior_keeps_to_where_piles_form(tmp_path: Path,
     wall = res["posterior"]["pw.static_friction"]
     assert wall["ci95_high"] < 0.62, wall
     assert "pile_formed" in res["labs"] and any("pile_formed" in n for n in res["notes"])
+
+
+def test_a_malformed_summary_is_a_note_not_a_failed_report(three: tuple[Path, dict],
+                                                           tmp_path: Path) -> None:
+    from demcal.report import build_report
+
+    folder, _res = three
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    (copy / "demcal.sqlite").write_bytes((folder / "demcal.sqlite").read_bytes())
+    store = RunStore(copy)
+    try:
+        summary = next(s for s in store.stages() if s.name == "bayes").summary
+        del summary["correlation"]
+        store.set_stage("bayes", "done", summary)
+    finally:
+        store.close()
+    build_report(copy)
+    doc = json.loads((copy / "report" / "report.json").read_text())
+    assert any("bayes: the stored summary could not be shown" in p for p in doc["problems"])
+    assert "bayes_posterior" not in doc["tables"]
+    assert 'id="bayes"' in (copy / "report" / "report.html").read_text()

@@ -187,6 +187,8 @@ class _Builder(Protocol):
     """What the section needs of the report builder (demcal.report.build)."""
 
     data: Any
+    problems: list[str]
+    tables: dict[str, Any]
 
     def table(self, table: Table) -> str: ...
 
@@ -201,16 +203,35 @@ def _verdict(view: BayesView) -> str:
             + (f"<ul>{ridges}</ul>" if ridges else "") + notes)
 
 
-def bayes_section(b: _Builder) -> str:
-    """The section's HTML ("" for a study without the Bayesian strategy)."""
-    stage = b.data.stage(STAGE)
-    view = bayes_view(stage.summary)
-    if view is None:
-        return ""
+def _body(b: _Builder, view: BayesView, runs: Sequence[RunRecord]) -> str:
     body = _verdict(view) + "".join(b.table(t) for t in bayes_tables(view))
     if view.samples:
         body += b.figure("bayes_corner", "Posterior corner plot", lambda: corner_figure(view))
-    if stage.runs:
-        body += b.table(runs_table(view, stage.runs))
+    if runs:
+        body += b.table(runs_table(view, runs))
+    return body
+
+
+def bayes_section(b: _Builder) -> str:
+    """The section's HTML ("" for a study that never ran the Bayesian strategy).
+
+    A stage still running (an interrupted study) shows its runs so far; a summary that
+    cannot be read becomes a note (and one of the report's problems), not a failed report.
+    """
+    stage = b.data.stage(STAGE)
+    if stage.status == "missing":
+        return ""
     head = f"<h2>Bayesian calibration{badge(stage.status)}</h2>"
+    before = set(b.tables)
+    try:
+        view = bayes_view(stage.summary)
+        body = _body(b, view, stage.runs) if view is not None else (
+            f"<p>{len(stage.runs)} runs of the loop stored; no posterior yet.</p>")
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        msg = (f"bayes: the stored summary could not be shown "
+               f"({type(exc).__name__}: {exc})")
+        b.problems.append(msg)
+        for key in set(b.tables) - before:  # report.json keeps to the tables shown
+            del b.tables[key]
+        body = f'<p class="warn">{escape(msg)}</p>'
     return f'<section id="bayes">{head}{body}</section>'
