@@ -173,3 +173,20 @@ def test_a_malformed_summary_is_a_note_not_a_failed_report(three: tuple[Path, di
     assert any("bayes: the stored summary could not be shown" in p for p in doc["problems"])
     assert "bayes_posterior" not in doc["tables"]
     assert 'id="bayes"' in (copy / "report" / "report.html").read_text()
+
+
+def test_switching_strategy_keeps_each_path_to_itself(tmp_path: Path) -> None:
+    """Bayes, then the DOE path in the same folder: the DOE result is a fresh study's and
+    the report shows no stale Bayesian section; back to bayes: no stale DOE stage, and the
+    loop's runs are found again."""
+    (tmp_path / "fresh").mkdir()
+    fresh = calibrate(write_study(tmp_path / "fresh"), workers=1)
+    first = calibrate(bayes_study(tmp_path), workers=1)
+    doe = calibrate(write_study(tmp_path), workers=1)
+    assert doe["optimum"] == fresh["optimum"] and doe["verification"] == fresh["verification"]
+    names = {s.name for s in RunStore(tmp_path).stages()}
+    assert "bayes" not in names and "rsm" in names
+    again = calibrate(bayes_study(tmp_path), workers=1)
+    assert again["n_runs_executed"] == 0 and again["posterior"] == first["posterior"]
+    names = {s.name for s in RunStore(tmp_path).stages()}
+    assert "rsm" not in names and {"bayes", "optimize", "verification"} <= names

@@ -40,6 +40,8 @@ from demcal.store import RunRecord
 __all__ = ["DEFAULT_RELATIVE_STD", "PILE", "STAGE", "can_fail", "lab_responses", "run_bayes",
            "settings"]
 
+#: The DOE path's stages this strategy replaces (their summaries are dropped when it runs).
+DOE_STAGES = ("rangefind", "screening", "steepest", "rsm")
 #: The runner's stage name of the loop's runs (and of its stored summary).
 STAGE = "bayes"
 #: Lab std unknown: this fraction of the lab mean's magnitude (a typical repeatability).
@@ -244,8 +246,16 @@ def _verify(ctx: st.Context, res: bayes.BayesResult,
     sized from the runs' own scatter.
     """
     aor = predicted.get(AOR, {}).get("mean")
-    ctx.results["optimize"] = {"chosen": res.best_point_actual, "predicted_aor_deg": aor,
-                               "target_aor_deg": ctx.target, "candidates": []}
+    pile = predicted.get(PILE, {}).get("mean")
+    best = res.best_point_actual
+    summary = {"target_aor_deg": ctx.target, "chosen": best, "predicted_aor_deg": aor,
+               "candidates": [{"params": best, "predicted_aor_deg": aor, "pi_low_deg": None,
+                               "pi_high_deg": None,
+                               "p_pile": None if pile is None else min(1.0, max(0.0, pile))}],
+               # never taken for a DOE optimum if the study goes back to kind "doe"
+               "opts": STAGE, "source": "the posterior's best sample (strategy bayes)"}
+    ctx.store.set_stage("optimize", "done", summary)  # the report's overview and card
+    ctx.results["optimize"] = summary
     return st.verification(ctx)
 
 
@@ -289,6 +299,8 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     """
     cfg = settings(ctx)
     labs, notes = lab_responses(ctx)
+    for name in DOE_STAGES:  # a study that ran the DOE path before: its runs stay
+        ctx.store.delete_stage(name)
     space = _space(ctx)
     h = ctx.begin(STAGE, {"settings": repr(cfg), "labs": [repr(r) for r in labs],
                           "factors": ctx.factors})

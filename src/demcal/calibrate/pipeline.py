@@ -233,6 +233,7 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         from demcal.calibrate.bayes_strategy import run_bayes
 
         return run_bayes(ctx)
+    ctx.store.delete_stage("bayes")  # a study that ran the Bayesian strategy before
     s = ctx.study.stages
     for name in ("rangefind", "screening", "steepest"):
         if name == "rangefind" and not s.rangefind.enabled:
