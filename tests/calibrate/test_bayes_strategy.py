@@ -133,7 +133,7 @@ def test_the_report_has_the_bayesian_section(three: tuple[Path, dict]) -> None:
     doc = json.loads((folder / "report" / "report.json").read_text())
     table = doc["tables"]["bayes_posterior"]
     assert [r[0] for r in table["rows"]] == list(FACTORS)
-    assert "figures/bayes_corner.png" in doc["figures"]
+    assert {"figures/bayes_corner.png", "figures/bayes_slices.png"} <= set(doc["figures"])
     assert doc["tables"]["bayes_history"]["rows"][-1][1] == res["n_runs_strategy"]
 
 

@@ -57,6 +57,8 @@ PILE = "pile_formed"
 #: Its standard error: where the indicator's surrogate reads 0.5 (the pile boundary) the
 #: likelihood is exp(-0.5 * 0.5^2 / 0.2^2) = 4 % of its value among piles; at 0, 4e-6.
 PILE_SE = 0.2
+#: Points of each surrogate slice stored for the report.
+SLICE_POINTS = 21
 #: A response the runs report beside the study's becomes a shrinkage candidate with at least
 #: this many finite values (fewer cannot hold a Gaussian process over the box).
 MIN_CANDIDATE_RUNS = 8
@@ -237,6 +239,24 @@ def _samples(res: bayes.BayesResult) -> dict[str, list[float]]:
     return {n: [float(v) for v in actual[:, j]] for j, n in enumerate(post.names)}
 
 
+def _slices(res: bayes.BayesResult) -> dict[str, dict[str, dict[str, list[float]]]]:
+    """Each surrogate along each factor through the best point (the others held there):
+    ``{response: {factor: {"x" (factor's units), "mean", "std" (of the mean response)}}}``,
+    :data:`SLICE_POINTS` points across the range (the report draws them with the lab band)."""
+    grid = np.linspace(-1.0, 1.0, SLICE_POINTS)
+    space = res.posterior.factors
+    out: dict[str, dict[str, dict[str, list[float]]]] = {}
+    for name, sur in res.surrogates.items():
+        out[name] = {}
+        for j, factor in enumerate(res.posterior.names):
+            x = np.tile(res.best_point, (SLICE_POINTS, 1))
+            x[:, j] = grid
+            mean, std = sur.predict(x)
+            out[name][factor] = {"x": space.to_actual(x)[:, j].tolist(),
+                                 "mean": mean.tolist(), "std": std.tolist()}
+    return out
+
+
 def _verify(ctx: st.Context, res: bayes.BayesResult,
             predicted: Mapping[str, Mapping[str, float]]) -> dict[str, Any]:
     """The verification stage at the best point (the DOE path's rules and seeds).
@@ -309,7 +329,8 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     n_lab = (ctx.labs[AOR].n if AOR in ctx.labs else None) or 1
     shrink = _shrinkage(res, _candidates(ev, res.x, n_lab, cfg.seed), cfg.seed)
     summary = _summary(res, labs, notes, shrink, cfg)
-    ctx.store.set_stage(STAGE, "done", {**summary, "samples": _samples(res)}, inputs_hash=h)
+    ctx.store.set_stage(STAGE, "done", {**summary, "samples": _samples(res),
+                                            "slices": _slices(res)}, inputs_hash=h)
     ver = _verify(ctx, res, summary["predicted"])
     return _result(ctx, summary, ver)
 

@@ -5,7 +5,8 @@ Reads the stored summary of the stage ``"bayes"`` (written by
 renamed key breaks :func:`bayes_view` and its test, not the page. Shows the posterior per
 parameter (95 % credible intervals in the factors' units), the identifiability verdict and
 its ridges, the expected shrinkage per response the runs report, the rounds of the loop, the
-runs in order, and a corner plot of the stored posterior samples with the best point marked.
+runs in order, a corner plot of the stored posterior samples with the best point marked, and
+each surrogate along each factor through the best point against the lab's band.
 """
 
 from __future__ import annotations
@@ -24,8 +25,8 @@ from demcal.report.html import badge
 from demcal.report.tables import Table
 from demcal.store import RunRecord
 
-__all__ = ["BayesView", "ParameterRow", "bayes_section", "bayes_tables", "bayes_view",
-           "corner_figure"]
+__all__ = ["BayesView", "ParameterRow", "Slice", "bayes_section", "bayes_tables", "bayes_view",
+           "corner_figure", "slices_figure"]
 
 #: The stage whose summary this section shows.
 STAGE = "bayes"
@@ -42,6 +43,16 @@ class ParameterRow:
     ci95_low: float
     ci95_high: float
     optimum: float
+
+
+@dataclass(frozen=True)
+class Slice:
+    """A surrogate along one factor through the best point: the factor's values (its
+    units), the mean response and the standard deviation of that mean (the response's)."""
+
+    x: tuple[float, ...]
+    mean: tuple[float, ...]
+    std: tuple[float, ...]
 
 
 @dataclass(frozen=True)
@@ -62,11 +73,12 @@ class BayesView:
     history: tuple[tuple[int, dict[str, float], float], ...]
     stopped: str
     n_runs: int
-    labs: dict[str, float]
+    labs: dict[str, tuple[float, float]]
     predicted: dict[str, float]
     notes: tuple[str, ...]
     warnings: tuple[str, ...]
     samples: dict[str, tuple[float, ...]]
+    slices: dict[str, dict[str, Slice]]
 
     @property
     def names(self) -> list[str]:
@@ -93,10 +105,14 @@ def bayes_view(summary: Mapping[str, Any]) -> BayesView | None:
         history=tuple((int(h["n_runs"]), dict(h["half_widths_coded"]),
                        float(h["acceptance_fraction"])) for h in summary["history"]),
         stopped=str(summary["stopped"]), n_runs=int(summary["n_runs"]),
-        labs={n: float(v["mean"]) for n, v in (summary.get("labs") or {}).items()},
+        labs={n: (float(v["mean"]), float(v["standard_error"]))
+              for n, v in (summary.get("labs") or {}).items()},
         predicted={n: float(v["mean"]) for n, v in (summary.get("predicted") or {}).items()},
         notes=tuple(summary.get("notes") or ()), warnings=tuple(summary.get("warnings") or ()),
-        samples={n: tuple(map(float, v)) for n, v in (summary.get("samples") or {}).items()})
+        samples={n: tuple(map(float, v)) for n, v in (summary.get("samples") or {}).items()},
+        slices={r: {f: Slice(tuple(v["x"]), tuple(v["mean"]), tuple(v["std"]))
+                    for f, v in per.items()}
+                for r, per in (summary.get("slices") or {}).items()})
 
 
 def _posterior_table(view: BayesView) -> Table:
@@ -122,8 +138,9 @@ def _history_table(view: BayesView) -> Table:
 
 
 def _responses_table(view: BayesView) -> Table:
-    frame = pd.DataFrame([{"response": n, "lab": lab, "surrogate at best point":
-                           view.predicted.get(n)} for n, lab in view.labs.items()])
+    frame = pd.DataFrame([{"response": n, "lab": lab, "lab standard error": se,
+                           "surrogate at best point": view.predicted.get(n)}
+                          for n, (lab, se) in view.labs.items()])
     return Table("bayes_responses", "Lab values and the surrogates at the best point", frame)
 
 
@@ -183,6 +200,33 @@ def corner_figure(view: BayesView) -> Figure:
     return fig
 
 
+def slices_figure(view: BayesView) -> Figure:
+    """Each response's surrogate along each factor through the best point: the mean with
+    its 95 % band, the lab's mean with its 95 % band (grey), the best point (red) and the
+    factor's 95 % credible interval (dashed)."""
+    rows = [r for r in view.slices if r in view.labs]
+    k = len(view.parameters)
+    fig = Figure(figsize=(2.6 * k + 0.6, 2.2 * len(rows) + 0.5), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = np.atleast_2d(fig.subplots(len(rows), k, squeeze=False))
+    for i, name in enumerate(rows):
+        lab, se = view.labs[name]
+        for j, p in enumerate(view.parameters):
+            ax, sl = axes[i, j], view.slices[name][p.name]
+            m, sd = np.asarray(sl.mean), np.asarray(sl.std)
+            ax.axhspan(lab - 1.96 * se, lab + 1.96 * se, color="0.8")
+            ax.fill_between(sl.x, m - 1.96 * sd, m + 1.96 * sd, color="tab:blue", alpha=0.25)
+            ax.plot(sl.x, m, color="tab:blue", lw=1.2)
+            ax.axvline(p.optimum, color="tab:red", lw=1)
+            for v in (p.ci95_low, p.ci95_high):
+                ax.axvline(v, color="k", ls="--", lw=0.7)
+            ax.set_xlabel(_label(p) if i == len(rows) - 1 else "", fontsize=7)
+            ax.set_ylabel(name if j == 0 else "", fontsize=7)
+            ax.tick_params(labelsize=6)
+    fig.suptitle("Surrogates through the best point; grey: the lab's 95 % band", fontsize=9)
+    return fig
+
+
 class _Builder(Protocol):
     """What the section needs of the report builder (demcal.report.build)."""
 
@@ -207,6 +251,9 @@ def _body(b: _Builder, view: BayesView, runs: Sequence[RunRecord]) -> str:
     body = _verdict(view) + "".join(b.table(t) for t in bayes_tables(view))
     if view.samples:
         body += b.figure("bayes_corner", "Posterior corner plot", lambda: corner_figure(view))
+    if any(r in view.labs for r in view.slices):
+        body += b.figure("bayes_slices", "Surrogate slices with the lab band",
+                         lambda: slices_figure(view))
     if runs:
         body += b.table(runs_table(view, runs))
     return body
