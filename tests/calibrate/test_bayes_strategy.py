@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from test_several_responses import ANALYTIC, FACTORS, PLANTED, write_study
 from typer.testing import CliRunner
@@ -190,3 +191,35 @@ def test_switching_strategy_keeps_each_path_to_itself(tmp_path: Path) -> None:
     assert again["n_runs_executed"] == 0 and again["posterior"] == first["posterior"]
     names = {s.name for s in RunStore(tmp_path).stages()}
     assert "rsm" not in names and {"bayes", "optimize", "verification"} <= names
+
+
+def test_external_round_trip_gives_the_internal_result(tmp_path: Path) -> None:
+    """--external: the loop's runs go out as run sheets (the start, then each batch), come
+    back through `demcal import`, and the study ends where the internal one does."""
+    from test_external import _fill
+
+    from demcal.calibrate import load_study
+
+    (tmp_path / "internal").mkdir()
+    strategy = "max_runs = 33\n"
+    expected = calibrate(bayes_study(tmp_path / "internal", responses=False,
+                                     strategy=strategy), workers=1)
+    study = bayes_study(tmp_path, responses=False, strategy=strategy)
+    options = load_study(study).test.analytic
+    cli, sheets = CliRunner(), []
+    for _ in range(8):
+        out = cli.invoke(app, ["calibrate", str(study), "--external", "--no-report"])
+        assert out.exit_code == 0, out.output
+        if "runs to do externally" not in out.output:
+            break
+        stage = out.output.split(":")[0].strip()
+        sheet = tmp_path / f"runsheet_{stage}.csv"
+        sheets.append((stage, len(pd.read_csv(sheet))))
+        _fill(sheet, options)
+        out = cli.invoke(app, ["import", str(sheet), "--study", str(study)])
+        assert out.exit_code == 0, out.output
+    assert sheets[:2] == [("bayes", 27), ("bayes", 6)] and sheets[2][0] == "verification"
+    with RunStore(tmp_path) as store:
+        result = store.meta("result")
+    for key in ("posterior", "optimum", "verification", "reason"):
+        assert result[key] == expected[key], key
