@@ -223,3 +223,22 @@ def test_external_round_trip_gives_the_internal_result(tmp_path: Path) -> None:
         result = store.meta("result")
     for key in ("posterior", "optimum", "verification", "reason"):
         assert result[key] == expected[key], key
+
+
+def test_a_start_without_piles_is_one_line_and_exit_3(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(ANALYTIC, "no_pile_above", {"pp.static_friction": 0.21})
+    out = CliRunner().invoke(app, ["calibrate", str(bayes_study(tmp_path, responses=False)),
+                                   "--no-report", "--workers", "1"])
+    text = " ".join(out.output.split())
+    assert out.exit_code == 3, text
+    assert "start runs gave aor_deg (outcomes: column" in text and "Traceback" not in text
+
+
+def test_a_response_without_a_lab_value_is_refused(tmp_path: Path) -> None:
+    extra = '[[responses]]\nname = "drum_deg"\ngoal = "maximize"\n'
+    out = CliRunner().invoke(app, ["calibrate", str(bayes_study(tmp_path, responses=False,
+                                                                strategy=extra)),
+                                   "--no-report"])
+    text = " ".join(out.output.split())
+    assert out.exit_code == 2 and "responses 'drum_deg'" in text and "goal 'maximize'" in text

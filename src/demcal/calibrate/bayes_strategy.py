@@ -34,7 +34,7 @@ from demcal.calibrate import stages as st
 from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
 from demcal.calibrate.runner import Point
 from demcal.doe import bayes
-from demcal.errors import InputError
+from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord
 
 __all__ = ["DEFAULT_RELATIVE_STD", "PILE", "STAGE", "can_fail", "lab_responses", "run_bayes",
@@ -168,7 +168,24 @@ class _Evaluator:
                   for i, row in enumerate(np.atleast_2d(actual))]
         recs = self.ctx.run(STAGE, points)
         self.records.extend(recs)
-        return {n: np.array([_value(r, n) for r in recs]) for n in self.names}
+        out = {n: np.array([_value(r, n) for r in recs]) for n in self.names}
+        if start == 0:
+            _check_start(recs, out)
+        return out
+
+
+def _check_start(recs: Sequence[RunRecord], values: Mapping[str, np.ndarray]) -> None:
+    """A response that fewer than 3 start runs report cannot be modelled: say why (the runs
+    are stored; a study with narrower ranges reuses none of them, but nothing is lost)."""
+    for name, v in values.items():
+        n = int(np.isfinite(v).sum())
+        if n < 3:
+            outcomes = ", ".join(f"{k} {sum(r.outcome == k for r in recs)}"
+                                 for k in sorted({str(r.outcome) for r in recs}))
+            raise StudyError(f"bayes: only {n} of the {len(recs)} start runs gave {name} "
+                             f"(outcomes: {outcomes}); the factor ranges lie where the test "
+                             "forms no pile or does not report it: narrow them (the DOE "
+                             "path's range finding shows where piles form)")
 
 
 def _space(ctx: st.Context) -> doe.FactorSpace:
