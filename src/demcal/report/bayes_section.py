@@ -240,10 +240,10 @@ class _Builder(Protocol):
 
 
 def _verdict(view: BayesView) -> str:
-    word = "identifiable" if view.identifiable else "not identifiable"
     ridges = "".join(f"<li>ridge: {escape(r)}</li>" for r in view.ridges)
     notes = "".join(f'<p class="warn">{escape(n)}</p>' for n in (*view.warnings, *view.notes))
-    return (f"<p><b>Verdict: {escape(word)}.</b> {escape(view.reason)}</p>"
+    return (f"<p><b>Verdict:</b> {escape(view.reason)} ({view.n_runs} runs, stopped by "
+            f"{escape(view.stopped)}).</p>"
             + (f"<ul>{ridges}</ul>" if ridges else "") + notes)
 
 
