@@ -295,3 +295,18 @@ def test_a_template_engine_with_three_responses(tmp_path: Path) -> None:
         assert p["ci95_high"] - p["ci95_low"] <= 0.25 * (hi - lo), (name, p)
     assert res["verification"]["consistent"] is True
     assert "pile_formed" in res["labs"]  # an external engine may end without a pile
+
+
+def test_the_material_card_holds_the_posterior(three: tuple[Path, dict]) -> None:
+    from demcal.report.material import write_material_card
+    from demcal.virtual.material_card import read_material_card
+
+    folder, res = three
+    toml_path, json_path = write_material_card(folder, folder / "card")
+    card = read_material_card(toml_path)
+    assert card == read_material_card(json_path)  # both files read back the same card
+    post = card.posterior
+    assert post["identifiable"] is True and post["ridge"] == []
+    assert post["parameters"] == res["posterior"] and post["correlation"] == res["correlation"]
+    assert all(card.parameters[n] == res["optimum_full"][n] for n in FACTORS)
+    assert '[posterior.parameters."pp.static_friction"]' in toml_path.read_text()
