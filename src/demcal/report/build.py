@@ -161,7 +161,7 @@ def _overview(b: _Builder) -> str:
 
 
 def _stages(b: _Builder) -> str:
-    return _section("stages", "Stages", None, b.table(T.stages_table(b.data)))
+    return _section("stages", "Stages", None, b.table(T.stages_table(b.data))) + BS.bayes_section(b)
 
 
 def _shape_line(shape: dict[str, Any]) -> str:
@@ -669,9 +669,9 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
     if b.card is None:  # no stale card from an earlier build
         for name in ("material.toml", "material.json"):
             (out / name).unlink(missing_ok=True)
-    body = "".join([_overview(b), _material(b), _stages(b), BS.bayes_section(b),
-                    _measurement(b), _rangefind(b), _screening(b), _steepest(b), _rsm(b),
-                    _optimize(b), _verification(b), _several_responses(b), _excluded(b)])
+    body = "".join([_overview(b), _material(b), _stages(b), _measurement(b), _rangefind(b),
+                    _screening(b), _steepest(b), _rsm(b), _optimize(b), _verification(b),
+                    _several_responses(b), _excluded(b)])
     body += _footer(b)
     study = data.meta.get("study") or {}
     title = f"demcal calibration report: {study.get('name') or data.study_dir.name}"
