@@ -6,6 +6,7 @@ optimisation -> verification, every run stored in the study's RunStore as it end
 
 Modules: :mod:`~demcal.calibrate.study` (schema, ``demcal init`` example),
 :mod:`~demcal.calibrate.runner` (keys, resume, retry), :mod:`~demcal.calibrate.stages`,
+:mod:`~demcal.calibrate.bayes_strategy` (``[strategy] kind = "bayes"``),
 :mod:`~demcal.calibrate.classifier` (pile region), :mod:`~demcal.calibrate.external`
 (run sheets), :mod:`~demcal.calibrate.pipeline`.
 
@@ -93,6 +94,21 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       confirmation; in a refinement round, of the surface corrected by the offset, widened
       by the offset's own error), "target_in_interval" (the target inside
       ci_low_deg-ci_high_deg), in a refinement round "round" and "rounds" (as optimize's)}
+- "bayes" (``[strategy] kind = "bayes"``, demcal.calibrate.bayes_strategy; the DOE stages'
+      summaries are dropped then, and this one when the DOE path runs): {"posterior":
+      {name: {"mean", "median", "ci95_low", "ci95_high"}} (factors' units), "correlation":
+      {name: {name: r}}, "identifiable": bool, "reason": str, "ridge": [str], "ridges":
+      [{"text", "parameters", "direction_coded", "fraction"}], "shrinkage": [{"response",
+      "ridge", "shrinkage", "extent_before", "extent_after", "effective_samples"}],
+      "history": [{"round", "n_runs", "half_widths_coded": {name: float},
+      "acceptance_fraction", "warnings"}], "stopped": "tolerance"|"budget", "n_runs": int,
+      "optimum": {name: value} (the best sample), "predicted": {response: {"mean", "std"}},
+      "labs": {response: {"mean", "standard_error", "unit"}}, "notes": [str], "warnings":
+      [str], "settings": {...}, "units": {name: str}, "map", "acceptance_fraction",
+      "samples": {name: [float]} (thinned posterior), "slices": {response: {name: {"x",
+      "mean", "std"}}} (each surrogate along each factor through the best point)}; the
+      strategy also writes "optimize" ({"chosen", "predicted_aor_deg", one candidate,
+      "opts": "bayes"}) and "verification" as above (no surface: "confirmed" None)
 
 ## runs (RunStore.record_run / runs(stage=...))
 Each RunRecord: stage, point (design row index), replicate, params (full set), seed,

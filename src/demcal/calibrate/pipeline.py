@@ -228,7 +228,13 @@ def calibrate(study_file: str | Path, *, workers: int | None = None, dask: Any =
 
 
 def run_stages(ctx: st.Context) -> dict[str, Any]:
-    """The stages in order (disabled ones skipped), then the result."""
+    """The stages in order (disabled ones skipped), then the result; with ``[strategy]
+    kind = "bayes"`` the Bayesian strategy and its verification instead."""
+    if ctx.study.strategy.kind == "bayes":  # imported here: scikit-learn only when used
+        from demcal.calibrate.bayes_strategy import run_bayes
+
+        return run_bayes(ctx)
+    ctx.store.delete_stage("bayes")  # a study that ran the Bayesian strategy before
     s = ctx.study.stages
     for name in ("rangefind", "screening", "steepest"):
         if name == "rangefind" and not s.rangefind.enabled:

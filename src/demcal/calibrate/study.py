@@ -9,6 +9,8 @@ Sections (every key optional unless said; see :data:`EXAMPLE_STUDY` for a commen
     [test]          kind "aor" (fidelity, overrides) | "analytic" (the stand-in, see
                     demcal.execute.analytic)
     [stages.*]      rangefind, screening, steepest, rsm, optimize, verification options
+    [strategy]      kind "doe" (the stages below) | "bayes" (demcal.calibrate.bayes_strategy):
+                    max_runs, batch, tolerance, seed, n_start
     [executor]      workers, dask, engine ("demcal" | "lammps"), [executor.lammps] (np,
                     launcher, hostfile, lmp, timeout_s, work_dir: how LAMMPS is started)
     [engine]        an external DEM code (kind "template": template, command, result, ...;
@@ -41,7 +43,7 @@ from demcal.limits import MAX_CHUNK, MAX_INPUT_FILE_BYTES, MAX_STUDY_SEED
 from demcal.virtual.config import FIDELITIES, FIDELITY_REPLICATES
 from demcal.virtual.lammps_options import LammpsOptions
 
-__all__ = ["EXAMPLE_STUDY", "FactorSpec", "Study", "load_study", "parse_study"]
+__all__ = ["EXAMPLE_STUDY", "FactorSpec", "Strategy", "Study", "load_study", "parse_study"]
 
 
 class _M(BaseModel):
@@ -276,6 +278,35 @@ class Stages(_M):
     verification: VerificationOptions = VerificationOptions()
 
 
+class Strategy(_M):
+    """How the study searches: the DOE stages (the paper's workflow) or the Bayesian strategy.
+
+    ``kind = "bayes"`` replaces range finding, screening, the steepest path, the response
+    surface and the optimiser by Gaussian-process surrogates and a posterior over the factor
+    box (:mod:`demcal.calibrate.bayes_strategy`, docs/bayes.md); the verification stays.
+    The other fields apply to ``"bayes"`` only.
+    """
+
+    kind: Literal["doe", "bayes"] = "doe"
+    max_runs: int = Field(90, ge=8, le=2000, description="run budget, the space-filling "
+                          "start included (verification not counted)")
+    batch: int | None = Field(None, ge=1, le=64, description="runs per round after the "
+                              "start; default: the executor's workers")
+    tolerance: float = Field(0.25, gt=0, le=1, description="stop when every 95 % interval's "
+                             "half-width is at most this, coded units (1: the half range)")
+    seed: int | None = Field(None, ge=0, le=MAX_STUDY_SEED, description="seed of the start, "
+                             "surrogates, sampler and acquisition; default: the study's")
+    n_start: int | None = Field(None, ge=3, le=2000, description="space-filling start; "
+                                "default 9 per factor")
+
+    @model_validator(mode="after")
+    def _start(self) -> Strategy:
+        if self.n_start is not None and self.n_start > self.max_runs:
+            raise ValueError(f"n_start must be <= max_runs; got n_start={self.n_start}, "
+                             f"max_runs={self.max_runs}")
+        return self
+
+
 class Executor(_M):
     """Where runs execute: a local process pool, or a Dask scheduler address."""
 
@@ -328,6 +359,7 @@ class Study(_M):
     factors: list[FactorSpec] = Field(min_length=1)
     test: TestSpec = TestSpec()
     stages: Stages = Stages()
+    strategy: Strategy = Strategy()
     executor: Executor = Executor()
     engine: EngineSpec | None = Field(None, description="an external DEM code runs the "
                                       "virtual test (default: demcal's engine)")
@@ -599,6 +631,13 @@ half_width_deg = 1.5      # add runs until the 95 % interval is +/- this (deg) .
 max_n = 12                # ... or this many runs
 max_rounds = 1            # > 1: refine the optimum while the verification disagrees ...
 # tolerance_percent = 2.0 # ... or misses the target by more than this (% of the target)
+
+[strategy]
+kind = "doe"              # doe: the stages above | bayes: a posterior over the factors,
+                          # what the tests identify and which test would pin the rest
+# max_runs = 90           # bayes: run budget (the start included)
+# batch = 4               # bayes: runs per round (default: the workers)
+# tolerance = 0.25        # bayes: stop when every 95 % half-width is this (coded)
 
 [executor]
 # workers = 2             # local process pool (default: CPU count)

@@ -48,6 +48,7 @@ def _print_result(result: dict) -> None:
                   f"{result['predicted_aor_deg']:.2f} deg; verification ({v['n']} runs): "
                   f"{mean} +/- {std} deg, relative error {rel}; {_runs_stored(result)}")
     _print_verification(result)
+    _print_bayes(result)
     a = result.get("rsm_adequacy") or {}
     if a:
         def f(key: str, fmt: str) -> str:
@@ -74,6 +75,20 @@ def _runs_stored(result: dict) -> str:
         f", {stored - used} of them not used by this study's stages (another study's, or "
         "this study's under earlier settings)")
     return f"{stored} runs stored{other} ({result['n_runs_executed']} run now)"
+
+
+def _print_bayes(result: dict) -> None:
+    """The posterior's 95 % intervals and the identifiability verdict (strategy bayes)."""
+    if result.get("strategy") != "bayes":
+        return
+    for name, p in result["posterior"].items():
+        console.print(f"{name}: median {p['median']:.4g}, 95 % credible interval "
+                      f"{p['ci95_low']:.4g}-{p['ci95_high']:.4g}", highlight=False)
+    console.print(f"{result['reason']} ({result['n_runs_strategy']} runs, stopped by "
+                  f"{result['stopped']})", highlight=False)
+    for s in result.get("shrinkage") or []:
+        console.print(f"adding {s['response']} would shrink the ridge '{s['ridge']}' by "
+                      f"{s['shrinkage']:.0%} (expected)", highlight=False)
 
 
 def _print_rounds(result: dict) -> None:

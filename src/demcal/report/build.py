@@ -21,6 +21,7 @@ from typing import Any
 
 from matplotlib.figure import Figure
 
+from demcal.report import bayes_section as BS
 from demcal.report import diagnostics as D
 from demcal.report import figures as F
 from demcal.report import material as M
@@ -160,7 +161,7 @@ def _overview(b: _Builder) -> str:
 
 
 def _stages(b: _Builder) -> str:
-    return _section("stages", "Stages", None, b.table(T.stages_table(b.data)))
+    return _section("stages", "Stages", None, b.table(T.stages_table(b.data))) + BS.bayes_section(b)
 
 
 def _shape_line(shape: dict[str, Any]) -> str:

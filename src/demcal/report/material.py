@@ -172,7 +172,22 @@ def material_card(data: ReportData) -> MaterialCard | None:
     study = data.meta.get("study") or {}
     return MaterialCard(parameters=params, calibrated=tuple(k for k in chosen if k in params),
                         symbols=symbols, study=str(study.get("name") or data.study_dir.name),
-                        engine=engine, test=test, verification=verification, shape=shape)
+                        engine=engine, test=test, verification=verification, shape=shape,
+                        posterior=_posterior_block(data.stage("bayes").summary))
+
+
+def _posterior_block(bayes: Mapping[str, Any]) -> dict[str, Any]:
+    """The card's [posterior] from a Bayesian study's stage summary ({} for a DOE study):
+    the verdict, the ridges, each parameter's interval and the correlation (SI)."""
+    if not bayes.get("posterior"):
+        return {}
+    keys = ("mean", "median", "ci95_low", "ci95_high")
+    return {"identifiable": bool(bayes["identifiable"]), "reason": str(bayes["reason"]),
+            "ridge": [str(r) for r in bayes.get("ridge") or []],
+            "parameters": {n: {k: float(p[k]) for k in keys}
+                           for n, p in bayes["posterior"].items()},
+            "correlation": {a: {b: float(r) for b, r in row.items()}
+                            for a, row in bayes["correlation"].items()}}
 
 
 def write_material_card(study_dir: str | Path,

@@ -131,6 +131,11 @@ class MaterialCard:
         The particle the parameters were calibrated with (informative: a run takes it from
         the test settings): ``template``, ``length_m``, ``diameter_m``, ``n_spheres``,
         ``size_min``, ``size_max``.
+    posterior : dict
+        Only from a Bayesian calibration (``[strategy] kind = "bayes"``): ``identifiable``,
+        ``reason``, ``ridge`` (texts), ``parameters`` (per calibrated parameter ``mean``,
+        ``median``, ``ci95_low``, ``ci95_high``, SI) and ``correlation`` (per pair); empty
+        otherwise. Informative: a run takes the values of ``parameters`` above.
     """
 
     parameters: dict[str, float]
@@ -141,6 +146,7 @@ class MaterialCard:
     test: dict[str, Any] = field(default_factory=dict)
     verification: dict[str, Any] = field(default_factory=dict)
     shape: dict[str, Any] = field(default_factory=dict)
+    posterior: dict[str, Any] = field(default_factory=dict)
 
     @property
     def engine_name(self) -> str:
@@ -193,6 +199,8 @@ class MaterialCard:
                "test": dict(self.test), "verification": dict(self.verification)}
         if self.shape:
             out["particle_shape"] = dict(self.shape)
+        if self.posterior:
+            out["posterior"] = dict(self.posterior)
         out["parameters"] = params
         return out
 
@@ -226,6 +234,8 @@ class MaterialCard:
             lines += _toml_table(f"verification.responses.{_key(name)}", row)
         if "particle_shape" in d:
             lines += _toml_table("particle_shape", d["particle_shape"])
+        if "posterior" in d:
+            lines += _posterior_toml(d["posterior"])
         for name, row in d["parameters"].items():
             lines += _toml_table(f"parameters.{_key(name)}", row)
         return "\n".join(lines)
@@ -268,6 +278,17 @@ def _toml_table(header: str, values: Mapping[str, Any]) -> list[str]:
             continue
         lines.append(f"{_key(str(k))} = {_value(v, f'{header}.{k}')}")
     return [*lines, ""]
+
+
+def _posterior_toml(post: Mapping[str, Any]) -> list[str]:
+    """``[posterior]`` (verdict, ridges), then a table per parameter's interval and per row
+    of the correlation."""
+    lines = _toml_table("posterior", {k: v for k, v in post.items()
+                                      if not isinstance(v, Mapping)})
+    for part in ("parameters", "correlation"):
+        for name, row in (post.get(part) or {}).items():
+            lines += _toml_table(f"posterior.{part}.{_key(name)}", row)
+    return lines
 
 
 def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -402,7 +423,8 @@ def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
     return MaterialCard(parameters=params, calibrated=tuple(calibrated), symbols=symbols,
                         study=str(card.get("study") or ""), engine=engine, test=test,
                         verification=dict(_table(doc, "verification", name, required=False)),
-                        shape=dict(_table(doc, "particle_shape", name, required=False)))
+                        shape=dict(_table(doc, "particle_shape", name, required=False)),
+                        posterior=dict(_table(doc, "posterior", name, required=False)))
 
 
 def _table(doc: Mapping[str, Any], key: str, name: str, *, required: bool = True) -> dict:

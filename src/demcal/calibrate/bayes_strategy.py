@@ -1,0 +1,373 @@
+"""``[strategy] kind = "bayes"``: a study calibrated by a posterior instead of the DOE stages.
+
+The study's factors become the coded box of :mod:`demcal.doe.bayes`, its responses (the angle
+first, then every ``[[responses]]`` table) the lab values the posterior is conditioned on,
+and every point the loop asks for is one run of the study's test through the runner (stage
+``"bayes"``): stored the moment it ends, found again on resume, run on the pool, Dask or an
+external engine like any stage's run. Then the verification stage runs the posterior's best
+point on fresh seeds with the DOE path's rules, and the result JSON holds the posterior, the
+identifiability verdict with its ridges, the expected shrinkage per response the runs report
+beside the study's, the optimum and its verification.
+
+Resume: the loop's every random choice is seeded and run ``i`` of the loop (start and batches
+in order) is design row ``i`` with seed ``study seed + i``, so a second call asks for the same
+points with the same seeds, the runner finds them all stored, and the result is the same.
+
+Lab standard errors: the likelihood needs each lab mean's standard error ``std / sqrt(n)``.
+Without ``n`` the repeats' ``std`` itself is taken (one repeat: the widest honest reading);
+without ``std``, :data:`DEFAULT_RELATIVE_STD` of the lab mean as the standard error (2 %,
+0.9 deg on a 45 deg angle; the example study's corn-stalk angle, std 1.7 deg over 5 repeats
+of 44.1 deg, has 0.76 deg, 1.7 %). Either default is said in the result's ``notes``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from demcal import doe
+from demcal.calibrate import refine
+from demcal.calibrate import stages as st
+from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
+from demcal.calibrate.runner import Point
+from demcal.doe import bayes
+from demcal.errors import InputError, StudyError
+from demcal.store import RunRecord
+
+__all__ = ["DEFAULT_RELATIVE_STD", "PILE", "STAGE", "can_fail", "lab_responses", "run_bayes",
+           "settings"]
+
+#: The DOE path's stages this strategy replaces (their summaries are dropped when it runs).
+DOE_STAGES = ("rangefind", "screening", "steepest", "rsm")
+#: The runner's stage name of the loop's runs (and of its stored summary).
+STAGE = "bayes"
+#: Lab std unknown: the standard error is this fraction of the lab mean's magnitude.
+DEFAULT_RELATIVE_STD = 0.02
+#: Posterior samples kept in the stored summary (the report's corner plot).
+STORED_SAMPLES = 800
+#: The pile indicator: a pseudo-response, 1 for a run that formed a pile, 0 for any other
+#: outcome (as the DOE path's pile classifier counts them), that the posterior conditions
+#: on being 1 (the lab formed a pile) with :data:`PILE_SE`. A run without a pile has no
+#: angle, so without it the surrogates would extrapolate the angle into the region where
+#: no pile forms and the posterior would sit there as happily as anywhere.
+PILE = "pile_formed"
+#: Its standard error: where the indicator's surrogate reads 0.5 (the pile boundary) the
+#: likelihood is exp(-0.5 * 0.5^2 / 0.2^2) = 4 % of its value among piles; at 0, 4e-6.
+PILE_SE = 0.2
+#: Points of each surrogate slice stored for the report.
+SLICE_POINTS = 21
+#: A response the runs report beside the study's becomes a shrinkage candidate with at least
+#: this many finite values (fewer cannot hold a Gaussian process over the box).
+MIN_CANDIDATE_RUNS = 8
+
+
+def settings(ctx: st.Context) -> bayes.BayesSettings:
+    """The loop's settings from the study's ``[strategy]`` table.
+
+    ``batch`` defaults to the runner's workers (a round keeps every worker busy), ``seed``
+    to the study's seed.
+
+    Raises
+    ------
+    InputError
+        When ``max_runs`` cannot hold the space-filling start for the study's factors.
+    """
+    s = ctx.study.strategy
+    out = bayes.BayesSettings(
+        max_runs=s.max_runs, batch=min(64, s.batch or max(1, int(ctx.runner.workers))),
+        tolerance=float(s.tolerance), seed=int(ctx.study.seed if s.seed is None else s.seed),
+        n_start=s.n_start)
+    try:
+        out.check(len(ctx.factors))
+    except InputError as exc:
+        raise InputError(f"study: {exc}") from None
+    return out
+
+
+def _standard_error(spec: ResponseSpec, lab: LabValue) -> tuple[float, str | None]:
+    """The lab mean's standard error (the response's unit) and a note when it is a default."""
+    if lab.std is not None and lab.std > 0 and lab.n:
+        return lab.std / math.sqrt(lab.n), None
+    if lab.std is not None and lab.std > 0:
+        return lab.std, (f"{spec.name}: the lab's number of repeats is not given; its std "
+                         f"{lab.std:g} is taken as the standard error (one repeat)")
+    se = DEFAULT_RELATIVE_STD * abs(lab.mean) or 1.0
+    return se, (f"{spec.name}: the lab's std is not given (or 0); its standard error is "
+                f"taken as "
+                f"{DEFAULT_RELATIVE_STD:.0%} of the lab mean ({se:g})")
+
+
+def lab_responses(ctx: st.Context) -> tuple[list[bayes.Response], list[str]]:
+    """The study's responses as the posterior's lab values, and notes on assumed errors.
+
+    When the test can end without a pile (:func:`can_fail`), the pile indicator
+    :data:`PILE` is one more response, held at 1.
+
+    Raises
+    ------
+    InputError
+        For a response without a lab value (a ``maximize``/``minimize``/``in_range`` goal):
+        the posterior conditions on measured values only.
+    """
+    out, notes = [], []
+    for spec in ctx.responses:
+        lab = ctx.labs.get(spec.name)
+        if lab is None or spec.goal != "target":
+            raise InputError(f"study: responses {spec.name!r}: strategy kind 'bayes' needs "
+                             "a lab value (goal 'target' with target or measurements); got "
+                             f"goal {spec.goal!r}")
+        se, note = _standard_error(spec, lab)
+        out.append(bayes.Response(spec.name, lab.mean, se, spec.unit or ""))
+        if note:
+            notes.append(note)
+    if can_fail(ctx):
+        out.append(bayes.Response(PILE, 1.0, PILE_SE))
+        notes.append(f"{PILE}: 1 for a run that formed a pile, 0 otherwise; conditioned on 1 "
+                     f"(standard error {PILE_SE:g}) so the posterior keeps to where piles form")
+    return out, notes
+
+
+def can_fail(ctx: st.Context) -> bool:
+    """Can the study's test end without a pile? (the analytic stand-in only with
+    ``no_pile_above``; the lift test and external engines always can)."""
+    t = ctx.study.test
+    return t.kind != "analytic" or ctx.study.engine is not None or bool(
+        (t.analytic or {}).get("no_pile_above"))
+
+
+def _value(rec: RunRecord, name: str) -> float:
+    """A run's response, NaN without a pile or without that response (the fit drops it);
+    the pile indicator 1 or 0."""
+    if name == PILE:
+        return 1.0 if rec.outcome == "pile" else 0.0
+    v = rec.response(name) if rec.outcome == "pile" else None
+    return math.nan if v is None else float(v)
+
+
+@dataclass
+class _Evaluator:
+    """The loop's ``evaluate``: coded points -> runs of the study's test -> responses.
+
+    Row ``i`` of the loop (counted over every call, in order) is design point ``i`` with the
+    seed :meth:`Context.seed` gives it, so the same loop asks for the same runs again.
+    """
+
+    ctx: st.Context
+    space: doe.FactorSpace
+    names: tuple[str, ...]
+    records: list[RunRecord] = field(default_factory=list)
+
+    def __call__(self, coded: np.ndarray) -> dict[str, np.ndarray]:
+        actual = self.space.to_actual(np.asarray(coded, dtype=float))
+        start = len(self.records)
+        points = [Point(start + i, 0, self.ctx.full(dict(zip(self.space.names, map(float, row),
+                                                             strict=True))),
+                        self.ctx.seed(start + i, 0))
+                  for i, row in enumerate(np.atleast_2d(actual))]
+        recs = self.ctx.run(STAGE, points)
+        self.records.extend(recs)
+        out = {n: np.array([_value(r, n) for r in recs]) for n in self.names}
+        if start == 0:
+            _check_start(recs, out)
+        return out
+
+
+def _check_start(recs: Sequence[RunRecord], values: Mapping[str, np.ndarray]) -> None:
+    """A response that fewer than 3 start runs report cannot be modelled: a StudyError that
+    says why, with the start's outcomes (its runs stay stored)."""
+    for name, v in values.items():
+        n = int(np.isfinite(v).sum())
+        if n < 3:
+            outcomes = ", ".join(f"{k} {sum(r.outcome == k for r in recs)}"
+                                 for k in sorted({str(r.outcome) for r in recs}))
+            raise StudyError(f"bayes: only {n} of the {len(recs)} start runs gave {name} "
+                             f"(outcomes: {outcomes}); the factor ranges lie where the test "
+                             "forms no pile or does not report it: narrow them (the DOE "
+                             "path's range finding shows where piles form)")
+
+
+def _space(ctx: st.Context) -> doe.FactorSpace:
+    return doe.FactorSpace([doe.Factor(f["name"], f["low"], f["high"], f.get("unit") or "")
+                            for f in ctx.factors])
+
+
+def _candidate(name: str, x: np.ndarray, y: np.ndarray, n_lab: int,
+               seed: int) -> bayes.Candidate | None:
+    """A response the runs report beside the study's, as a shrinkage candidate.
+
+    Its surrogate is fitted on the loop's runs; its lab's standard error is assumed to be the
+    fitted run-to-run scatter over the square root of the angle's lab repeats (a test as
+    repeatable as the simulation, measured as often as the angle). None when too few runs
+    report it or it does not vary.
+    """
+    ok = np.isfinite(y)
+    if ok.sum() < MIN_CANDIDATE_RUNS or np.ptp(y[ok]) <= 0:
+        return None
+    sur = bayes.fit_surrogate(name, x, y, seed=seed)
+    scatter = max(sur.noise_std, 1e-3 * float(np.ptp(y[ok])))
+    return bayes.Candidate(name, sur, scatter / math.sqrt(max(1, n_lab)))
+
+
+def _candidates(ev: _Evaluator, x: np.ndarray, n_lab: int, seed: int) -> list[bayes.Candidate]:
+    """Every response the loop's runs report that the study does not aim at."""
+    names = sorted({k for r in ev.records for k in r.responses} - set(ev.names))
+    out = []
+    for name in names:
+        y = np.array([_value(r, name) for r in ev.records])
+        if (c := _candidate(name, x, y, n_lab, seed)) is not None:
+            out.append(c)
+    return out
+
+
+def _shrinkage(res: bayes.BayesResult, cands: Sequence[bayes.Candidate],
+               seed: int) -> list[dict[str, Any]]:
+    if not cands:
+        return []
+    rows = bayes.ridge_shrinkage(res.posterior, cands, seed=seed)
+    return [{"response": s.response, "ridge": s.ridge, "shrinkage": float(s.shrinkage),
+             "extent_before": s.extent_before, "extent_after": s.extent_after,
+             "effective_samples": s.effective_samples} for s in rows]
+
+
+def _predicted(res: bayes.BayesResult) -> dict[str, dict[str, float]]:
+    """Each surrogate's mean response and its standard deviation at the best point."""
+    out = {}
+    for name, sur in res.surrogates.items():
+        mean, std = sur.predict(res.best_point[None, :])
+        out[name] = {"mean": float(mean[0]), "std": float(std[0])}
+    return out
+
+
+def _history(res: bayes.BayesResult) -> list[dict[str, Any]]:
+    names = res.posterior.names
+    return [{"round": i + 1, "n_runs": r.n_runs,
+             "half_widths_coded": dict(zip(names, r.half_widths, strict=True)),
+             "acceptance_fraction": r.acceptance_fraction, "warnings": list(r.warnings)}
+            for i, r in enumerate(res.history)]
+
+
+def _samples(res: bayes.BayesResult) -> dict[str, list[float]]:
+    """A thinned, evenly spaced subset of the posterior samples, in the factors' units."""
+    post = res.posterior
+    every = max(1, len(post.samples) // STORED_SAMPLES)
+    actual = post.factors.to_actual(post.samples[::every])
+    return {n: [float(v) for v in actual[:, j]] for j, n in enumerate(post.names)}
+
+
+def _slices(res: bayes.BayesResult) -> dict[str, dict[str, dict[str, list[float]]]]:
+    """Each surrogate along each factor through the best point (the others held there):
+    ``{response: {factor: {"x" (factor's units), "mean", "std" (of the mean response)}}}``,
+    :data:`SLICE_POINTS` points across the range (the report draws them with the lab band)."""
+    grid = np.linspace(-1.0, 1.0, SLICE_POINTS)
+    space = res.posterior.factors
+    out: dict[str, dict[str, dict[str, list[float]]]] = {}
+    for name, sur in res.surrogates.items():
+        out[name] = {}
+        for j, factor in enumerate(res.posterior.names):
+            x = np.tile(res.best_point, (SLICE_POINTS, 1))
+            x[:, j] = grid
+            mean, std = sur.predict(x)
+            out[name][factor] = {"x": space.to_actual(x)[:, j].tolist(),
+                                 "mean": mean.tolist(), "std": std.tolist()}
+    return out
+
+
+def _verify(ctx: st.Context, res: bayes.BayesResult,
+            predicted: Mapping[str, Mapping[str, float]]) -> dict[str, Any]:
+    """The verification stage at the best point (the DOE path's rules and seeds).
+
+    The stage reads the optimum from ``ctx.results["optimize"]``; without a response surface
+    there is no Design-Expert confirmation (``confirmed`` None) and the number of runs is
+    sized from the runs' own scatter.
+    """
+    aor = predicted.get(AOR, {}).get("mean")
+    pile = predicted.get(PILE, {}).get("mean")
+    best = res.best_point_actual
+    summary = {"target_aor_deg": ctx.target, "chosen": best, "predicted_aor_deg": aor,
+               "candidates": [{"params": best, "predicted_aor_deg": aor, "pi_low_deg": None,
+                               "pi_high_deg": None,
+                               "p_pile": None if pile is None else min(1.0, max(0.0, pile))}],
+               # never taken for a DOE optimum if the study goes back to kind "doe"
+               "opts": STAGE, "source": "the posterior's best sample (strategy bayes)"}
+    ctx.store.set_stage("optimize", "done", summary)  # the report's overview and card
+    ctx.results["optimize"] = summary
+    return st.verification(ctx)
+
+
+VERIFICATION_KEYS = (
+    "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg", "ci_high_deg",
+    "p_value", "consistent", "test", "half_width_deg", "half_width_goal_deg",
+    "half_width_reached", "confirm_pi_low_deg", "confirm_pi_high_deg", "confirmed",
+    "target_in_interval", "tolerance_percent", "within_tolerance", "aor_deg")
+
+
+def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequence[str],
+             shrink: list[dict[str, Any]], cfg: bayes.BayesSettings) -> dict[str, Any]:
+    """What the stage stores (the report's source) and the result JSON's Bayesian part."""
+    out = res.to_dict()
+    out["ridges"] = out.pop("ridge")
+    out.pop("best")  # the optimum below
+    predicted = _predicted(res)
+    out.update(
+        ridge=[r["text"] for r in out["ridges"]], shrinkage=shrink, history=_history(res),
+        optimum=res.best_point_actual, predicted=predicted,
+        labs={r.name: {"mean": r.mean, "standard_error": r.standard_error, "unit": r.unit}
+              for r in labs},
+        notes=list(notes),
+        settings={"max_runs": cfg.max_runs, "batch": cfg.batch, "tolerance": cfg.tolerance,
+                  "seed": cfg.seed, "n_start": cfg.start_runs(len(res.posterior.names))},
+        units={p.name: p.unit for p in res.posterior.parameters})
+    return out
+
+
+def run_bayes(ctx: st.Context) -> dict[str, Any]:
+    """Calibrate the study by the Bayesian strategy; return the result JSON.
+
+    Stores the stage ``"bayes"`` (its summary: posterior, verdict, ridges, shrinkage, rounds,
+    thinned samples) and, through :func:`demcal.calibrate.stages.verification`, the stage
+    ``"verification"``; the result is also the store's meta ``"result"``.
+
+    Raises
+    ------
+    InputError
+        Bad settings for the study's factors, or a response without a lab value.
+    """
+    cfg = settings(ctx)
+    labs, notes = lab_responses(ctx)
+    for name in DOE_STAGES:  # a study that ran the DOE path before: its runs stay
+        ctx.store.delete_stage(name)
+    space = _space(ctx)
+    h = ctx.begin(STAGE, {"settings": repr(cfg), "labs": [repr(r) for r in labs],
+                          "factors": ctx.factors})
+    ev = _Evaluator(ctx, space, tuple(r.name for r in labs))
+    res = bayes.calibrate_bayes(ev, space, labs, cfg)
+    n_lab = (ctx.labs[AOR].n if AOR in ctx.labs else None) or 1
+    shrink = _shrinkage(res, _candidates(ev, res.x, n_lab, cfg.seed), cfg.seed)
+    summary = _summary(res, labs, notes, shrink, cfg)
+    ctx.store.set_stage(STAGE, "done", {**summary, "samples": _samples(res),
+                                            "slices": _slices(res)}, inputs_hash=h)
+    ver = _verify(ctx, res, summary["predicted"])
+    return _result(ctx, summary, ver)
+
+
+def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> dict[str, Any]:
+    opt = ctx.results["optimize"]
+    aor = summary["predicted"].get(AOR, {}).get("mean")
+    result = {
+        "study": ctx.study.name, "strategy": STAGE, **summary,
+        "optimum_full": ver["params"], "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
+        "verification": {k: ver.get(k) for k in VERIFICATION_KEYS},
+        "rounds": [refine.round_row(opt, ver)],
+        # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
+        "n_runs": ctx.store.count(), "n_runs_strategy": summary["n_runs"],
+        "n_runs_executed": ctx.runner.executed,
+        "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
+    }
+    if ctx.several:
+        result["responses"] = {"verification": ver.get("responses")}
+    ctx.store.set_meta("result", result)
+    return result

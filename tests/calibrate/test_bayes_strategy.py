@@ -1,0 +1,312 @@
+"""``[strategy] kind = "bayes"``: a study calibrated by a posterior (the analytic stand-in).
+
+The planted three-response, three-factor study of test_several_responses: with the three
+lab values the posterior must close around the planted point; with the angle alone it must
+say that the tests leave a ridge along which the two frictions trade, and that the drum
+(a response the runs report but the study does not aim at) would remove it.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from test_several_responses import ANALYTIC, FACTORS, PLANTED, write_study
+from typer.testing import CliRunner
+
+from demcal.calibrate import calibrate
+from demcal.cli import app
+from demcal.store import RunStore
+
+FRICTIONS = {"pp.static_friction", "pp.rolling_friction"}
+
+
+def bayes_study(folder: Path, *, responses: bool = True, strategy: str = "") -> Path:
+    return write_study(folder, responses=responses,
+                       aor_only_extra='\n[strategy]\nkind = "bayes"\nbatch = 6\n' + strategy)
+
+
+@pytest.fixture(scope="module")
+def three(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
+    folder = tmp_path_factory.mktemp("three")
+    return folder, calibrate(bayes_study(folder), workers=1)
+
+
+def test_three_responses_pin_the_planted_point(three: tuple[Path, dict]) -> None:
+    _folder, res = three
+    assert res["strategy"] == "bayes" and res["identifiable"] is True, res["reason"]
+    assert res["n_runs_strategy"] <= 90
+    for name, (_sym, lo, hi) in FACTORS.items():
+        p = res["posterior"][name]
+        assert p["ci95_low"] <= PLANTED[name] <= p["ci95_high"], (name, p)
+        assert p["ci95_high"] - p["ci95_low"] <= 0.25 * (hi - lo), (name, p)
+        assert p["ci95_low"] <= p["median"] <= p["ci95_high"]
+    assert res["ridge"] == []
+    assert set(res["correlation"]) == set(FACTORS)
+    # verified at the best point on fresh seeds, every response judged against its lab
+    ver = res["verification"]
+    assert ver["n"] >= 4 and ver["consistent"] is True, ver
+    assert set(res["responses"]["verification"]) == {"drum_deg", "bulk_density_kg_m3"}
+    assert set(res["optimum_full"]) > set(FACTORS)
+    assert res["optimum"] == {n: res["optimum_full"][n] for n in FACTORS}
+    assert res["n_runs_executed"] == res["n_runs_strategy"] + ver["n"]
+
+
+def test_resume_runs_nothing_and_gives_the_same_result(three: tuple[Path, dict]) -> None:
+    folder, res = three
+    again = calibrate(folder / "study.toml", workers=1)
+    assert again["n_runs_executed"] == 0
+    for key in ("posterior", "correlation", "optimum", "verification", "reason"):
+        assert again[key] == res[key], key
+
+
+def test_the_stage_and_the_runs_are_stored(three: tuple[Path, dict]) -> None:
+    folder, res = three
+    store = RunStore(folder)
+    try:
+        stages = {s.name: s for s in store.stages()}
+        runs = store.runs("bayes")
+    finally:
+        store.close()
+    assert stages["bayes"].status == "done" and stages["verification"].status == "done"
+    summary = stages["bayes"].summary
+    assert summary["posterior"] == res["posterior"]
+    assert len(summary["samples"][next(iter(FACTORS))]) >= 100
+    assert len(runs) == res["n_runs_strategy"]
+    assert sorted(r.point for r in runs) == list(range(len(runs)))  # a stable index per run
+    assert len({r.seed for r in runs}) == len(runs)
+
+
+def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
+    res = calibrate(bayes_study(tmp_path, responses=False, strategy="max_runs = 33\n"),
+                    workers=1)
+    assert res["identifiable"] is False
+    assert res["n_runs_strategy"] == 33 and res["stopped"] == "budget"
+    friction = [r for r in res["ridges"] if FRICTIONS <= set(r["parameters"])]
+    assert friction, res["reason"]
+    assert friction[0]["text"] in res["ridge"] and "pp.static_friction down" in res["reason"]
+    # the drum (planted: rolling friction 60, static 5) is what removes it
+    shrink = {s["response"]: s["shrinkage"] for s in res["shrinkage"]
+              if s["ridge"] == friction[0]["text"]}
+    assert shrink["drum_deg"] > 0.5 and shrink["drum_deg"] > shrink["bulk_density_kg_m3"]
+
+
+def test_the_doe_path_is_unchanged_by_a_default_strategy(tmp_path: Path) -> None:
+    """``kind = "doe"`` written out gives the very result of a study without the table."""
+    (tmp_path / "plain").mkdir()
+    (tmp_path / "doe").mkdir()
+    plain = calibrate(write_study(tmp_path / "plain"), workers=1)
+    doe = calibrate(write_study(tmp_path / "doe", aor_only_extra='\n[strategy]\nkind = "doe"\n'
+                                ), workers=1)
+    assert "posterior" not in doe and doe == plain
+
+
+@pytest.mark.parametrize(("setting", "field"), [
+    ('kind = "grid"', "strategy.kind"),
+    ("max_runs = 5", "strategy.max_runs"),
+    ("batch = 0", "strategy.batch"),
+    ("tolerance = 0", "strategy.tolerance"),
+    ("tolerance = 1.5", "strategy.tolerance"),
+    ("seed = -1", "strategy.seed"),
+    ("n_start = 50\nmax_runs = 40", "n_start"),
+    ("max_runs = 20", "max_runs"),  # below the 27-run start of three factors
+    ("runs = 3", "strategy.runs"),
+])
+def test_bad_strategy_settings_are_one_line_and_exit_2(tmp_path: Path, setting: str,
+                                                       field: str) -> None:
+    path = write_study(tmp_path, aor_only_extra=f'\n[strategy]\nkind = "bayes"\n{setting}\n'
+                       .replace('kind = "bayes"\nkind', "kind"))
+    out = CliRunner().invoke(app, ["calibrate", str(path), "--no-report"])
+    assert out.exit_code == 2, out.output
+    text = " ".join(out.output.split())
+    assert field in text and "Traceback" not in text, text
+    assert RunStore(tmp_path).count() == 0 if (tmp_path / "demcal.sqlite").exists() else True
+
+
+def test_the_report_has_the_bayesian_section(three: tuple[Path, dict]) -> None:
+    folder, res = three
+    out = CliRunner().invoke(app, ["report", str(folder)])
+    assert out.exit_code == 0, out.output
+    html = (folder / "report" / "report.html").read_text()
+    assert 'id="bayes"' in html and "identifiable" in html
+    doc = json.loads((folder / "report" / "report.json").read_text())
+    table = doc["tables"]["bayes_posterior"]
+    assert [r[0] for r in table["rows"]] == list(FACTORS)
+    assert {"figures/bayes_corner.png", "figures/bayes_slices.png"} <= set(doc["figures"])
+    assert doc["tables"]["bayes_history"]["rows"][-1][1] == res["n_runs_strategy"]
+
+
+def test_the_posterior_keeps_to_where_piles_form(tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """Runs above the stand-in's ``no_pile_above`` form no pile (no angle): the pile
+    indicator keeps the posterior out of that part of the box, which the angle alone (flat
+    in the wall friction) would fill."""
+    monkeypatch.setitem(ANALYTIC, "no_pile_above", {"pw.static_friction": 0.6})
+    # the start alone (27 runs); without the indicator the interval reaches 0.79
+    res = calibrate(bayes_study(tmp_path, responses=False, strategy="max_runs = 27\n"),
+                    workers=1)
+    runs = RunStore(tmp_path).runs("bayes")
+    assert any(r.outcome == "column" for r in runs)  # the start saw the region
+    wall = res["posterior"]["pw.static_friction"]
+    assert wall["ci95_high"] < 0.62, wall
+    assert "pile_formed" in res["labs"] and any("pile_formed" in n for n in res["notes"])
+
+
+def test_a_malformed_summary_is_a_note_not_a_failed_report(three: tuple[Path, dict],
+                                                           tmp_path: Path) -> None:
+    from demcal.report import build_report
+
+    folder, _res = three
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    (copy / "demcal.sqlite").write_bytes((folder / "demcal.sqlite").read_bytes())
+    store = RunStore(copy)
+    try:
+        summary = next(s for s in store.stages() if s.name == "bayes").summary
+        del summary["correlation"]
+        store.set_stage("bayes", "done", summary)
+    finally:
+        store.close()
+    build_report(copy)
+    doc = json.loads((copy / "report" / "report.json").read_text())
+    assert any("bayes: the stored summary could not be shown" in p for p in doc["problems"])
+    assert "bayes_posterior" not in doc["tables"]
+    assert 'id="bayes"' in (copy / "report" / "report.html").read_text()
+
+
+def test_switching_strategy_keeps_each_path_to_itself(tmp_path: Path) -> None:
+    """Bayes, then the DOE path in the same folder: the DOE result is a fresh study's and
+    the report shows no stale Bayesian section; back to bayes: no stale DOE stage, and the
+    loop's runs are found again."""
+    (tmp_path / "fresh").mkdir()
+    fresh = calibrate(write_study(tmp_path / "fresh"), workers=1)
+    first = calibrate(bayes_study(tmp_path), workers=1)
+    doe = calibrate(write_study(tmp_path), workers=1)
+    assert doe["optimum"] == fresh["optimum"] and doe["verification"] == fresh["verification"]
+    names = {s.name for s in RunStore(tmp_path).stages()}
+    assert "bayes" not in names and "rsm" in names
+    again = calibrate(bayes_study(tmp_path), workers=1)
+    assert again["n_runs_executed"] == 0 and again["posterior"] == first["posterior"]
+    names = {s.name for s in RunStore(tmp_path).stages()}
+    assert "rsm" not in names and {"bayes", "optimize", "verification"} <= names
+
+
+def test_external_round_trip_gives_the_internal_result(tmp_path: Path) -> None:
+    """--external: the loop's runs go out as run sheets (the start, then each batch), come
+    back through `demcal import`, and the study ends where the internal one does."""
+    from test_external import _fill
+
+    from demcal.calibrate import load_study
+
+    (tmp_path / "internal").mkdir()
+    strategy = "max_runs = 33\n"
+    expected = calibrate(bayes_study(tmp_path / "internal", responses=False,
+                                     strategy=strategy), workers=1)
+    study = bayes_study(tmp_path, responses=False, strategy=strategy)
+    options = load_study(study).test.analytic
+    cli, sheets = CliRunner(), []
+    for _ in range(8):
+        out = cli.invoke(app, ["calibrate", str(study), "--external", "--no-report"])
+        assert out.exit_code == 0, out.output
+        if "runs to do externally" not in out.output:
+            break
+        stage = out.output.split(":")[0].strip()
+        sheet = tmp_path / f"runsheet_{stage}.csv"
+        sheets.append((stage, len(pd.read_csv(sheet))))
+        _fill(sheet, options)
+        out = cli.invoke(app, ["import", str(sheet), "--study", str(study)])
+        assert out.exit_code == 0, out.output
+    assert sheets[:2] == [("bayes", 27), ("bayes", 6)] and sheets[2][0] == "verification"
+    with RunStore(tmp_path) as store:
+        result = store.meta("result")
+    for key in ("posterior", "optimum", "verification", "reason"):
+        assert result[key] == expected[key], key
+
+
+def test_a_start_without_piles_is_one_line_and_exit_3(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(ANALYTIC, "no_pile_above", {"pp.static_friction": 0.21})
+    out = CliRunner().invoke(app, ["calibrate", str(bayes_study(tmp_path, responses=False)),
+                                   "--no-report", "--workers", "1"])
+    text = " ".join(out.output.split())
+    assert out.exit_code == 3, text
+    assert "start runs gave aor_deg (outcomes: column" in text and "Traceback" not in text
+
+
+def test_a_response_without_a_lab_value_is_refused(tmp_path: Path) -> None:
+    extra = '[[responses]]\nname = "drum_deg"\ngoal = "maximize"\n'
+    out = CliRunner().invoke(app, ["calibrate", str(bayes_study(tmp_path, responses=False,
+                                                                strategy=extra)),
+                                   "--no-report"])
+    text = " ".join(out.output.split())
+    assert out.exit_code == 2 and "responses 'drum_deg'" in text and "goal 'maximize'" in text
+
+
+ENGINE = '''\
+import json, random, sys
+cfg = dict(line.split("=", 1) for line in open(sys.argv[1]) if "=" in line)
+cfg = {k.strip(): v.strip() for k, v in cfg.items()}
+d = [float(cfg[k]) - c for k, c in (("sf", 0.6), ("rf", 0.2), ("wf", 0.55))]
+rng = random.Random(int(cfg["seed"]))
+def planted(base, slopes, noise):
+    return base + sum(s * x for s, x in zip(slopes, d)) + noise * rng.gauss(0.0, 1.0)
+json.dump({"aor_deg": planted(30.0, (15.0, 25.0, 2.0), 0.2),
+           "drum_deg": planted(35.0, (5.0, 60.0, 1.0), 0.2),
+           "bulk_density_kg_m3": planted(200.0, (-10.0, 20.0, 80.0), 0.5)},
+          open("result.json", "w"))
+'''
+
+
+def test_a_template_engine_with_three_responses(tmp_path: Path) -> None:
+    """The issue's criterion on an external engine: a real process driven through a
+    template, planted parameters, three responses reported in its JSON result."""
+    (tmp_path / "engine.py").write_text(ENGINE)
+    (tmp_path / "input.txt.template").write_text(
+        "seed = {seed}\nsf = {pp.static_friction}\nrf = {pp.rolling_friction}\n"
+        "wf = {pw.static_friction}\n")
+    d = [PLANTED[n] - c for n, c in (("pp.static_friction", 0.6),
+                                     ("pp.rolling_friction", 0.2),
+                                     ("pw.static_friction", 0.55))]
+    truth = {name: base + sum(s * x for s, x in zip(slopes, d, strict=True))
+             for name, base, slopes in (("aor_deg", 30.0, (15.0, 25.0, 2.0)),
+                                        ("drum_deg", 35.0, (5.0, 60.0, 1.0)),
+                                        ("bulk_density_kg_m3", 200.0, (-10.0, 20.0, 80.0)))}
+    lines = ['name = "template engine, three responses"', "seed = 3", "",
+             "[material]", 'preset = "corn_stalk"', ""]
+    for name, (sym, lo, hi) in FACTORS.items():
+        lines += ["[[factors]]", f'name = "{name}"', f'symbol = "{sym}"', f"low = {lo}",
+                  f"high = {hi}", ""]
+    for name, value in truth.items():
+        lines += ["[[responses]]", f'name = "{name}"', f"target = {value!r}", "std = 0.5",
+                  "n = 5", ""]
+    lines += ["[engine]", 'kind = "template"', 'template = "input.txt.template"',
+              'command = ["{python}", "{template_dir}/engine.py", "{input}"]', "",
+              "[engine.result]", 'kind = "value"', 'file = "result.json"', "",
+              "[strategy]", 'kind = "bayes"', "batch = 6", "",
+              "[stages.verification]", "n = 4", "", "[executor]", "workers = 1", ""]
+    (tmp_path / "study.toml").write_text("\n".join(lines))
+    res = calibrate(tmp_path / "study.toml", workers=1)
+    assert res["identifiable"] is True and res["n_runs_strategy"] <= 90, res["reason"]
+    for name, (_sym, lo, hi) in FACTORS.items():
+        p = res["posterior"][name]
+        assert p["ci95_low"] <= PLANTED[name] <= p["ci95_high"], (name, p)
+        assert p["ci95_high"] - p["ci95_low"] <= 0.25 * (hi - lo), (name, p)
+    assert res["verification"]["consistent"] is True
+    assert "pile_formed" in res["labs"]  # an external engine may end without a pile
+
+
+def test_the_material_card_holds_the_posterior(three: tuple[Path, dict]) -> None:
+    from demcal.report.material import write_material_card
+    from demcal.virtual.material_card import read_material_card
+
+    folder, res = three
+    toml_path, json_path = write_material_card(folder, folder / "card")
+    card = read_material_card(toml_path)
+    assert card == read_material_card(json_path)  # both files read back the same card
+    post = card.posterior
+    assert post["identifiable"] is True and post["ridge"] == []
+    assert post["parameters"] == res["posterior"] and post["correlation"] == res["correlation"]
+    assert all(card.parameters[n] == res["optimum_full"][n] for n in FACTORS)
+    assert '[posterior.parameters."pp.static_friction"]' in toml_path.read_text()
