@@ -73,6 +73,25 @@ def regular_input(path: str | Path, what: str) -> Path:
     return Path(path)
 
 
+def read_text_input(path: str | Path, what: str) -> str:
+    """The text of a small input file (a study's template, a goals or repeats file): refused
+    in one InputError starting with ``what`` when it is missing, not a regular file, larger
+    than :data:`demcal.limits.MAX_INPUT_FILE_BYTES` or not UTF-8."""
+    from demcal.errors import InputError
+    from demcal.limits import MAX_INPUT_FILE_BYTES
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{what}: file not found (or not a file): {p}")
+    regular_input(p, what)
+    if p.stat().st_size > MAX_INPUT_FILE_BYTES:
+        raise InputError(f"{what}: {p} is larger than {MAX_INPUT_FILE_BYTES // 2**20} MB")
+    try:
+        return p.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"{what}: {p} is not a text (UTF-8) file") from None
+
+
 def safe_filename(text: str, max_len: int = 100) -> str:
     """``text`` as one safe file-name part: only letters, digits, ``.``, ``_`` and ``-``.
 

@@ -32,7 +32,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from demcal.doe.desirability import ResponseGoal
 from demcal.errors import InputError
-from demcal.limits import MAX_INPUT_FILE_BYTES
+from demcal.safety import read_text_input
 
 __all__ = ["AOR", "LabValue", "ResponseSpec", "aor_spec", "load_goals", "read_repeats"]
 
@@ -178,15 +178,7 @@ def read_repeats(path: Path, where: str) -> np.ndarray:
     """The numbers of a repeats file: one or more per line, separated by commas, spaces or
     semicolons; ``#`` starts a comment. Refused: a missing or huge file, a non-number, fewer
     than one value, a non-finite value."""
-    if not path.is_file():
-        raise InputError(f"{where}: file not found (or not a regular file): {path}")
-    if path.stat().st_size > MAX_INPUT_FILE_BYTES:
-        raise InputError(f"{where}: {path} is larger than "
-                         f"{MAX_INPUT_FILE_BYTES // 2**20} MB; not a repeats file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError(f"{where}: {path} is not a text (UTF-8) file") from None
+    text = read_text_input(path, where)
     values: list[float] = []
     for lineno, line in enumerate(text.splitlines(), 1):
         values += [_repeat(tok, f"{where}: {path} line {lineno}")
@@ -209,14 +201,8 @@ def load_goals(path: Path) -> list[ResponseSpec]:
 
     from demcal.errors import validation_message
 
-    if not path.is_file():
-        raise InputError(f"--goals: file not found (or not a regular file): {path}")
-    if path.stat().st_size > MAX_INPUT_FILE_BYTES:
-        raise InputError(f"--goals: {path} is larger than {MAX_INPUT_FILE_BYTES // 2**20} MB")
     try:
-        data = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except UnicodeDecodeError:
-        raise InputError(f"--goals: {path} is not a text (UTF-8) file") from None
+        data = tomllib.loads(read_text_input(path, "--goals"))
     except (tomllib.TOMLDecodeError, RecursionError) as exc:
         raise InputError(f"--goals: {path} is not valid TOML: {exc}") from None
     unknown = set(data) - {"responses"}

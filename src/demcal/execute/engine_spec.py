@@ -42,7 +42,7 @@ from pydantic import (
 )
 
 from demcal.errors import InputError
-from demcal.limits import MAX_INPUT_FILE_BYTES
+from demcal.safety import read_text_input
 from demcal.virtual.config import MeasurementOptions
 
 __all__ = ["ENGINE_KINDS", "EngineSpec", "PositionsResult", "TemplateEngine", "ValueResult",
@@ -175,15 +175,7 @@ EngineSpec = TemplateEngine
 
 
 def _read_text(path: Path, what: str) -> str:
-    if not path.is_file():
-        raise InputError(f"study: engine.{what}: file not found (or not a file): {path}")
-    if path.stat().st_size > MAX_INPUT_FILE_BYTES:
-        raise InputError(f"study: engine.{what}: {path} is larger than "
-                         f"{MAX_INPUT_FILE_BYTES // 2**20} MB")
-    try:
-        return path.read_bytes().decode("utf-8")
-    except UnicodeDecodeError:
-        raise InputError(f"study: engine.{what}: {path} is not a text (UTF-8) file") from None
+    return read_text_input(path, f"study: engine.{what}")
 
 
 def load_engine(spec: EngineSpec, base: Path, known: set[str]) -> dict[str, Any]:
