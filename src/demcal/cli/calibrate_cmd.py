@@ -48,6 +48,7 @@ def _print_result(result: dict) -> None:
                   f"{result['predicted_aor_deg']:.2f} deg; verification ({v['n']} runs): "
                   f"{mean} +/- {std} deg, relative error {rel}; {_runs_stored(result)}")
     _print_verification(result)
+    _print_responses(result)
     _print_bayes(result)
     a = result.get("rsm_adequacy") or {}
     if a:
@@ -75,6 +76,27 @@ def _runs_stored(result: dict) -> str:
         f", {stored - used} of them not used by this study's stages (another study's, or "
         "this study's under earlier settings)")
     return f"{stored} runs stored{other} ({result['n_runs_executed']} run now)"
+
+
+def _print_responses(result: dict) -> None:
+    """Every response beside the angle: its lab value, the surface's prediction at the
+    optimum and its verification (several-response studies)."""
+    several = result.get("responses")
+    if not several:
+        return
+    for name, check in several["verification"].items():
+        lab = (check.get("lab") or {}).get("mean")
+        mean, std = check.get("mean"), check.get("std")
+        verdict = {True: "consistent", False: "NOT consistent", None: "not judged"}[
+            check.get("consistent")]
+        console.print(
+            f"{name}: lab {readable(lab) if lab is not None else 'n/a'}; predicted "
+            f"{readable(several['predicted'].get(name), 5)}; verification ({check['n']} "
+            f"runs): {'n/a' if mean is None else readable(mean, 5)} +/- "
+            f"{'n/a' if std is None else readable(std, 3)}, {verdict} with the lab",
+            highlight=False)
+    console.print(f"overall desirability at the optimum: {several['desirability']:.3f}",
+                  highlight=False)
 
 
 def _print_bayes(result: dict) -> None:
