@@ -130,6 +130,8 @@ def test_result_json_names_every_response(tmp_path: Path) -> None:
     out = CliRunner().invoke(app, ["calibrate", str(study), "--json", str(tmp_path / "r.json"),
                                    "--workers", "1"])
     assert out.exit_code == 0, out.output
+    assert "drum_deg: lab 32.6" in out.output and "consistent with the lab" in out.output
+    assert "overall desirability at the optimum" in out.output
     doc = json.loads((tmp_path / "r.json").read_text())
     assert set(doc["responses"]["predicted"]) == {"aor_deg", "drum_deg", "bulk_density_kg_m3"}
     assert np.isfinite(doc["responses"]["verification"]["drum_deg"]["mean"])
