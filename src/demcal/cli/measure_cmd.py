@@ -57,6 +57,14 @@ def aor_table(table: AoRTable) -> Table:
     return out
 
 
+def _figure_names(photos: list[Path], plot_dir: Path) -> list[Path]:
+    """The diagnostic figure of each photo in ``plot_dir`` (numbered when stems repeat)."""
+    stems = [Path(p).stem for p in photos]
+    unique = len(set(stems)) == len(stems)
+    return [plot_dir / (f"{stem}_aor.png" if unique else f"{i}_{stem}_aor.png")
+            for i, stem in enumerate(stems, 1)]
+
+
 @app.command("measure")
 @cli_errors
 def measure(
@@ -119,7 +127,9 @@ def measure(
     check_output_file(csv, "--csv", make_parents=True)
     check_output_file(json_out, "--json", make_parents=True)
     check_output_dir(plot_dir, "--plot-dir")
-    refuse_overwrites({"--plot": plot, "--csv": csv, "--json": json_out},
+    figures = {} if plot_dir is None else {
+        f"--plot-dir ({f.name})": f for f in _figure_names(photos, plot_dir)}
+    refuse_overwrites({"--plot": plot, "--csv": csv, "--json": json_out, **figures},
                       [(p, "an input photo") for p in photos])
     for photo in photos:
         if why := photo_too_large(photo):
@@ -136,10 +146,8 @@ def measure(
     targets = [(table.results[0], plot)] if plot is not None else []
     if plot_dir is not None:
         plot_dir.mkdir(parents=True, exist_ok=True)
-        stems = [Path(r.source).stem for r in table.results]
-        unique = len(set(stems)) == len(stems)
-        targets += [(r, plot_dir / (f"{stem}_aor.png" if unique else f"{i}_{stem}_aor.png"))
-                    for i, (r, stem) in enumerate(zip(table.results, stems, strict=True), 1)]
+        names = _figure_names([Path(r.source) for r in table.results], plot_dir)
+        targets += list(zip(table.results, names, strict=True))
     for res, path in targets:
         plot_photo_aor(res, path)
         console.print(f"wrote {path}", highlight=False)

@@ -110,6 +110,10 @@ def _csv(text: str, path: Path) -> tuple[list[str], list[list[str]]]:
     if not lines:
         raise ResultUnreadable(f"result file {path.name} is empty")
     header = [h.strip() for h in lines[0].split(",")]
+    if len(set(header)) != len(header):  # 'x,x,y,z,radius' read the first x in silence
+        twice = sorted({h for h in header if header.count(h) > 1})
+        raise ResultUnreadable(f"result file {path.name}: column(s) {', '.join(twice)} named "
+                               "twice in its header")
     return header, [[v.strip() for v in ln.split(",")] for ln in lines[1:]]
 
 
