@@ -161,3 +161,9 @@ def test_a_lone_minus_is_no_formula_in_a_csv_cell():
     from demcal.safety import csv_cell
 
     assert csv_cell("-") == "-" and csv_cell("-x") == "'-x"
+
+
+def test_an_engine_number_with_an_underscore_is_no_number(tmp_path):
+    (tmp_path / "aor.txt").write_text("3_0\n")
+    with pytest.raises(ResultUnreadable, match="neither a number nor a JSON object"):
+        read_value(tmp_path, {"file": "aor.txt", "key": "aor_deg"})
