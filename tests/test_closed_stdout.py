@@ -71,3 +71,17 @@ def test_calibrate_into_a_closed_pipe_writes_its_json_and_card(tmp_path):
         "command ran to its end and wrote its files, but not all of its output was shown"]
     assert json.loads((tmp_path / "res.json").read_text())["optimum"]
     assert (tmp_path / "report" / "material.toml").is_file()
+
+
+def test_physical_into_a_gone_stdout_writes_its_json(tmp_path, monkeypatch):
+    from demcal.cli.physical_cmd import physical
+
+    out = tmp_path / "derived.json"
+    measurements = Path(__file__).resolve().parents[1] / "examples" / "corn_stalk" / \
+        "measurements.toml"
+    monkeypatch.setattr(sys, "stdout", _GoneStdout())
+    with pytest.raises(typer.Exit) as done:
+        physical(measurements=measurements, json_out=out, range_rule=None, k=None,
+                 ci_level=None)
+    assert done.value.exit_code == EXIT_STDOUT_GONE
+    assert json.loads(out.read_text())
