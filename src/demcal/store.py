@@ -551,6 +551,11 @@ class RunStore:
         (key, stage, point, replicate, params, _h, seed, engine, status, outcome, aor, result,
          reason, attempts, started, finished, wall, artefacts) = row
         where = f"{self.path}: run {key!r}"
+        if aor is not None and not (isinstance(aor, int | float) and 0 < aor < 90):
+            # every writer stores an angle in (0, 90) deg: a crafted 1e308 fitted a surface
+            raise StoreError(f"{where}: aor_deg {aor!r} is not an angle in (0, 90) deg; the "
+                             "store is damaged (`demcal store salvage` copies the readable "
+                             "runs into a new store)")
         return RunRecord(key=key, stage=stage, point=point, replicate=replicate,
                          params=_loads_object(params, where, "params"), seed=seed,
                          status=status, outcome=outcome, aor_deg=aor,
