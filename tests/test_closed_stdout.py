@@ -85,3 +85,24 @@ def test_physical_into_a_gone_stdout_writes_its_json(tmp_path, monkeypatch):
                  ci_level=None)
     assert done.value.exit_code == EXIT_STDOUT_GONE
     assert json.loads(out.read_text())
+
+
+def test_a_hung_up_terminal_does_not_end_a_study(tmp_path):
+    import signal
+    import time
+
+    study = tmp_path / "study.toml"
+    study.write_text(EXAMPLE.read_text().replace("noise_deg = 0.3",
+                                                 "noise_deg = 0.3\ndelay_s = 0.05", 1))
+    proc = subprocess.Popen([sys.executable, "-m", "demcal", "calibrate", str(study),
+                             "--json", str(tmp_path / "res.json"), "--no-report",
+                             "--workers", "1"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
+    deadline = time.monotonic() + 120
+    while not (tmp_path / "demcal.sqlite").exists():  # the study is running
+        assert time.monotonic() < deadline and proc.poll() is None
+        time.sleep(0.1)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGHUP)  # the terminal hung up: the study goes on
+    assert proc.wait(timeout=300) == 0
+    assert json.loads((tmp_path / "res.json").read_text())["optimum"]
