@@ -106,3 +106,32 @@ def test_a_hung_up_terminal_does_not_end_a_study(tmp_path):
     proc.send_signal(signal.SIGHUP)  # the terminal hung up: the study goes on
     assert proc.wait(timeout=300) == 0
     assert json.loads((tmp_path / "res.json").read_text())["optimum"]
+
+
+def test_a_progress_display_on_a_terminal_prints_through_the_guard(monkeypatch):
+    """rich's live display replaces sys.stdout by a proxy printing through the console: the
+    guard writes under that proxy, not into it (which looped for ever on a terminal)."""
+    import io
+
+    from rich.progress import Progress
+
+    class _Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    import threading
+
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stdout", term)
+
+    def show() -> None:
+        with Progress(console=console, auto_refresh=False) as progress:
+            task = progress.add_task("stage", total=2)
+            print("a line printed meanwhile")  # goes through rich's proxy of sys.stdout
+            progress.update(task, advance=2, refresh=True)
+
+    shown = threading.Thread(target=show, daemon=True)  # the loop hung: fail, not hang
+    shown.start()
+    shown.join(timeout=30)
+    assert not shown.is_alive(), "printing under a live display loops"
+    assert "a line printed meanwhile" in term.getvalue() and "stage" in term.getvalue()
