@@ -16,9 +16,16 @@ import pytest
 import typer
 
 from demcal.cli._common import cli_errors, console
-from demcal.cli._stdout import EXIT_STDOUT_GONE, stdout_gone
+from demcal.cli._stdout import EXIT_STDOUT_GONE, reset, stdout_gone
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "analytic" / "study.toml"
+
+
+@pytest.fixture(autouse=True)
+def _console_back():
+    """Each test's gone stdout is forgotten after it (a command does so when it starts)."""
+    yield
+    reset()
 
 
 class _GoneStdout:
