@@ -148,3 +148,22 @@ def test_calibrate_workers_has_the_studys_upper_bound(tmp_path):
     res = CliRunner().invoke(app, ["calibrate", str(tmp_path / "study.toml"), "--workers",
                                    "100000"])
     assert res.exit_code == 2 and "less than or equal to 1024" in res.output, res.output
+
+
+def test_a_positions_header_naming_a_column_twice_is_refused(tmp_path):
+    (tmp_path / "pile.csv").write_text("x,x,y,z,radius\n0,1,0,0,0.01\n")
+    with pytest.raises(ResultUnreadable, match="x named twice"):
+        read_positions(tmp_path, {"file": "pile.csv", "format": "csv", "columns": {
+            "x": "x", "y": "y", "z": "z", "radius": "radius"}})
+
+
+def test_a_lone_minus_is_no_formula_in_a_csv_cell():
+    from demcal.safety import csv_cell
+
+    assert csv_cell("-") == "-" and csv_cell("-x") == "'-x"
+
+
+def test_an_engine_number_with_an_underscore_is_no_number(tmp_path):
+    (tmp_path / "aor.txt").write_text("3_0\n")
+    with pytest.raises(ResultUnreadable, match="neither a number nor a JSON object"):
+        read_value(tmp_path, {"file": "aor.txt", "key": "aor_deg"})

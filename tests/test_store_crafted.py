@@ -65,3 +65,17 @@ def test_salvage_skips_a_deeply_nested_cell(tmp_path):
     assert counts["runs"] == 2 and counts["runs_skipped"] == 1
     with RunStore(tmp_path / "new.sqlite", readonly=True) as store:
         assert json.dumps(store.get_run("screening:0").params)
+
+
+@pytest.mark.parametrize("crafted", [
+    "UPDATE runs SET aor_deg = 1e308 WHERE key = 'screening:2'",
+    "UPDATE responses SET value = 1e308 WHERE key = 'screening:2' AND name = 'aor_deg'",
+])
+def test_a_stored_angle_outside_0_90_is_a_damaged_row(tmp_path, crafted):
+    path = _store(tmp_path)
+    _sql(path, crafted)
+    with RunStore(tmp_path, readonly=True) as store, \
+            pytest.raises(StoreError, match=r"aor_deg 1e\+308 is not an angle in \(0, 90\)"):
+        store.runs()
+    counts = salvage(tmp_path, tmp_path / "new.sqlite")
+    assert counts["runs"] == 2 and counts["runs_skipped"] == 1

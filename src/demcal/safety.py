@@ -116,8 +116,8 @@ def csv_cell(value: Any) -> Any:
 
     Numbers, and text that reads as a number (``-1.5``), are kept as they are.
     """
-    if not isinstance(value, str) or not value.startswith(_FORMULA_START):
-        return value
+    if not isinstance(value, str) or not value.startswith(_FORMULA_START) or value == "-":
+        return value  # a lone "-" (the unit of a dimensionless value) is no formula
     try:
         float(value)
         return value

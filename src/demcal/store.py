@@ -645,6 +645,12 @@ class RunStore:
         where = f"{self.path}: run {key!r}"
         if responses is None:
             responses = self._responses("key = ?", (key,)).get(key, {})
+        for angle in (_aor, responses.get("aor_deg")):  # the column and the response
+            if angle is not None and not (isinstance(angle, int | float) and 0 < angle < 90):
+                # every writer stores an angle in (0, 90) deg: a crafted 1e308 fitted a surface
+                raise StoreError(f"{where}: aor_deg {angle!r} is not an angle in (0, 90) deg; "
+                                 "the store is damaged (`demcal store salvage` copies the "
+                                 "readable runs into a new store)")
         return RunRecord(key=key, stage=stage, point=point, replicate=replicate,
                          params=_loads_object(params, where, "params"), seed=seed,
                          status=status, outcome=outcome, responses=dict(responses),

@@ -82,3 +82,13 @@ def test_salvage_out_onto_the_store_is_refused(study_file):
     _refused(CliRunner().invoke(app, ["store", "salvage", str(study_file.parent), "--out",
                                       str(store)]), "run store")
     assert store.read_bytes() == b"x" * 10
+
+
+def test_measure_plot_dir_onto_another_input_photo_is_refused(tmp_path):
+    a, b = tmp_path / "pile.png", tmp_path / "pile_aor.png"
+    for p in (a, b):
+        Image.new("L", (40, 30), 200).save(p)
+    before = b.read_bytes()
+    _refused(CliRunner().invoke(app, ["measure", str(a), str(b), "--plot-dir",
+                                      str(tmp_path)]), "an input photo")
+    assert b.read_bytes() == before

@@ -40,13 +40,25 @@ class GuardedStdout(io.TextIOBase):
         super().__init__()
         self.gone = False
 
+    @staticmethod
+    def _target() -> object:
+        """The stream to write to: ``sys.stdout``, or the file under rich's own proxy of it.
+
+        While a progress display runs, rich replaces ``sys.stdout`` by a proxy that prints
+        through this console; writing to the proxy would come back here for ever.
+        """
+        out: object = sys.stdout
+        while (inner := getattr(out, "rich_proxied_file", None)) is not None:
+            out = inner
+        return out
+
     def _lost(self) -> None:
         """Remember the loss; point fd 1 at /dev/null so no later write (the interpreter's
         last flush included) fails again."""
         self.gone = True
         with contextlib.suppress(OSError, ValueError, io.UnsupportedOperation,
                                  AttributeError):
-            fd = sys.stdout.fileno()
+            fd = self._target().fileno()  # type: ignore[attr-defined]
             null = os.open(os.devnull, os.O_WRONLY)
             os.dup2(null, fd)
             os.close(null)
@@ -55,7 +67,7 @@ class GuardedStdout(io.TextIOBase):
         if self.gone:
             return len(text)
         try:
-            return sys.stdout.write(text)
+            return self._target().write(text)  # type: ignore[attr-defined]
         except OSError as exc:
             if exc.errno not in _GONE:
                 raise
@@ -66,7 +78,7 @@ class GuardedStdout(io.TextIOBase):
         if self.gone:
             return
         try:
-            sys.stdout.flush()
+            self._target().flush()  # type: ignore[attr-defined]
         except OSError as exc:
             if exc.errno not in _GONE:
                 raise
@@ -74,12 +86,12 @@ class GuardedStdout(io.TextIOBase):
 
     def isatty(self) -> bool:
         try:
-            return not self.gone and sys.stdout.isatty()
+            return not self.gone and self._target().isatty()  # type: ignore[attr-defined]
         except (OSError, ValueError):
             return False
 
     def fileno(self) -> int:
-        return sys.stdout.fileno()
+        return self._target().fileno()  # type: ignore[attr-defined]
 
     def writable(self) -> bool:
         return True
@@ -87,7 +99,7 @@ class GuardedStdout(io.TextIOBase):
     @property
     def encoding(self) -> str:  # type: ignore[override]
         """The encoding of the current ``sys.stdout`` (utf-8 when it has none)."""
-        return getattr(sys.stdout, "encoding", None) or "utf-8"
+        return getattr(self._target(), "encoding", None) or "utf-8"
 
 
 #: the one guarded stream behind :data:`demcal.cli._common.console`

@@ -57,6 +57,32 @@ def aor_table(table: AoRTable) -> Table:
     return out
 
 
+def _write_outputs(table: AoRTable, plot: Path | None, plot_dir: Path | None, csv: Path | None,
+                   json_out: Path | None) -> list[Path]:
+    """Write the figures, the CSV and the JSON of a measured table; return their paths."""
+    targets = [(table.results[0], plot)] if plot is not None else []
+    if plot_dir is not None:
+        plot_dir.mkdir(parents=True, exist_ok=True)
+        names = _figure_names([Path(r.source) for r in table.results], plot_dir)
+        targets += list(zip(table.results, names, strict=True))
+    for res, path in targets:
+        plot_photo_aor(res, path)
+    for path in (csv, json_out):
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+    if csv is not None or json_out is not None:
+        save_table(table, csv=csv, json_path=json_out)
+    return [path for _, path in targets] + [p for p in (csv, json_out) if p is not None]
+
+
+def _figure_names(photos: list[Path], plot_dir: Path) -> list[Path]:
+    """The diagnostic figure of each photo in ``plot_dir`` (numbered when stems repeat)."""
+    stems = [Path(p).stem for p in photos]
+    unique = len(set(stems)) == len(stems)
+    return [plot_dir / (f"{stem}_aor.png" if unique else f"{i}_{stem}_aor.png")
+            for i, stem in enumerate(stems, 1)]
+
+
 @app.command("measure")
 @cli_errors
 def measure(
@@ -119,7 +145,9 @@ def measure(
     check_output_file(csv, "--csv", make_parents=True)
     check_output_file(json_out, "--json", make_parents=True)
     check_output_dir(plot_dir, "--plot-dir")
-    refuse_overwrites({"--plot": plot, "--csv": csv, "--json": json_out},
+    figures = {} if plot_dir is None else {
+        f"--plot-dir ({f.name})": f for f in _figure_names(photos, plot_dir)}
+    refuse_overwrites({"--plot": plot, "--csv": csv, "--json": json_out, **figures},
                       [(p, "an input photo") for p in photos])
     for photo in photos:
         if why := photo_too_large(photo):
@@ -128,26 +156,12 @@ def measure(
     table = photos_aor(photos, threshold=parse_threshold(threshold), fit_window=fit_window,
                        fit=fit, pile=pile, base_line=base_row, roi=roi, roll_deg=roll_deg,
                        pixel_aspect=pixel_aspect)
+    # every file first, the console last: a console that is gone or blocks costs no file
+    written = _write_outputs(table, plot, plot_dir, csv, json_out)
     console.print(aor_table(table))
     for r in table.results:
         for note in r.notes:
             console.print(f"note: {Path(r.source).name}: {note}", markup=False,
                           highlight=False)
-    targets = [(table.results[0], plot)] if plot is not None else []
-    if plot_dir is not None:
-        plot_dir.mkdir(parents=True, exist_ok=True)
-        stems = [Path(r.source).stem for r in table.results]
-        unique = len(set(stems)) == len(stems)
-        targets += [(r, plot_dir / (f"{stem}_aor.png" if unique else f"{i}_{stem}_aor.png"))
-                    for i, (r, stem) in enumerate(zip(table.results, stems, strict=True), 1)]
-    for res, path in targets:
-        plot_photo_aor(res, path)
+    for path in written:
         console.print(f"wrote {path}", highlight=False)
-    for path in (csv, json_out):
-        if path is not None:
-            path.parent.mkdir(parents=True, exist_ok=True)
-    if csv is not None or json_out is not None:
-        save_table(table, csv=csv, json_path=json_out)
-        for path in (csv, json_out):
-            if path is not None:
-                console.print(f"wrote {path}", highlight=False)

@@ -164,6 +164,9 @@ def physical(
     result = derive_parameters(
         load_measurements(measurements), ci_level=ci_level, range_rule=range_rule, range_k=k
     )
+    if json_out is not None:  # first: a console that is gone or blocks costs no file
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps(result.to_dict(), indent=2) + "\n", encoding="utf-8")
     console.print(_parameter_table(result))
     if result.missing:
         console.print(
@@ -175,6 +178,4 @@ def physical(
     for line in _template_lines(result):
         console.print(line, highlight=False)
     if json_out is not None:
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(result.to_dict(), indent=2) + "\n", encoding="utf-8")
         console.print(f"wrote {json_out}", highlight=False)

@@ -63,7 +63,7 @@ class AnalyticOptions(BaseModel):
     cubic: dict[str, float] = Field(default_factory=dict, description="a term no quadratic "
                                     "response surface can fit")
     interaction: dict[str, float] = Field(default_factory=dict, description="'p*q' -> coef")
-    noise_deg: float = Field(0.3, ge=0)
+    noise_deg: float = Field(0.3, ge=0, le=90, description="an angle's noise, deg")
     no_pile_above: dict[str, float] = Field(default_factory=dict)
     no_pile_outcome: str = "column"
     unstable_above: dict[str, float] = Field(default_factory=dict)

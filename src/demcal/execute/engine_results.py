@@ -110,6 +110,10 @@ def _csv(text: str, path: Path) -> tuple[list[str], list[list[str]]]:
     if not lines:
         raise ResultUnreadable(f"result file {path.name} is empty")
     header = [h.strip() for h in lines[0].split(",")]
+    if len(set(header)) != len(header):  # 'x,x,y,z,radius' read the first x in silence
+        twice = sorted({h for h in header if header.count(h) > 1})
+        raise ResultUnreadable(f"result file {path.name}: column(s) {', '.join(twice)} named "
+                               "twice in its header")
     return header, [[v.strip() for v in ln.split(",")] for ln in lines[1:]]
 
 
@@ -213,6 +217,23 @@ def _bounded_extra(extra: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _parse_value(text: str, path: Path) -> Any:
+    """A value file's JSON (None when empty), else its one number."""
+    try:
+        return json.loads(text) if text else None
+    except RecursionError:  # this run's result, not the study's end
+        raise ResultUnreadable(f"result file {path.name}: JSON nested too deeply") from None
+    except json.JSONDecodeError:
+        pass
+    try:
+        if "_" in text:  # Python reads '3_0' as 30.0; an engine's '3_0' is no number
+            raise ValueError(text)
+        return float(text)
+    except ValueError:
+        raise ResultUnreadable(f"result file {path.name}: neither a number nor a JSON "
+                               f"object: {_quote(text)}") from None
+
+
 def read_value(run_dir: str | Path, spec: dict[str, Any]) -> dict[str, Any]:
     """The engine's own answer: ``{"outcome", "aor_deg", "reason"}``.
 
@@ -228,17 +249,7 @@ def read_value(run_dir: str | Path, spec: dict[str, Any]) -> dict[str, Any]:
     path = _inside(Path(run_dir), spec["file"])
     text = _text(path, MAX_VALUE_BYTES).strip()
     key = spec.get("key") or "aor_deg"
-    try:
-        doc: Any = json.loads(text) if text else None
-    except RecursionError:  # this run's result, not the study's end
-        raise ResultUnreadable(f"result file {path.name}: JSON nested too deeply") from None
-    except json.JSONDecodeError:
-        doc = None
-        try:
-            doc = float(text)
-        except ValueError:
-            raise ResultUnreadable(f"result file {path.name}: neither a number nor a JSON "
-                                   f"object: {_quote(text)}") from None
+    doc = _parse_value(text, path)
     extra: dict[str, Any] = {}
     if isinstance(doc, dict):
         outcome = doc.get("outcome", "pile")
