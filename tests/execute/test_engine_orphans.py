@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from demcal.execute.engine_guard import PID_FILE, note_engine
+from demcal.engine_guard import PID_FILE, note_engine
 from demcal.execute.engine_spec import TemplateEngine, load_engine
 from demcal.execute.tasks import RunTask, TestDef
 from demcal.execute.template_engine import run_dir_name, run_template
@@ -103,3 +103,35 @@ def test_a_pid_file_naming_another_process_touches_nothing(tmp_path):
     finally:
         other.kill()
         other.wait()
+
+
+# ------------------------------------------------------------------------------ LAMMPS
+_RANKS = "sleep 60 & echo $! > child.pid; echo $$ > engine.pid; wait"
+
+
+def test_lammps_ranks_end_with_their_time_limit(tmp_path):
+    """A LAMMPS run past its limit: its whole group (the launcher and the ranks it started)
+    is ended, not only the first process."""
+    from demcal.virtual.lammps_run import _launch
+
+    why = _launch(["sh", "-c", _RANKS], tmp_path, 2.0)
+    assert why is not None and "time limit of 2 s" in why
+    pids = [int((tmp_path / f).read_text()) for f in ("engine.pid", "child.pid")]
+    assert _wait_gone(pids), f"LAMMPS' processes {pids} outlived their time limit"
+
+
+def test_lammps_ranks_die_with_a_killed_demcal(tmp_path):
+    """kill -9 of the process running LAMMPS: the watchdog ends the ranks."""
+    code = ("import sys; from pathlib import Path; from demcal.virtual.lammps_run import "
+            f"_launch; _launch(['sh', '-c', {_RANKS!r}], Path(sys.argv[1]), 600.0)")
+    worker = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)])
+    deadline = time.monotonic() + 60
+    while not all((tmp_path / f).is_file() and (tmp_path / f).read_text().strip()
+                  for f in ("engine.pid", "child.pid")):
+        assert time.monotonic() < deadline and worker.poll() is None
+        time.sleep(0.05)
+    pids = [int((tmp_path / f).read_text()) for f in ("engine.pid", "child.pid")]
+    time.sleep(0.5)  # the watchdog is up
+    worker.kill()
+    worker.wait()
+    assert _wait_gone(pids), f"LAMMPS' processes {pids} outlived demcal"

@@ -27,7 +27,6 @@ import importlib
 import importlib.util
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import time
@@ -35,8 +34,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from demcal.engine_guard import (
+    engine_watchdog,
+    kill_group,
+    note_engine,
+    stop_leftover_engine,
+)
 from demcal.errors import InputError
-from demcal.execute.engine_guard import engine_watchdog, note_engine, stop_leftover_engine
 from demcal.execute.engine_results import ResultUnreadable, read_positions, read_value
 from demcal.execute.signals import sigterm_raises
 from demcal.execute.template_fill import fill
@@ -129,27 +133,6 @@ def _tail(log: Path) -> str:
     return tail[-300:]
 
 
-def _kill_group(proc: subprocess.Popen) -> None:
-    """SIGTERM the engine's process group, SIGKILL it after KILL_GRACE_S."""
-    killpg = getattr(os, "killpg", None)
-    try:
-        if killpg is not None:
-            killpg(proc.pid, signal.SIGTERM)
-        else:  # pragma: no cover - not POSIX
-            proc.terminate()
-        proc.wait(timeout=KILL_GRACE_S)
-    except subprocess.TimeoutExpired:
-        pass
-    except ProcessLookupError:
-        return
-    with contextlib.suppress(ProcessLookupError, PermissionError):
-        if killpg is not None:
-            killpg(proc.pid, signal.SIGKILL)  # also children the engine started
-        else:  # pragma: no cover
-            proc.kill()
-    proc.wait()
-
-
 def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[str | None, str]:
     """Run the command; return (failure outcome or None, what happened)."""
     with open(log, "wb") as out, sigterm_raises():
@@ -168,10 +151,10 @@ def _execute(cmd: list[str], run_dir: Path, log: Path, timeout: float) -> tuple[
             try:
                 code = proc.wait(timeout=timeout)
             except subprocess.TimeoutExpired:
-                _kill_group(proc)
+                kill_group(proc, KILL_GRACE_S)
                 return "timeout", f"no end within {timeout:g} s; the engine was killed"
             except BaseException:  # Ctrl-C, a terminated pool worker: take the engine down
-                _kill_group(proc)
+                kill_group(proc, KILL_GRACE_S)
                 raise
     if code != 0:
         return "engine_error", f"exit code {code}"

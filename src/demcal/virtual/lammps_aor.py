@@ -34,6 +34,7 @@ import numpy as np
 from demcal.dem.contact import rayleigh_time_step
 from demcal.dem.state import rotate
 from demcal.errors import InputError
+from demcal.limits import check_time_step
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.factory import draw_scales, make_template, pack_cylinder
 from demcal.virtual.lammps_laws import ContactLaw, contact_laws, model_string
@@ -121,8 +122,8 @@ def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
     _write_data(folder / DATA, spheres, config)
     _write_bodies(folder / BODIES, mass, com, tensor)
     r_min = float(radii.min())
-    dt = config.dt_fraction * rayleigh_time_step(r_min, rho, params["particle.shear_modulus"],
-                                                 params["particle.poisson"])
+    dt = check_time_step(config.dt_fraction * rayleigh_time_step(
+        r_min, rho, params["particle.shear_modulus"], params["particle.poisson"]))
     laws = contact_laws(params, sphere_radius=float(np.mean(radii)),
                         clump_mass=float(np.mean(mass)),
                         rolling=config.rolling_model != "none")

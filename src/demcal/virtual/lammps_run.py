@@ -30,6 +30,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from demcal.engine_guard import engine_watchdog, kill_group
 from demcal.errors import InputError
 from demcal.virtual.aor import AoRResult
 from demcal.virtual.config import AoRTestConfig
@@ -239,18 +240,36 @@ def _run_one(run: RunSpec, config: AoRTestConfig, options: LammpsOptions,
     cmd = lammps_command(options)
     t0 = time.perf_counter()
     case = write_case(run.params, config, run.seed, folder)
+    failure = _launch(cmd, folder, options.timeout_s)
+    return _result(case, config, time.perf_counter() - t0, run.plot_path, failure)
+
+
+def _launch(cmd: list[str], folder: Path, timeout_s: float) -> str | None:
+    """Run LAMMPS in ``folder``; None when it ended well, else why not.
+
+    Its ranks run in their own process group, watched (:mod:`demcal.engine_guard`): a
+    timeout, Ctrl-C or SIGTERM ends the whole group here, and a ``kill -9`` of demcal ends it
+    through the watchdog, so no LAMMPS outlives the study that started it.
+    """
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    failure = None
     try:
-        proc = subprocess.run(cmd, cwd=folder, env=env, capture_output=True, text=True,
-                              timeout=options.timeout_s, check=False)
-        if proc.returncode != 0:
-            failure = f"exit status {proc.returncode}: " + (proc.stdout + proc.stderr)[-500:]
-    except subprocess.TimeoutExpired:
-        failure = f"no end within the time limit of {options.timeout_s:g} s"
+        proc = subprocess.Popen(cmd, cwd=folder, env=env, stdin=subprocess.DEVNULL,
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                start_new_session=True)
     except OSError as exc:
         raise LammpsMissing(f"{MISSING} ({cmd[0]}: {exc.strerror})") from None
-    return _result(case, config, time.perf_counter() - t0, run.plot_path, failure)
+    with proc, engine_watchdog(proc.pid):  # proc: its pipe is closed however this ends
+        try:
+            out, _ = proc.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            kill_group(proc)
+            return f"no end within the time limit of {timeout_s:g} s"
+        except BaseException:  # Ctrl-C, SIGTERM: take LAMMPS down with the study
+            kill_group(proc)
+            raise
+    if proc.returncode != 0:
+        return f"exit status {proc.returncode}: " + (out or "")[-500:]
+    return None
 
 
 def run_aor_lammps(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestConfig,

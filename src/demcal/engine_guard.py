@@ -1,6 +1,7 @@
 """An external engine dies with the demcal process that started it, however that one ends.
 
-An engine runs in its own session (:mod:`demcal.execute.template_engine`), so Ctrl-C at the
+An engine (an external engine through :mod:`demcal.execute.template_engine`, or LAMMPS through
+:mod:`demcal.virtual.lammps_run`) runs in its own session, so Ctrl-C at the
 terminal does not reach it and demcal can kill its whole process group. The price: when
 demcal itself is killed with SIGKILL (``kill -9``, the OOM killer), nothing kills the engine;
 before 2026-11-27 it ran on, reparented to init, holding its cores for hours, and a resumed
@@ -31,7 +32,8 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["GRACE_S", "PID_FILE", "engine_watchdog", "note_engine", "stop_leftover_engine"]
+__all__ = ["GRACE_S", "PID_FILE", "engine_watchdog", "kill_group", "note_engine",
+           "stop_leftover_engine"]
 
 #: seconds between the watchdog's SIGTERM and SIGKILL of an orphaned engine's group
 GRACE_S = 5.0
@@ -148,3 +150,24 @@ def stop_leftover_engine(run_dir: Path) -> bool:
                 and time.monotonic() < end:
             time.sleep(0.05)
     return True
+
+
+def kill_group(proc: subprocess.Popen, grace_s: float = GRACE_S) -> None:
+    """SIGTERM the engine's process group, SIGKILL it after ``grace_s`` s (and wait for it)."""
+    killpg = getattr(os, "killpg", None)
+    try:
+        if killpg is not None:
+            killpg(proc.pid, signal.SIGTERM)
+        else:  # pragma: no cover - not POSIX
+            proc.terminate()
+        proc.wait(timeout=grace_s)
+    except subprocess.TimeoutExpired:
+        pass
+    except ProcessLookupError:
+        return
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        if killpg is not None:
+            killpg(proc.pid, signal.SIGKILL)  # also children the engine started
+        else:  # pragma: no cover
+            proc.kill()
+    proc.wait()
