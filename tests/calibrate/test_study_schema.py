@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import re
+from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
@@ -128,3 +129,19 @@ def test_the_result_json_leaves_out_a_disabled_steepest_stage():
     ctx = SimpleNamespace(results={"steepest": {"levels": {"pp.static_friction": [0.3, 0.6,
                                                                                      0.9]}}})
     assert "steepest" not in _stage_json(ctx)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(("line", "message"), [
+    ("seed = true", "seed"),
+    ('name = "' + "x" * 300 + '"', "name"),
+])
+def test_a_boolean_seed_and_a_huge_name_are_refused(tmp_path, line, message):
+    from demcal.calibrate.study import load_study
+
+    text = (Path(__file__).resolve().parents[2] / "examples" / "analytic" / "study.toml"
+            ).read_text()
+    key = line.split(" = ")[0]
+    text = "\n".join(ln for ln in text.splitlines() if not ln.startswith(f"{key} = "))
+    (tmp_path / "study.toml").write_text(line + "\n" + text)
+    with pytest.raises(InputError, match=message):
+        load_study(tmp_path / "study.toml")

@@ -340,8 +340,8 @@ class Executor(_M):
 class Study(_M):
     """A whole calibration study."""
 
-    name: str = "study"
-    seed: int = Field(1, ge=0, le=MAX_STUDY_SEED)
+    name: str = Field("study", min_length=1, max_length=200)
+    seed: int = Field(1, ge=0, le=MAX_STUDY_SEED, strict=True)  # strict: `seed = true` is no 1
     replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point; "
                                    "default: the test fidelity's ("
                                    + ", ".join(f"{k} {v}" for k, v in FIDELITY_REPLICATES.items())
