@@ -637,6 +637,69 @@ def _build(
     )
 
 
+def _design_settings(design: Any, names: Sequence[str] | None
+                     ) -> tuple[np.ndarray, tuple[str, ...], tuple[Any, ...]]:
+    """A DataFrame's or an array's settings as given: (x, factor names, run labels)."""
+    if isinstance(design, pd.DataFrame):
+        nm = tuple(str(c) for c in (names if names is not None else design.columns))
+        return _numeric_frame(design, nm, "design"), nm, tuple(design.index.tolist())
+    x = np.asarray(design, dtype=float)
+    if x.ndim == 1:
+        x = x.reshape(-1, 1)
+    if x.ndim != 2:
+        raise InputError(f"design must be a 2-D (runs, factors) array; got shape {x.shape}")
+    nm = tuple(names) if names is not None else tuple(f"x{i + 1}" for i in range(x.shape[1]))
+    if len(nm) != x.shape[1]:
+        raise InputError(f"names must give {x.shape[1]} factor names; got {len(nm)}")
+    return x, nm, tuple(range(1, x.shape[0] + 1))
+
+
+def _from_design(design: Design, names: Sequence[str] | None, units: str | None
+                 ) -> tuple[np.ndarray, tuple[str, ...]]:
+    """A :class:`Design`'s coded settings (of ``names``, if given) and factor names."""
+    x = np.asarray(design.coded, dtype=float)
+    nm = tuple(design.names)
+    if names is not None:
+        idx = [nm.index(n) if n in nm else -1 for n in names]
+        if -1 in idx:
+            raise InputError(f"names must be among the design's factors {', '.join(nm)}")
+        x, nm = x[:, idx], tuple(names)
+    if units not in (None, "coded"):
+        raise InputError("a Design is always in coded units; drop units=")
+    return x, nm
+
+
+def _coded_design(design: Any, names: Sequence[str] | None, space: FactorSpace | None,
+                  units: str | None) -> tuple[np.ndarray, tuple[str, ...], tuple[Any, ...],
+                                              FactorSpace | None]:
+    """:func:`fit`'s design as coded settings: (x, factor names, run labels, factor space)."""
+    if isinstance(design, Design):
+        x, nm = _from_design(design, names, units)
+        space = space if space is not None else design.factors
+        labels: tuple[Any, ...] = tuple(range(1, x.shape[0] + 1))
+        units = "coded"
+    else:
+        x, nm, labels = _design_settings(design, names)
+    if len(set(nm)) != len(nm):
+        raise InputError(f"factor names must be unique; got {', '.join(nm)}")
+    if not nm:
+        raise InputError("design has no factor columns")
+    if units is None:
+        units = "actual" if space is not None else "coded"
+    if units not in ("coded", "actual"):
+        raise InputError(f"units must be 'coded' or 'actual'; got {units!r}")
+    if units == "actual" and space is None:
+        raise InputError("units='actual' needs factors with low and high")
+    if space is not None:
+        missing = [n for n in nm if n not in space]
+        if missing:
+            raise InputError(("factors file lacks" if units == "actual" else "factors lack")
+                             + f" factor(s) {', '.join(missing)}")
+        if units == "actual":
+            x = space.subset(nm).to_coded(x)
+    return x, nm, labels, space
+
+
 def fit(
     design: Any,
     response: Any,
@@ -704,54 +767,8 @@ def fit(
     >>> round(float(rs.coefficients_coded["x1"]), 6), round(float(rs.coefficients_coded["x2^2"]), 6)
     (2.0, -1.0)
     """
-    labels: tuple[Any, ...]
     space = None if factors is None else as_factor_space(factors)
-    if isinstance(design, Design):
-        x = np.asarray(design.coded, dtype=float)
-        nm = tuple(design.names)
-        if names is not None:
-            idx = [nm.index(n) if n in nm else -1 for n in names]
-            if -1 in idx:
-                raise InputError(f"names must be among the design's factors {', '.join(nm)}")
-            x, nm = x[:, idx], tuple(names)
-        space = space if space is not None else design.factors
-        labels = tuple(range(1, x.shape[0] + 1))
-        if units not in (None, "coded"):
-            raise InputError("a Design is always in coded units; drop units=")
-        units = "coded"
-    elif isinstance(design, pd.DataFrame):
-        nm = tuple(str(c) for c in (names if names is not None else design.columns))
-        x = _numeric_frame(design, nm, "design")
-        labels = tuple(design.index.tolist())
-    else:
-        x = np.asarray(design, dtype=float)
-        if x.ndim == 1:
-            x = x.reshape(-1, 1)
-        if x.ndim != 2:
-            raise InputError(f"design must be a 2-D (runs, factors) array; got shape {x.shape}")
-        nm = tuple(names) if names is not None else tuple(f"x{i + 1}" for i in range(x.shape[1]))
-        if len(nm) != x.shape[1]:
-            raise InputError(f"names must give {x.shape[1]} factor names; got {len(nm)}")
-        labels = tuple(range(1, x.shape[0] + 1))
-    if len(set(nm)) != len(nm):
-        raise InputError(f"factor names must be unique; got {', '.join(nm)}")
-    if not nm:
-        raise InputError("design has no factor columns")
-    if units is None:
-        units = "actual" if space is not None else "coded"
-    if units not in ("coded", "actual"):
-        raise InputError(f"units must be 'coded' or 'actual'; got {units!r}")
-    if units == "actual":
-        if space is None:
-            raise InputError("units='actual' needs factors with low and high")
-        missing = [n for n in nm if n not in space]
-        if missing:
-            raise InputError(f"factors file lacks factor(s) {', '.join(missing)}")
-        x = space.subset(nm).to_coded(x)
-    if space is not None:
-        missing = [n for n in nm if n not in space]
-        if missing:
-            raise InputError(f"factors lack factor(s) {', '.join(missing)}")
+    x, nm, labels, space = _coded_design(design, names, space, units)
 
     if isinstance(response, pd.Series) and response_name is None:
         response_name = str(response.name) if response.name is not None else None
