@@ -203,3 +203,18 @@ def test_a_template_engine_with_three_responses_lands_on_its_planted_point(tmp_p
     assert max(err.values()) < 0.03, (res["optimum"], err)
     for name in ("drum_deg", "bulk_density_kg_m3"):
         assert res["responses"]["verification"][name]["consistent"] is True
+
+
+def test_dropping_the_other_responses_finds_the_angle_s_own_optimum(tmp_path: Path) -> None:
+    """A study resumed with its [[responses]] removed does not keep the several-response
+    optimum (it hits the angle too, but it is another problem's answer)."""
+    study = write_study(tmp_path)
+    several = calibrate(study, workers=1)
+    text = study.read_text()
+    study.write_text(text[:text.index("[[responses]]")] + text[text.index("[test]"):])
+    alone = calibrate(study, workers=1)
+    assert "responses" not in alone
+    assert alone["optimum"] != several["optimum"]
+    assert alone["n_runs_executed"] == 4  # the response surface's runs are kept
+    out = CliRunner().invoke(app, ["report", str(tmp_path)])
+    assert out.exit_code == 0 and "could not be drawn" not in out.output, out.output

@@ -890,7 +890,8 @@ def _stored_optimum(prior: dict[str, Any] | None, target: tuple[float, float], m
         return None
     chosen = prior.get("chosen") or {}
     if (prior.get("target_aor_deg") != target[0] or prior.get("opts", opts) != opts
-            or set(chosen) != set(model.names)):
+            or set(chosen) != set(model.names) or "responses" in prior):
+        # ("responses": the optimum of a study that aimed at several: not this one's)
         return None
     x = np.array([[float(chosen[n]) for n in model.names]])
     if abs(float(model.predict(x, units="actual")[0]) - target[1]) > KEEP_OPTIMUM_TOL_DEG:
