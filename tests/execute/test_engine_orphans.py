@@ -8,10 +8,10 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+from process_checks import PID_FILES, kill_9_when_started, wait_gone
 
 from demcal.engine_guard import PID_FILE, note_engine
 from demcal.execute.engine_spec import TemplateEngine, load_engine
@@ -37,22 +37,6 @@ def _task(tmp_path: Path, command: list[str]) -> RunTask:
                    params, 3)
 
 
-def _alive(pid: int) -> bool:
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0] != "Z"
-    except OSError:
-        return False
-
-
-def _wait_gone(pids: list[int], timeout: float = 20.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if not any(_alive(p) for p in pids):
-            return True
-        time.sleep(0.1)
-    return False
-
-
 def test_kill_9_of_demcal_takes_the_engine_and_its_children_down(tmp_path):
     # the engine (sh) starts a child of its own: a parent-death signal would miss that one
     task = _task(tmp_path, ["sh", "-c", "sleep 120 & echo $! > child.pid; echo $$ > "
@@ -61,17 +45,8 @@ def test_kill_9_of_demcal_takes_the_engine_and_its_children_down(tmp_path):
     code = ("import pickle, sys; from demcal.execute.template_engine import run_template; "
             "run_template(pickle.load(open(sys.argv[1], 'rb')))")
     worker = subprocess.Popen([sys.executable, "-c", code, str(tmp_path / "task.pkl")])
-    run_dir = tmp_path / "runs" / run_dir_name(task.key)
-    deadline = time.monotonic() + 60
-    while not all((run_dir / f).is_file() and (run_dir / f).read_text().strip()
-                  for f in ("engine.pid", "child.pid")):
-        assert time.monotonic() < deadline and worker.poll() is None
-        time.sleep(0.05)
-    pids = [int((run_dir / f).read_text()) for f in ("engine.pid", "child.pid")]
-    time.sleep(0.5)  # the watchdog is up
-    worker.kill()  # SIGKILL: no clean-up code of demcal runs
-    worker.wait()
-    assert _wait_gone(pids), f"the engine's processes {pids} outlived demcal"
+    pids = kill_9_when_started(worker, tmp_path / "runs" / run_dir_name(task.key))
+    assert wait_gone(pids), f"the engine's processes {pids} outlived demcal"
 
 
 def test_a_resumed_run_ends_the_killed_studys_engine_first(tmp_path):
@@ -116,8 +91,8 @@ def test_lammps_ranks_end_with_their_time_limit(tmp_path):
 
     why = _launch(["sh", "-c", _RANKS], tmp_path, 2.0)
     assert why is not None and "time limit of 2 s" in why
-    pids = [int((tmp_path / f).read_text()) for f in ("engine.pid", "child.pid")]
-    assert _wait_gone(pids), f"LAMMPS' processes {pids} outlived their time limit"
+    pids = [int((tmp_path / f).read_text()) for f in PID_FILES]
+    assert wait_gone(pids), f"LAMMPS' processes {pids} outlived their time limit"
 
 
 def test_lammps_ranks_die_with_a_killed_demcal(tmp_path):
@@ -125,13 +100,5 @@ def test_lammps_ranks_die_with_a_killed_demcal(tmp_path):
     code = ("import sys; from pathlib import Path; from demcal.virtual.lammps_run import "
             f"_launch; _launch(['sh', '-c', {_RANKS!r}], Path(sys.argv[1]), 600.0)")
     worker = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)])
-    deadline = time.monotonic() + 60
-    while not all((tmp_path / f).is_file() and (tmp_path / f).read_text().strip()
-                  for f in ("engine.pid", "child.pid")):
-        assert time.monotonic() < deadline and worker.poll() is None
-        time.sleep(0.05)
-    pids = [int((tmp_path / f).read_text()) for f in ("engine.pid", "child.pid")]
-    time.sleep(0.5)  # the watchdog is up
-    worker.kill()
-    worker.wait()
-    assert _wait_gone(pids), f"LAMMPS' processes {pids} outlived demcal"
+    pids = kill_9_when_started(worker, tmp_path)
+    assert wait_gone(pids), f"LAMMPS' processes {pids} outlived demcal"

@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
+from process_checks import wait_gone
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="Linux /proc")
 
@@ -41,14 +42,6 @@ def _children(pid: int) -> list[int]:
     return out
 
 
-def _alive(pid: int) -> bool:
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return False
-    return stat.rpartition(")")[2].split()[0] != "Z"
-
-
 def _start() -> tuple[subprocess.Popen, list[int]]:
     proc = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
@@ -65,22 +58,14 @@ def _start() -> tuple[subprocess.Popen, list[int]]:
     return proc, workers
 
 
-def _gone(pids: list[int], timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if not any(_alive(p) for p in pids):
-            return True
-        time.sleep(0.1)
-    return False
-
-
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
 def test_killing_the_parent_stops_its_workers(sig):
     proc, workers = _start()
     try:
         proc.send_signal(sig)
         proc.wait(20)
-        assert _gone(workers), f"workers {workers} outlived a parent killed by {sig!r}"
+        assert wait_gone(workers, timeout=10.0), \
+            f"workers {workers} outlived a parent killed by {sig!r}"
         if sig == signal.SIGTERM:
             assert proc.returncode == 128 + signal.SIGTERM  # unwound, not cut off
     finally:
