@@ -17,16 +17,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["RESPONSE_UNITS", "RunResult", "finite_responses"]
-
-#: Units of the responses demcal's own tests report (others are the engine's own).
-RESPONSE_UNITS = {
-    "aor_deg": "deg",
-    "pile_height_m": "m",
-    "base_diameter_m": "m",
-    "bulk_density_kg_m3": "kg/m^3",
-}
-
+__all__ = ["RunResult", "finite_responses"]
 
 def finite_responses(values: Mapping[str, Any]) -> dict[str, float]:
     """The finite real numbers of ``values`` (bools, None, NaN, text and lists dropped), as

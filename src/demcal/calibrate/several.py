@@ -5,7 +5,7 @@ The angle of repose stays the study's first response (it drives range finding, s
 the steepest path, and its model carries the pile region and the refinement rounds). When the
 study has ``[[responses]]`` beside it, the response surface stage fits every other response
 over the same design (:func:`fit_responses`), the optimum maximises the overall desirability of
-all of them (:func:`desirability_optimum`, Design-Expert's numerical optimisation) inside the
+all of them (:func:`optimize_summary`, Design-Expert's numerical optimisation) inside the
 pile region, and the verification judges each response's mean on fresh seeds against its lab
 value with the angle's rules (:func:`check_responses`). A study with the angle alone never
 enters this module: its results are as they were.
@@ -26,8 +26,14 @@ from demcal.calibrate.verify import compare_to_target
 from demcal.errors import StudyError
 from demcal.store import RunRecord
 
-__all__ = ["ResponseCheck", "ResponseFit", "check_responses", "desirability_optimum",
-           "fit_responses", "point_values"]
+__all__ = [
+    "ResponseCheck",
+    "ResponseFit",
+    "check_responses",
+    "fit_responses",
+    "optimize_summary",
+    "point_values",
+]
 
 
 @dataclass(frozen=True)
@@ -185,18 +191,15 @@ def _predictors(model: doe.ResponseSurface, fits: Mapping[str, ResponseFit], off
     return out
 
 
-def desirability_optimum(ctx: Any, model: doe.ResponseSurface, feasible: Callable[
-        [np.ndarray], np.ndarray], offset: float) -> doe.DesirabilityResult:
-    """The settings of best overall desirability inside the design and pile regions.
-
-    ``feasible(actual (m, k)) -> bool (m,)`` is the pile region; ``offset`` (deg) corrects the
-    angle's surface in a refinement round.
-    """
+def _search(ctx: Any, model: doe.ResponseSurface, predictors: Mapping[str, Any],
+            goals: Sequence[doe.ResponseGoal],
+            feasible: Callable[[np.ndarray], np.ndarray]) -> doe.DesirabilityResult:
+    """The settings of best overall desirability inside the design region and ``feasible``
+    (actual (m, k) -> bool (m,): the pile region)."""
     opts = ctx.study.stages.optimize
     space = model.factors.subset(model.names)
-    goals = _goals(ctx, np.asarray(model.response, dtype=float))
     return doe.optimize_desirability(
-        _predictors(model, ctx.results["_response_fits"], offset), goals, model.names,
+        predictors, goals, model.names,
         search=doe.Search(n_starts=opts.n_starts, n_solutions=opts.n_solutions,
                           seed=ctx.study.seed,
                           feasible=lambda x: np.asarray(feasible(space.to_actual(x)), bool)),
@@ -253,11 +256,11 @@ def optimize_summary(ctx: Any, clf: Any, constraint: Callable[[np.ndarray], np.n
     if prior is not None and prior.get("responses", {}).get("goals") == goals_json(goals) \
             and set(prior.get("chosen") or {}) == set(model.names):
         x = space.to_coded(np.array([[prior["chosen"][n] for n in model.names]]))
-        _y, _d, big_d = doe.desirability._Objective(predictors, goals).evaluate(x)
-        if abs(float(big_d[0]) - prior["candidates"][0]["desirability"]) <= 1e-6:
+        big_d = float(doe.desirability_at(predictors, goals, x)[0])
+        if abs(big_d - prior["candidates"][0]["desirability"]) <= 1e-6:
             return prior
     try:
-        res = desirability_optimum(ctx, model, constraint, offset)
+        res = _search(ctx, model, predictors, goals, constraint)
     except doe.InputError as exc:
         raise StudyError(f"optimize: no setting inside the pile region ({exc})") from None
     cands = []

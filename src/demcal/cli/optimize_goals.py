@@ -17,7 +17,7 @@ import numpy as np
 from rich.table import Table
 
 from demcal import doe
-from demcal.calibrate.responses import load_goals
+from demcal.calibrate.responses import ResponseSpec, load_goals
 from demcal.cli._common import console
 from demcal.errors import InputError
 
@@ -31,8 +31,10 @@ class GoalsRun:
         self.runs, self.goals, self.model, self.fit = runs, goals, model, fit
 
 
-def _models(run: GoalsRun, columns: str | None) -> dict[str, doe.ResponseSurface]:
-    specs = load_goals(run.goals)
+def _models(run: GoalsRun, specs: list[ResponseSpec], columns: str | None
+            ) -> dict[str, doe.ResponseSurface]:
+    """A model per goal's response column, over ``columns`` (default: every column but the
+    responses and the bookkeeping)."""
     if columns is None:  # every column but the responses and the bookkeeping
         import pandas as pd
 
@@ -49,7 +51,7 @@ def optimize_goals(run: GoalsRun, columns: str | None, solutions: int, seed: int
     """Fit every response of the goals file, find the best overall desirability, print it
     (and write ``json_out``)."""
     specs = {s.name: s for s in load_goals(run.goals)}
-    models = _models(run, columns)
+    models = _models(run, list(specs.values()), columns)
     names, predictors = doe.surface_predictors(models)
     goals = [specs[n].goal_for(np.asarray(m.response, dtype=float), specs[n].lab(
         run.goals.parent)) for n, m in models.items()]

@@ -47,6 +47,7 @@ __all__ = [
     "DesirabilitySolution",
     "ResponseGoal",
     "Search",
+    "desirability_at",
     "optimize_desirability",
     "overall_desirability",
     "surface_predictors",
@@ -244,6 +245,12 @@ class DesirabilityResult:
                 row[f"d_{g.name}"] = s.individual[g.name]
             rows.append(row)
         return pd.DataFrame(rows)
+
+
+def desirability_at(predictors: Mapping[str, Predictor], goals: Sequence[ResponseGoal],
+                    x: np.ndarray) -> np.ndarray:
+    """Overall desirability D (m,) of coded settings ``x`` (m, k)."""
+    return _Objective(predictors, goals).evaluate(np.atleast_2d(x))[2]
 
 
 def surface_predictors(models: Mapping[str, Any]) -> tuple[tuple[str, ...], dict[str, Predictor]]:
