@@ -87,14 +87,17 @@ STAGES: dict[str, str] = {
     "verification": "Verification",
 }
 SCHEMA_VERSION = 2
-#: Schemas this demcal opens: the current one, and schema 1 (migrated on a writable open).
-READABLE_SCHEMAS = (1, 2)
 LOCK_KEY = "writer"
 _SQLITE_HEADER = b"SQLite format 3\x00"
 _TABLES = {"runs", "stages", "meta"}
 log = logging.getLogger("demcal")
 
-_SCHEMA = """
+#: schema 2's table of responses (also what a schema-1 store gains when it is migrated)
+_RESPONSES_TABLE = ("CREATE TABLE IF NOT EXISTS responses (key TEXT NOT NULL, name TEXT NOT "
+                    "NULL, value REAL NOT NULL, PRIMARY KEY (key, name))")
+_RESPONSES_INDEX = "CREATE INDEX IF NOT EXISTS responses_name ON responses (name)"
+
+_SCHEMA = f"""
 CREATE TABLE IF NOT EXISTS runs (
     key TEXT PRIMARY KEY,
     stage TEXT NOT NULL,
@@ -123,13 +126,8 @@ CREATE TABLE IF NOT EXISTS stages (
     inputs_hash TEXT,
     updated_at REAL NOT NULL
 );
-CREATE TABLE IF NOT EXISTS responses (
-    key TEXT NOT NULL,
-    name TEXT NOT NULL,
-    value REAL NOT NULL,
-    PRIMARY KEY (key, name)
-);
-CREATE INDEX IF NOT EXISTS responses_name ON responses (name);
+{_RESPONSES_TABLE};
+{_RESPONSES_INDEX};
 CREATE TABLE IF NOT EXISTS meta (
     key TEXT PRIMARY KEY,
     value_json TEXT NOT NULL
@@ -477,9 +475,8 @@ class RunStore:
         assert conn is not None
         conn.execute("BEGIN IMMEDIATE")
         try:
-            conn.execute("CREATE TABLE IF NOT EXISTS responses (key TEXT NOT NULL, name TEXT "
-                         "NOT NULL, value REAL NOT NULL, PRIMARY KEY (key, name))")
-            conn.execute("CREATE INDEX IF NOT EXISTS responses_name ON responses (name)")
+            conn.execute(_RESPONSES_TABLE)
+            conn.execute(_RESPONSES_INDEX)
             conn.execute("INSERT OR REPLACE INTO responses SELECT key, 'aor_deg', aor_deg "
                          "FROM runs WHERE aor_deg IS NOT NULL")
             conn.execute("UPDATE meta SET value_json = ? WHERE key = 'schema_version'",
