@@ -403,7 +403,9 @@ class Study(_M):
             return None
         if self.test.kind == "analytic":
             return {AOR, *((self.test.analytic or {}).get("responses") or {})}
-        return {AOR, "pile_height_m", "base_diameter_m", "bulk_density_kg_m3"}
+        from demcal.virtual.aor import RESPONSES
+
+        return set(RESPONSES)
 
     def other_responses(self) -> list[ResponseSpec]:
         """The responses beside the angle, in the order given."""

@@ -51,7 +51,11 @@ from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 from demcal.virtual.settle import settle_state
 
-__all__ = ["AoRResult", "run_aor"]
+__all__ = ["RESPONSES", "AoRResult", "run_aor"]
+
+#: The responses the lift test reports for a pile: the angle (deg), the pile's height and base
+#: diameter (m), the fill's loose bulk density (kg/m^3); each is an AoRResult field.
+RESPONSES = ("aor_deg", "pile_height_m", "base_diameter_m", "bulk_density_kg_m3")
 
 log = logging.getLogger("demcal.virtual")
 
@@ -104,9 +108,7 @@ class AoRResult:
         ``pile``."""
         if self.outcome != "pile":
             return {}
-        return finite_responses({"aor_deg": self.aor_deg, "pile_height_m": self.pile_height_m,
-                                 "base_diameter_m": self.base_diameter_m,
-                                 "bulk_density_kg_m3": self.bulk_density_kg_m3})
+        return finite_responses({name: getattr(self, name) for name in RESPONSES})
 
 
 def _materials(p: Mapping[str, float]) -> MaterialTable:
