@@ -192,6 +192,245 @@ def _to_coded_map(
     return out
 
 
+def _goal_limits(
+    rs: ResponseSurface, target: Any, lower: float | None, upper: float | None
+) -> tuple[float, float, float]:
+    """The target as a finite float and the desirability limits L, U (Design-Expert's
+    defaults: the observed range widened to include the target)."""
+    try:
+        target = float(target)
+    except (TypeError, ValueError):
+        raise InputError(f"target must be a number; got {target!r}") from None
+    if not math.isfinite(target):
+        raise InputError(f"target must be finite; got {target!r}")
+    ymin, ymax = float(rs.response.min()), float(rs.response.max())
+    lo_lim = min(ymin, target) if lower is None else float(lower)
+    hi_lim = max(ymax, target) if upper is None else float(upper)
+    if lo_lim == hi_lim:
+        lo_lim, hi_lim = target - 1.0, target + 1.0
+    return target, lo_lim, hi_lim
+
+
+def _check_search(n_starts: Any, n_solutions: Any, near_weight: Any, min_distance: Any) -> None:
+    for name, val, lo in (("n_starts", n_starts, 1), ("n_solutions", n_solutions, 1)):
+        if isinstance(val, bool) or not isinstance(val, int) or val < lo:
+            raise InputError(f"{name} must be an integer >= {lo}; got {val!r}")
+    if not near_weight >= 0:
+        raise InputError(f"near_weight must be >= 0; got {near_weight!r}")
+    if not min_distance >= 0:
+        raise InputError(f"min_distance must be >= 0; got {min_distance!r}")
+
+
+def _resolve_units(rs: ResponseSurface, units: str | None) -> str:
+    if units is None:
+        units = "actual" if rs.factors is not None else "coded"
+    if units not in ("coded", "actual"):
+        raise InputError(f"units must be 'coded' or 'actual'; got {units!r}")
+    if units == "actual" and rs.factors is None:
+        raise InputError("units='actual' needs a model fitted with factors")
+    return units
+
+
+def _coded_box(
+    rs: ResponseSurface, bounds: Mapping[str, tuple[float, float]] | None, units: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Search box in coded units: [-1, 1] per factor unless ``bounds`` narrows or widens it."""
+    k = len(rs.names)
+    lo = -np.ones(k)
+    hi = np.ones(k)
+    for name, (a, b) in _to_coded_map(rs, bounds or {}, units, "bounds").items():
+        if not a < b:
+            raise InputError(f"bounds[{name!r}]: low must be < high; got {a:g}, {b:g}")
+        j = rs.names.index(name)
+        lo[j], hi[j] = a, b
+    return lo, hi
+
+
+def _fixed_coded(
+    rs: ResponseSurface, fixed: Mapping[str, float] | None, units: str
+) -> dict[str, float]:
+    """Held factors in coded units: the model's own fixed factors, then ``fixed``."""
+    fixed_c: dict[str, float] = {}
+    if rs.factors is not None:
+        for f in rs.factors:
+            if f.name in rs.names and f.fixed is not None:
+                fixed_c[f.name] = float(f.to_coded(f.fixed))
+    fixed_c.update(_to_coded_map(rs, fixed or {}, units, "fixed"))
+    return fixed_c
+
+
+@dataclass(frozen=True)
+class _Goal:
+    """The target goal: T, L, U and the exponents s, t."""
+
+    target: float
+    lower: float
+    upper: float
+    weight_low: float
+    weight_high: float
+
+    def desirability(self, y: np.ndarray) -> np.ndarray:
+        return target_desirability(
+            y,
+            self.target,
+            self.lower,
+            self.upper,
+            weight_low=self.weight_low,
+            weight_high=self.weight_high,
+        )
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """One search: the surface, the goal, the free factors and their box, the held values,
+    the preferred point and the feasibility constraint, all in coded units."""
+
+    rs: ResponseSurface
+    goal: _Goal
+    base: np.ndarray
+    free: list[int]
+    lo_f: np.ndarray
+    hi_f: np.ndarray
+    constraint: Constraint | None
+    near_c: np.ndarray | None
+    near_mask: np.ndarray | None
+    near_weight: float
+
+    @property
+    def space(self) -> Any:
+        rs = self.rs
+        return rs.factors.subset(rs.names) if rs.factors is not None else None
+
+    def full(self, z: np.ndarray) -> np.ndarray:
+        """Free-factor points (m, len(free)) to full coded points (m, k)."""
+        x = np.tile(self.base, (z.shape[0], 1))
+        x[:, self.free] = z
+        return x
+
+    def feasible(self, x: np.ndarray) -> np.ndarray:
+        if self.constraint is None:
+            return np.ones(x.shape[0], dtype=bool)
+        space = self.space
+        pts = space.to_actual(x) if space is not None else x
+        ok = np.asarray(self.constraint(pts), dtype=bool).reshape(-1)
+        if ok.shape[0] != x.shape[0]:
+            raise InputError("constraint must return one bool per point")
+        return ok
+
+    def desir(self, x: np.ndarray) -> np.ndarray:
+        return self.goal.desirability(self.rs.predict(x, units="coded"))
+
+    def dist(self, x: np.ndarray) -> np.ndarray:
+        if self.near_c is None:
+            return np.sqrt(np.mean(x**2, axis=1))
+        mask = self.near_mask
+        return np.sqrt(np.sum(mask * (x - self.near_c) ** 2, axis=1) / max(mask.sum(), 1))
+
+    def objective(self, z: np.ndarray) -> float:
+        x = self.full(z.reshape(1, -1))
+        if not self.feasible(x)[0]:
+            return 2.0
+        val = -float(self.desir(x)[0])
+        if self.near_c is not None and self.near_weight > 0:
+            val += self.near_weight * float(self.dist(x)[0] ** 2)
+        return val
+
+    def box(self) -> list[tuple[float, float]]:
+        return list(zip(self.lo_f, self.hi_f, strict=True))
+
+    def polish_towards(self, z: np.ndarray) -> np.ndarray:
+        """Slide a solution that hits the target to the nearest such point to ``near``."""
+        if self.desir(self.full(z.reshape(1, -1)))[0] < 0.999:
+            return z
+        w = self.near_mask[self.free]
+        nz = self.near_c[self.free]
+        target = self.goal.target
+        res = sopt.minimize(
+            lambda v: float(np.sum(w * (v - nz) ** 2)),
+            z,
+            method="SLSQP",
+            jac=lambda v: 2 * w * (v - nz),
+            bounds=self.box(),
+            constraints=[
+                {
+                    "type": "eq",
+                    "fun": lambda v: (
+                        self.rs.predict(self.full(v.reshape(1, -1)), units="coded")[0] - target
+                    ),
+                }
+            ],
+            options={"ftol": 1e-12, "maxiter": 200},
+        )
+        v = np.clip(res.x, self.lo_f, self.hi_f)
+        x = self.full(v.reshape(1, -1))
+        if res.success and self.desir(x)[0] >= 0.999 and self.feasible(x)[0]:
+            return v
+        return z
+
+
+def _starting_points(p: _Problem, n_starts: int, rng: np.random.Generator) -> np.ndarray:
+    """The ``n_starts`` most desirable feasible points of a Latin hypercube plus the centre."""
+    n_cand = max(4 * n_starts, 64)
+    u = qmc.LatinHypercube(len(p.free), rng=rng).random(n_cand)
+    cand = p.lo_f + u * (p.hi_f - p.lo_f)
+    cand = np.vstack([np.clip(np.zeros(len(p.free)), p.lo_f, p.hi_f), cand])
+    xc = p.full(cand)
+    ok = p.feasible(xc)
+    if not ok.any():
+        raise InputError("constraint: every sampled point of the design region is infeasible")
+    cand, xc = cand[ok], xc[ok]
+    score = -p.desir(xc)
+    return cand[np.argsort(score, kind="stable")[:n_starts]]
+
+
+def _local_optima(p: _Problem, starts: np.ndarray, n_solutions: int) -> np.ndarray:
+    """Nelder-Mead from each start (Design-Expert's downhill simplex), then, with a
+    preferred point, the best few slid along the target surface towards it."""
+    found = []
+    for z0 in starts:
+        res = sopt.minimize(
+            p.objective,
+            z0,
+            method="Nelder-Mead",
+            bounds=p.box(),
+            options={"xatol": 1e-7, "fatol": 1e-10, "maxiter": 400 * len(p.free)},
+        )
+        found.append(np.clip(res.x, p.lo_f, p.hi_f))
+    if p.near_c is not None:  # polish the best few (SLSQP is the costly part)
+        best_first = np.argsort(-p.desir(p.full(np.array(found))), kind="stable")
+        for i in best_first[: 3 * n_solutions]:
+            found[i] = p.polish_towards(found[i])
+    return p.full(np.array(found))
+
+
+def _distinct(order: np.ndarray, points: np.ndarray, n: int, min_distance: float) -> list[int]:
+    """The first ``n`` of ``order`` that lie ``min_distance`` (coded RMS) from those kept."""
+    chosen: list[int] = []
+    for i in order:
+        if all(np.sqrt(np.mean((points[i] - points[j]) ** 2)) >= min_distance for j in chosen):
+            chosen.append(int(i))
+        if len(chosen) == n:
+            break
+    return chosen
+
+
+def _solution(p: _Problem, x: np.ndarray, row: pd.Series, scores: tuple[float, float]) -> Solution:
+    """One ranked point as a :class:`Solution` (``scores``: desirability, distance)."""
+    names = p.rs.names
+    space = p.space
+    act = space.to_actual(x) if space is not None else None
+    return Solution(
+        coded={n: float(v) for n, v in zip(names, x, strict=True)},
+        actual=None if act is None else {n: float(v) for n, v in zip(names, act, strict=True)},
+        predicted=float(row["predicted"]),
+        desirability=float(scores[0]),
+        se_mean=float(row["se_mean"]),
+        ci=(float(row["ci_low"]), float(row["ci_high"])),
+        pi=(float(row["pi_low"]), float(row["pi_high"])),
+        distance=float(scores[1]),
+    )
+
+
 def optimize_target(
     rs: ResponseSurface,
     target: float,
@@ -268,185 +507,51 @@ def optimize_target(
         Bad limits, bounds outside the order ``low < high``, unknown factors, or every
         starting point infeasible.
     """
-    k = len(rs.names)
-    if units is None:
-        units = "actual" if rs.factors is not None else "coded"
-    if units not in ("coded", "actual"):
-        raise InputError(f"units must be 'coded' or 'actual'; got {units!r}")
-    if units == "actual" and rs.factors is None:
-        raise InputError("units='actual' needs a model fitted with factors")
-    try:
-        target = float(target)
-    except (TypeError, ValueError):
-        raise InputError(f"target must be a number; got {target!r}") from None
-    if not math.isfinite(target):
-        raise InputError(f"target must be finite; got {target!r}")
-    ymin, ymax = float(rs.response.min()), float(rs.response.max())
-    lo_lim = min(ymin, target) if lower is None else float(lower)
-    hi_lim = max(ymax, target) if upper is None else float(upper)
-    if lo_lim == hi_lim:
-        lo_lim, hi_lim = target - 1.0, target + 1.0
+    units = _resolve_units(rs, units)
+    target, lo_lim, hi_lim = _goal_limits(rs, target, lower, upper)
     target_desirability(
         target, target, lo_lim, hi_lim, weight_low=weight_low, weight_high=weight_high
     )  # validates the goal
-    for name, val, lo in (("n_starts", n_starts, 1), ("n_solutions", n_solutions, 1)):
-        if isinstance(val, bool) or not isinstance(val, int) or val < lo:
-            raise InputError(f"{name} must be an integer >= {lo}; got {val!r}")
-    if not near_weight >= 0:
-        raise InputError(f"near_weight must be >= 0; got {near_weight!r}")
-    if not min_distance >= 0:
-        raise InputError(f"min_distance must be >= 0; got {min_distance!r}")
-
-    lo = -np.ones(k)
-    hi = np.ones(k)
-    for name, (a, b) in _to_coded_map(rs, bounds or {}, units, "bounds").items():
-        if not a < b:
-            raise InputError(f"bounds[{name!r}]: low must be < high; got {a:g}, {b:g}")
-        j = rs.names.index(name)
-        lo[j], hi[j] = a, b
-    fixed_c: dict[str, float] = {}
-    if rs.factors is not None:
-        for f in rs.factors:
-            if f.name in rs.names and f.fixed is not None:
-                fixed_c[f.name] = float(f.to_coded(f.fixed))
-    fixed_c.update(_to_coded_map(rs, fixed or {}, units, "fixed"))
+    _check_search(n_starts, n_solutions, near_weight, min_distance)
+    lo, hi = _coded_box(rs, bounds, units)
+    fixed_c = _fixed_coded(rs, fixed, units)
     free = [j for j, n in enumerate(rs.names) if n not in fixed_c]
-    base = np.zeros(k)
+    base = np.zeros(len(rs.names))
     for name, v in fixed_c.items():
         base[rs.names.index(name)] = v
-    near_c = None
+    near_c = near_mask = None
     if near is not None:
         nm = _to_coded_map(rs, near, units, "near")
         near_c = np.array([nm.get(n, 0.0) for n in rs.names])
         near_mask = np.array([n in nm for n in rs.names], dtype=float)
-    space = rs.factors.subset(rs.names) if rs.factors is not None else None
-
-    def full(z: np.ndarray) -> np.ndarray:
-        x = np.tile(base, (z.shape[0], 1))
-        x[:, free] = z
-        return x
-
-    def feasible(x: np.ndarray) -> np.ndarray:
-        if constraint is None:
-            return np.ones(x.shape[0], dtype=bool)
-        pts = space.to_actual(x) if space is not None else x
-        ok = np.asarray(constraint(pts), dtype=bool).reshape(-1)
-        if ok.shape[0] != x.shape[0]:
-            raise InputError("constraint must return one bool per point")
-        return ok
-
-    def desir(x: np.ndarray) -> np.ndarray:
-        y = rs.predict(x, units="coded")
-        return target_desirability(
-            y, target, lo_lim, hi_lim, weight_low=weight_low, weight_high=weight_high
-        )
-
-    def dist(x: np.ndarray) -> np.ndarray:
-        if near_c is None:
-            return np.sqrt(np.mean(x**2, axis=1))
-        return np.sqrt(np.sum(near_mask * (x - near_c) ** 2, axis=1) / max(near_mask.sum(), 1))
-
-    def objective(z: np.ndarray) -> float:
-        x = full(z.reshape(1, -1))
-        if not feasible(x)[0]:
-            return 2.0
-        val = -float(desir(x)[0])
-        if near_c is not None and near_weight > 0:
-            val += near_weight * float(dist(x)[0] ** 2)
-        return val
-
+    p = _Problem(
+        rs=rs,
+        goal=_Goal(target, lo_lim, hi_lim, weight_low, weight_high),
+        base=base,
+        free=free,
+        lo_f=lo[free],
+        hi_f=hi[free],
+        constraint=constraint,
+        near_c=near_c,
+        near_mask=near_mask,
+        near_weight=near_weight,
+    )
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    lo_f, hi_f = lo[free], hi[free]
-
-    def _polish_towards(z: np.ndarray) -> np.ndarray:
-        """Slide a solution that hits the target to the nearest such point to ``near``."""
-        if desir(full(z.reshape(1, -1)))[0] < 0.999:
-            return z
-        w = near_mask[free]
-        nz = near_c[free]  # type: ignore[index]
-        res = sopt.minimize(
-            lambda v: float(np.sum(w * (v - nz) ** 2)),
-            z,
-            method="SLSQP",
-            jac=lambda v: 2 * w * (v - nz),
-            bounds=list(zip(lo_f, hi_f, strict=True)),
-            constraints=[
-                {
-                    "type": "eq",
-                    "fun": lambda v: rs.predict(full(v.reshape(1, -1)), units="coded")[0] - target,
-                }
-            ],
-            options={"ftol": 1e-12, "maxiter": 200},
-        )
-        v = np.clip(res.x, lo_f, hi_f)
-        x = full(v.reshape(1, -1))
-        if res.success and desir(x)[0] >= 0.999 and feasible(x)[0]:
-            return v
-        return z
-
     if free:
-        n_cand = max(4 * n_starts, 64)
-        u = qmc.LatinHypercube(len(free), rng=rng).random(n_cand)
-        cand = lo_f + u * (hi_f - lo_f)
-        cand = np.vstack([np.clip(np.zeros(len(free)), lo_f, hi_f), cand])
-        xc = full(cand)
-        ok = feasible(xc)
-        if not ok.any():
-            raise InputError("constraint: every sampled point of the design region is infeasible")
-        cand, xc = cand[ok], xc[ok]
-        score = -desir(xc)
-        starts = cand[np.argsort(score, kind="stable")[:n_starts]]
-        found = []
-        for z0 in starts:
-            res = sopt.minimize(
-                objective,
-                z0,
-                method="Nelder-Mead",
-                bounds=list(zip(lo_f, hi_f, strict=True)),
-                options={"xatol": 1e-7, "fatol": 1e-10, "maxiter": 400 * len(free)},
-            )
-            found.append(np.clip(res.x, lo_f, hi_f))
-        if near_c is not None:  # polish the best few (SLSQP is the costly part)
-            best_first = np.argsort(-desir(full(np.array(found))), kind="stable")
-            for i in best_first[: 3 * n_solutions]:
-                found[i] = _polish_towards(found[i])
-        points = full(np.array(found))
+        points = _local_optima(p, _starting_points(p, n_starts, rng), n_solutions)
     else:
         points = base.reshape(1, -1)
-    ok = feasible(points)
+    ok = p.feasible(points)
     n_rejected = int((~ok).sum())
     points = points[ok]
-    d = desir(points)
-    dd = dist(points)
+    d = p.desir(points)
+    dd = p.dist(points)
     iv = rs.predict_interval(points, units="coded", alpha=alpha)
     second = dd if near_c is not None else iv["se_mean"].to_numpy()
     order = np.lexsort((second, -np.round(d, 4)))
-    chosen: list[int] = []
-    for i in order:
-        if all(np.sqrt(np.mean((points[i] - points[j]) ** 2)) >= min_distance for j in chosen):
-            chosen.append(int(i))
-        if len(chosen) == n_solutions:
-            break
-    sols = []
-    for i in chosen:
-        x = points[i]
-        act = space.to_actual(x) if space is not None else None
-        sols.append(
-            Solution(
-                coded={n: float(v) for n, v in zip(rs.names, x, strict=True)},
-                actual=None
-                if act is None
-                else {n: float(v) for n, v in zip(rs.names, act, strict=True)},
-                predicted=float(iv["predicted"].iloc[i]),
-                desirability=float(d[i]),
-                se_mean=float(iv["se_mean"].iloc[i]),
-                ci=(float(iv["ci_low"].iloc[i]), float(iv["ci_high"].iloc[i])),
-                pi=(float(iv["pi_low"].iloc[i]), float(iv["pi_high"].iloc[i])),
-                distance=float(dd[i]),
-            )
-        )
+    chosen = _distinct(order, points, n_solutions, min_distance)
     return OptimizationResult(
-        solutions=tuple(sols),
+        solutions=tuple(_solution(p, points[i], iv.iloc[i], (d[i], dd[i])) for i in chosen),
         target=target,
         lower=lo_lim,
         upper=hi_lim,
