@@ -5,7 +5,8 @@ through a template) hands its finished run to the study as one :class:`RunResult
 constructor keeps only finite numbers as responses; the store keeps each response by name and
 the statistics fit one model per response. A response is any finite number a test reports
 under a name: the lift test's ``aor_deg`` (deg), ``pile_height_m`` and ``base_diameter_m``
-(m); every number of an external engine's result JSON by its key.
+(m), ``bulk_density_kg_m3`` (kg/m^3) and ``mass_left_kg`` (kg) (``demcal.virtual.aor.RESPONSES``);
+every number of an external engine's result JSON by its key.
 
 This module imports nothing of demcal, so every layer may use it (like :mod:`demcal.errors`).
 """

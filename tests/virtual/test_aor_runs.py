@@ -77,3 +77,19 @@ def test_the_fill_reads_a_loose_bulk_density():
     assert 0.15 < a.bulk_density_kg_m3 / rho_p < 0.7, a.bulk_density_kg_m3
     if a.outcome == "pile":
         assert a.responses()["bulk_density_kg_m3"] == a.bulk_density_kg_m3
+
+
+def test_mass_left_is_what_the_lifted_cylinder_holds():
+    """The lift test's ``mass_left_kg``: none of a pile the cylinder cleared (the lift stops
+    only above the material), some of a run whose material rose with the cylinder, and a
+    response of a pile by its name."""
+    from demcal.virtual.aor import RESPONSES
+
+    assert "mass_left_kg" in RESPONSES
+    a = _tiny_run(3)
+    assert a.mass_left_kg is not None and 0.0 <= a.mass_left_kg <= a.mass_on_plate_kg
+    if a.outcome == "pile":
+        assert a.mass_left_kg == 0.0 and a.responses()["mass_left_kg"] == 0.0
+    r = _tiny_run(1, **{"pp.surface_energy": 0.12})  # cohesive: stands or rises with the tube
+    if r.outcome == "plug":
+        assert r.mass_left_kg > 0.0

@@ -155,3 +155,32 @@ def test_lammps_run_end_to_end(tmp_path):
     assert data["outcome"] in ("pile", "scattered", "column")
     if data["outcome"] == "pile":
         assert 5.0 < data["aor_deg"] < 70.0
+
+
+def _dump(path, rows):
+    """A LAMMPS dump of one-sphere clumps: rows (mass kg, x, y, z m)."""
+    lines = ["ITEM: TIMESTEP", "0", "ITEM: NUMBER OF ATOMS", str(len(rows)),
+             "ITEM: BOX BOUNDS ff ff ff", "-1 1", "-1 1", "-1 1",
+             "ITEM: ATOMS id mol mass radius x y z"]
+    lines += [f"{i + 1} {i + 1} {m} 0.001 {x} {y} {z}" for i, (m, x, y, z) in enumerate(rows)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_lammps_result_reports_the_mass_the_cylinder_kept(tmp_path):
+    """The LAMMPS engine's ``mass_left_kg`` is demcal's measure over its final dump, with the
+    tube where the lift left it (the log's ``lifted`` event): here a plug, most of the mass
+    held in a tube lifted to 0.05 m."""
+    from demcal.virtual.lammps_aor import FINAL, LIFTED, LammpsCase
+
+    cfg = fidelity_config("quick")
+    (tmp_path / "log.lammps").write_text(
+        "DEMCAL start 0 100\nDEMCAL filled 0.5 0.06\nDEMCAL lifted 0.9 0.05\n"
+        "DEMCAL settled 1.2\nDEMCAL end 1.2\n")
+    rows = [(1e-4, 0.0, 0.0, 0.08), (2e-4, 0.005, 0.0, 0.1),  # in the tube: 3e-4 kg
+            (5e-5, 0.0, 0.0, 0.02), (5e-5, 0.03, 0.0, 0.01)]  # under it and beside it
+    _dump(tmp_path / LIFTED, rows)
+    _dump(tmp_path / FINAL, rows)
+    case = LammpsCase(tmp_path, n_clumps=4, n_spheres=4, time_step_s=1e-5, seed=1, params={})
+    res = lr._result(case, cfg, wall=1.0, plot_path=None, failure=None)
+    assert res.outcome == "plug"
+    assert res.mass_left_kg == pytest.approx(3e-4, rel=1e-12)

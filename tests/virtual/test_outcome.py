@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from demcal.virtual.config import OutcomeCriteria
-from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled
+from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled, mass_in_tube
 
 CRIT = OutcomeCriteria()
 R_TUBE = 0.015
@@ -121,3 +121,27 @@ def test_footprint_is_the_tube_radius_and_the_longest_particle():
     edge = fp["tube_radius"] + 0.5 * fp["particle_length"]
     pos = np.array([[0.99 * edge, 0.0, 0.0], [1.01 * edge, 0.0, 0.0]])
     assert mass_outside(pos, np.array([3.0, 1.0]), **fp) == pytest.approx(0.25)
+
+
+def test_mass_in_tube_counts_the_clumps_the_lifted_cylinder_holds():
+    """A hand-built state after a lift: the tube's rim at 0.1 m, 0.15 m long, radius 0.015 m.
+    Held: centres within the radius and between the rim and the top; the pile below the rim,
+    a clump beside the tube and one above its top are not."""
+    pos = np.array([
+        [0.0, 0.0, 0.12],      # held, on the axis            2.0 kg
+        [0.01, -0.01, 0.24],   # held, rho 0.0141 < 0.015     0.5 kg
+        [0.0, 0.0, 0.05],      # in the pile under the rim    4.0 kg
+        [0.02, 0.0, 0.12],     # beside the tube (rho 0.02)   8.0 kg
+        [0.0, 0.0, 0.26],      # above the tube's top (0.25)  16.0 kg
+    ])
+    mass = np.array([2.0, 0.5, 4.0, 8.0, 16.0])
+    kw = {"tube_bottom": 0.1, "tube_height": 0.15, "tube_radius": 0.015}
+    assert mass_in_tube(pos, mass, **kw) == 2.5
+    assert mass_in_tube(np.empty((0, 3)), np.empty(0), **kw) == 0.0
+    # before the lift (rim on the plate, top at 0.15 m): the two low clumps on the axis
+    assert mass_in_tube(pos, mass, **{**kw, "tube_bottom": 0.0}) == 6.0
+    # the plug rule reads the same mass as a fraction: 2.5 / 30.5 = 8 %, under 10 %
+    crit = OutcomeCriteria(plug_mass_fraction=0.1)
+    assert classify_after_lift(pos, mass, criteria=crit, **kw) == (None, None)
+    assert classify_after_lift(pos, mass, criteria=OutcomeCriteria(plug_mass_fraction=0.08),
+                               **kw)[0] == Outcome.PLUG

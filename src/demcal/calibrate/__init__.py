@@ -54,7 +54,11 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       "best_step": int, "centre": {name: value}, "levels": {name: [low, centre, high]},
       "anchor" (only when the path ran at its own fidelity): {"fidelity", "runs": [{"step",
       "actual", "aor_deg", "outcome", "path_aor_deg"}], "crossing_step": float|None,
-      "centre_step": float, "offset_deg": float|None, "message"}}
+      "centre_step": float, "offset_deg": float|None, "message"},
+      with several responses also "followed": [response names the path climbed], "climb":
+      {"goals", "coefficients_coded": {response: {"intercept", name: float}}, "gradient":
+      {name: float}, "centre_climb": float, "alone": {response: {name: +1|-1}}}, and per
+      step "responses": {response: float|None}, "desirability": float|None}
 - "rsm": {"design": "box_behnken"|"ccd", "factors": [{"name","symbol","low","high","unit"}],
       "runs": [{"point","coded","actual","aor_deg" (mean of the replicates),"outcome",
                 "aor_runs_deg": [float] (each replicate), "aor_std_deg": float|None}],

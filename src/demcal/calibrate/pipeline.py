@@ -201,7 +201,7 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
             out[name] = {"design": "steepest path", "factors": s["factors"],
                          "responses": s["steps"], "best_step": s["best_step"],
                          "levels": s["levels"],
-                         **({"anchor": s["anchor"]} if "anchor" in s else {})}
+                         **{k: s[k] for k in ("anchor", "followed", "climb") if k in s}}
         elif name == "optimize":
             out[name] = {"candidates": s["candidates"]}
         elif name == "verification":

@@ -14,10 +14,11 @@ One table per response, in a study or in a goals file of ``demcal optimize --goa
     importance = 3              # 1-5
 
 A study without ``[[responses]]`` has one: the angle of its ``[target]`` table. The angle
-(``aor_deg``) stays the study's first response: it drives range finding, screening and the
-steepest path; every response is fitted at the response surface, the optimum maximises the
-overall desirability of all of them (:mod:`demcal.doe.desirability`) and the verification
-judges each against its lab value.
+(``aor_deg``) stays the study's first response: it drives range finding and screening; the
+steepest path climbs the overall desirability of every response's first-order model, every
+response is fitted at the response surface, the optimum maximises the overall desirability of
+all of them (:mod:`demcal.doe.desirability`) and the verification judges each against its lab
+value.
 """
 
 from __future__ import annotations

@@ -1,14 +1,16 @@
 """Several responses in one calibration: a model per response, the desirability optimum, a
 verification of each response against its lab value.
 
-The angle of repose stays the study's first response (it drives range finding, screening and
-the steepest path, and its model carries the pile region and the refinement rounds). When the
-study has ``[[responses]]`` beside it, the response surface stage fits every other response
-over the same design (:func:`fit_responses`), the optimum maximises the overall desirability of
-all of them (:func:`optimize_summary`, Design-Expert's numerical optimisation) inside the
-pile region, and the verification judges each response's mean on fresh seeds against its lab
-value with the angle's rules (:func:`check_responses`). A study with the angle alone never
-enters this module: its results are as they were.
+The angle of repose stays the study's first response (it drives range finding and
+screening, and its model carries the pile region and the refinement rounds). When the study
+has ``[[responses]]`` beside it, the steepest path climbs the overall desirability of every
+response's first-order model over the screening runs (:func:`path_climb`), the response
+surface stage fits every other response over the same design (:func:`fit_responses`), the
+optimum maximises the overall desirability of all of them (:func:`optimize_summary`,
+Design-Expert's numerical optimisation) inside the pile region, and the verification judges
+each response's mean on fresh seeds against its lab value with the angle's rules
+(:func:`check_responses`). A study with the angle alone never enters this module: its results
+are as they were.
 """
 
 from __future__ import annotations
@@ -27,11 +29,13 @@ from demcal.errors import StudyError
 from demcal.store import RunRecord
 
 __all__ = [
+    "PathClimb",
     "ResponseCheck",
     "ResponseFit",
     "check_responses",
     "fit_responses",
     "optimize_summary",
+    "path_climb",
     "point_values",
 ]
 
@@ -129,6 +133,140 @@ def point_values(recs: Sequence[RunRecord], n_points: int, name: str) -> list[li
         ok = rs and len(vals) == len(rs) and all(v is not None for v in vals)
         out.append([float(v) for v in vals] if ok else [])  # type: ignore[arg-type]
     return out
+
+
+#: Half the central difference of the desirability's gradient at the design centre, coded.
+#: The first-order models are planes, so only the goals' kinks (a target's peak, a limit)
+#: make the result depend on it; a hundredth of the half range sits well inside them.
+_GRADIENT_STEP = 0.01
+
+
+@dataclass(frozen=True)
+class PathClimb:
+    """The direction of the steepest path when a study has several responses.
+
+    Every response's first-order model over the screening runs predicts it along the path's
+    factors (the others held at their centre); the path climbs the gradient, at the design
+    centre, of what the desirability search climbs (:func:`demcal.doe.climb`: the overall
+    desirability D, or the responses' shortfall from their limits where D is 0).
+
+    Attributes
+    ----------
+    factors : tuple of str
+        The path's factors (the screening's selection), in order.
+    goals : tuple of ResponseGoal
+        Every response's goal, the angle first; limits default to the screening's observed
+        range widened to hold the lab value.
+    coefficients : dict str -> dict str -> float
+        Per response, the first-order model's coded intercept and coefficients of ``factors``
+        (units of the response per coded unit).
+    gradient : dict str -> float
+        The climb's gradient at the centre, per coded unit of each factor.
+    """
+
+    factors: tuple[str, ...]
+    goals: tuple[doe.ResponseGoal, ...]
+    coefficients: dict[str, dict[str, float]]
+    gradient: dict[str, float]
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        """Every response's first-order prediction (m, r), in the goals' order, at coded
+        settings ``x`` (m, k) of ``factors``."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        cols = []
+        for g in self.goals:
+            c = self.coefficients[g.name]
+            cols.append(c["intercept"] + x @ np.array([c[n] for n in self.factors]))
+        return np.column_stack(cols)
+
+    @property
+    def flat(self) -> bool:
+        """No factor moves the climb at the centre (every goal met, or no model varies)."""
+        return not any(abs(v) > 0.0 for v in self.gradient.values())
+
+    def alone(self) -> dict[str, dict[str, int]]:
+        """Per response, the direction (+1/-1 per factor) its own desirability would climb:
+        where it and the path part ways, the others outweighed it."""
+        out = {}
+        for i, g in enumerate(self.goals):
+            grad = _gradient(lambda x, i=i, g=g: doe.climb([g], self.predict(x)[:, [i]]),
+                             len(self.factors))
+            out[g.name] = {n: 1 if v >= 0 else -1 for n, v in zip(self.factors, grad,
+                                                                  strict=True)}
+        return out
+
+    def desirability(self, values: Sequence[Mapping[str, float | None]]) -> list[float | None]:
+        """The overall desirability D of measured responses (per path step, by name); None
+        where a step lacks one."""
+        out: list[float | None] = []
+        for v in values:
+            row = [v.get(g.name) for g in self.goals]
+            if any(x is None for x in row):
+                out.append(None)
+                continue
+            d = [float(g.desirability(float(x))) for g, x in zip(self.goals, row, strict=True)]
+            out.append(float(doe.overall_desirability(
+                [d], [g.importance for g in self.goals])[0]))
+        return out
+
+    def misses(self, values: Sequence[Mapping[str, float | None]]) -> list[float | None]:
+        """How far each step's measured responses fall short, lower is better (minus the
+        climb's value: -D, or the shortfall where D is 0); None where a step lacks one."""
+        out: list[float | None] = []
+        for v in values:
+            row = [v.get(g.name) for g in self.goals]
+            out.append(None if any(x is None for x in row)
+                       else float(-doe.climb(self.goals, [row])[0]))
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """The steepest stage's ``climb``: goals, models, gradient and each response's own
+        direction."""
+        centre = float(doe.climb(self.goals, self.predict(np.zeros(len(self.factors))))[0])
+        return {"goals": goals_json(self.goals), "coefficients_coded": self.coefficients,
+                "gradient": dict(self.gradient), "centre_climb": centre,
+                "alone": self.alone()}
+
+
+def _gradient(f: Callable[[np.ndarray], np.ndarray], k: int) -> np.ndarray:
+    """Central differences of ``f`` (coded (m, k) -> (m,)) at the centre."""
+    h = _GRADIENT_STEP
+    steps = np.vstack([np.eye(k) * h, -np.eye(k) * h])
+    v = np.asarray(f(steps), dtype=float)
+    return (v[:k] - v[k:]) / (2.0 * h)
+
+
+def _first_order(name: str, design: doe.Design, recs: Sequence[RunRecord],
+                 factors: Sequence[str]) -> tuple[dict[str, float], np.ndarray]:
+    """A response's first-order model over the screening runs: its coded intercept and
+    coefficients of ``factors``, and its point means (NaN: the point lacks it)."""
+    runs = point_values(recs, design.n_runs, name)
+    means = np.array([float(np.mean(r)) if r else math.nan for r in runs])
+    if np.isfinite(means).sum() < 2:
+        raise StudyError(f"steepest: response {name!r} was reported by fewer than two "
+                         "screening points; check the test's or engine's result names")
+    try:
+        rs = doe.fit(design, means, model="linear")
+    except doe.InputError as exc:
+        raise StudyError(f"steepest: the first-order model of {name!r} over the screening "
+                         f"runs cannot be fitted ({exc})") from None
+    coefs = rs.coefficients_coded
+    return {"intercept": float(coefs["intercept"]),
+            **{n: float(coefs[n]) for n in factors}}, means
+
+
+def path_climb(ctx: Any, factors: Sequence[str]) -> PathClimb:
+    """The steepest path's direction over ``factors`` from every response's first-order model
+    over the screening's runs (``ctx.results["_screening_runs"]``: design and records)."""
+    design, recs = ctx.results["_screening_runs"]
+    coefficients, goals = {}, []
+    for spec in ctx.responses:
+        coefficients[spec.name], means = _first_order(spec.name, design, recs, factors)
+        goals.append(spec.goal_for(means, ctx.labs.get(spec.name)))
+    climb = PathClimb(tuple(factors), tuple(goals), coefficients, {})
+    grad = _gradient(lambda x: doe.climb(climb.goals, climb.predict(x)), len(factors))
+    return PathClimb(climb.factors, climb.goals, coefficients,
+                     {n: float(v) for n, v in zip(factors, grad, strict=True)})
 
 
 def _fit_one(spec: ResponseSpec, runs: list[list[float]], design: doe.Design, n_reps: int,

@@ -456,21 +456,81 @@ def screening(ctx: Context) -> dict[str, Any]:
     ctx.store.set_stage("screening", "done", summary, inputs_hash=h)
     ctx.results["screening"] = summary
     ctx.results["_screening_model"] = rs
+    ctx.results["_screening_runs"] = (design, recs)  # the other responses' first-order models
     return summary
 
 
 # ------------------------------------------------------------------------------ steepest
+def _path_direction(ctx: Context, selected: list[str]
+                    ) -> tuple[dict[str, float], bool, several.PathClimb | None]:
+    """The path's coefficients (only their signs matter) and whether it climbs them.
+
+    The angle alone: its screening model's coefficients, climbed toward the target. Several
+    responses: the gradient of their overall desirability (:func:`several.path_climb`), climbed;
+    where it is flat at the centre (every goal met there) the angle's direction stands.
+    """
+    rs = ctx.results["_screening_model"]
+    climb = several.path_climb(ctx, selected) if ctx.several else None
+    if climb is not None and not climb.flat:
+        return dict(climb.gradient), True, climb
+    coefs = {n: float(rs.coefficients_coded[n]) for n in selected}
+    return coefs, ctx.target > float(rs.coefficients_coded["intercept"]), climb
+
+
+def _step_values(ctx: Context, recs: Sequence[RunRecord], n_points: int
+                 ) -> list[dict[str, float | None]]:
+    """Per path step, every response's mean over its replicates (None: the step lacks it)."""
+    per = {spec.name: several.point_values(recs, n_points, spec.name) for spec in ctx.responses}
+    return [{name: float(np.mean(v[i])) if v[i] else None for name, v in per.items()}
+            for i in range(n_points)]
+
+
+def _best_step(miss: Sequence[float | None]) -> int | None:
+    """The first step with a result, then on while the miss (lower is better) does not grow;
+    None when no step has one."""
+    have = [i for i, e in enumerate(miss) if e is not None]
+    if not have:
+        return None
+    best = have[0]
+    for i in range(best + 1, len(miss)):
+        if miss[i] is None or miss[i] > miss[best]:  # type: ignore[operator]
+            break
+        best = i
+    return best
+
+
+def _path_summary(ctx: Context, climb: several.PathClimb | None, recs: Sequence[RunRecord],
+                  steps: list[dict[str, Any]]) -> tuple[dict[str, Any], list[float | None]]:
+    """Several responses: the summary's ``followed`` and ``climb``, each step's ``responses``
+    and ``desirability`` (added to ``steps``), and the misses the best step is chosen by
+    (``[]`` for the angle alone: its relative error)."""
+    if climb is None:
+        return {}, []
+    values = _step_values(ctx, recs, len(steps))
+    for row, v, d in zip(steps, values, climb.desirability(values), strict=True):
+        row.update(responses=v, desirability=d)
+    if climb.flat:
+        return {"followed": [ctx.responses[0].name], "climb": climb.summary()}, []
+    return {"followed": [g.name for g in climb.goals], "climb": climb.summary()}, \
+        climb.misses(values)
+
+
 def steepest(ctx: Context) -> dict[str, Any]:
-    """Path from the screening effects toward the target; best step = centre of the RSM."""
+    """Path from the screening effects toward the target; best step = centre of the RSM.
+
+    With several responses the path climbs their overall desirability (:func:`_path_direction`)
+    and its best step is the last before the measured desirability falls.
+    """
     opts = ctx.study.stages.steepest
     rs = ctx.results["_screening_model"]
     selected = ctx.results["screening"]["selected"]
     h = ctx.begin("steepest", {"sel": selected, "factors": ctx.factors,
                                "opts": opts.model_dump(mode="json"), "fixed": ctx.fixed,
-                               "coef": {k: float(v) for k, v in rs.coefficients_coded.items()}})
-    coefs = {n: float(rs.coefficients_coded[n]) for n in selected}
-    centre_pred = float(rs.coefficients_coded["intercept"])
-    ascent = ctx.target > centre_pred
+                               "coef": {k: float(v) for k, v in rs.coefficients_coded.items()},
+                               **({"responses": [r.model_dump(mode="json")
+                                                 for r in ctx.responses]}
+                                  if ctx.several else {})})
+    coefs, ascent, climb = _path_direction(ctx, selected)
     sign = {n: (1 if ascent else -1) * (1 if c >= 0 else -1) for n, c in coefs.items()}
     space = _space([ctx.factor(n) for n in selected])
     if opts.step == "auto":
@@ -493,50 +553,54 @@ def steepest(ctx: Context) -> dict[str, Any]:
         recs = ctx.run("steepest", pts)  # earlier steps are stored: only new ones run
         y, outcomes = _point_responses(recs, len(path))
         err = [None if math.isnan(v) else abs(v - ctx.target) / ctx.target * 100 for v in y]
-        piles = [i for i, e in enumerate(err) if e is not None]
-        if not piles:
+        steps = [{"step": i, "actual": path[i],
+                  "aor_deg": None if math.isnan(y[i]) else float(y[i]),
+                  "outcome": outcomes[i], "relative_error_percent": err[i]}
+                 for i in range(len(path))]
+        followed, miss = _path_summary(ctx, climb, recs, steps)
+        best = _best_step(miss or err)
+        if best is None:
             msg = "steepest: no step of the path formed a pile"
             ctx.store.set_stage("steepest", "failed", {"error": msg}, inputs_hash=h)
             raise StudyError(msg)
-        best = piles[0]
-        for i in range(piles[0] + 1, len(path)):
-            if err[i] is None or err[i] > err[best]:  # type: ignore[operator]
-                break
-            best = i
-        # the error still falls at the last step: go on along the path (bounded)
+        # the miss still falls at the last step: go on along the path (bounded)
         if best < len(path) - 1 or n_points >= opts.max_steps or path[-1] == path[-2]:
             break
         n_points = min(opts.max_steps, n_points + 2)
+    what = "desirability falls" if miss else "relative error grows"
     if best == len(path) - 1:
-        message = (f"the relative error still falls at the last step ({len(path)} steps, "
-                   f"max_steps {opts.max_steps}): the target may lie beyond the path")
+        message = (f"the {'desirability still rises' if miss else 'relative error still falls'}"
+                   f" at the last step ({len(path)} steps, max_steps {opts.max_steps}): the "
+                   "target may lie beyond the path")
     else:
-        message = (f"after step {best} the relative error grows or no pile forms: step {best} "
-                   "is the centre")
+        message = f"after step {best} the {what} or no pile forms: step {best} is the centre"
     step_actual = {n: abs(step_c) * space[n].half_range for n in selected}
     centre, anchored = _surface_centre(ctx, path, y, best, message)
+    levels = _levels(ctx, selected, centre, step_actual)
+    summary = {**ctx.own_fidelity("steepest"), "factors": selected, "direction": sign,
+               "steps": steps, "best_step": best, "centre": {n: levels[n][1] for n in selected},
+               "levels": levels, "message": message, **anchored, **followed}
+    ctx.store.set_stage("steepest", "done", summary, inputs_hash=h)
+    ctx.results["steepest"] = summary
+    return summary
+
+
+def _levels(ctx: Context, selected: list[str], centre: Mapping[str, float],
+            step_actual: Mapping[str, float]) -> dict[str, list[float]]:
+    """The response surface's low, centre and high of each factor: a path step either side of
+    the centre, inside the parameter's bounds and the range finding's pile region."""
+    rf = {r["name"]: r for r in ctx.results.get("rangefind", {}).get("factors", [])}
     levels = {}
     for n in selected:
         lo = _clip(n, centre[n] - step_actual[n])
         hi = _clip(n, centre[n] + step_actual[n])
-        if n in {f["name"] for f in ctx.factors}:  # keep the rangefind's pile region
-            rf = {r["name"]: r for r in ctx.results.get("rangefind", {}).get("factors", [])}
-            if n in rf and rf[n]["reason"]:
-                lo, hi = max(lo, min(rf[n]["new_low"], centre[n])), min(
-                    hi, max(rf[n]["new_high"], centre[n]))
+        if n in rf and rf[n]["reason"]:  # keep the rangefind's pile region
+            lo, hi = max(lo, min(rf[n]["new_low"], centre[n])), min(
+                hi, max(rf[n]["new_high"], centre[n]))
         if not hi > lo:
             lo, hi = centre[n] - step_actual[n] / 2, centre[n] + step_actual[n] / 2
         levels[n] = [lo, 0.5 * (lo + hi), hi]
-    summary = {**ctx.own_fidelity("steepest"), "factors": selected, "direction": sign,
-               "steps": [{"step": i, "actual": path[i],
-                          "aor_deg": None if math.isnan(y[i]) else float(y[i]),
-                          "outcome": outcomes[i], "relative_error_percent": err[i]}
-                         for i in range(len(path))],
-               "best_step": best, "centre": {n: levels[n][1] for n in selected},
-               "levels": levels, "message": message, **anchored}
-    ctx.store.set_stage("steepest", "done", summary, inputs_hash=h)
-    ctx.results["steepest"] = summary
-    return summary
+    return levels
 
 
 def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, best: int,

@@ -134,7 +134,7 @@ class FactorSpec(_M):
         if self.unit is None:
             self.unit = spec.unit
         if self.symbol is None:
-            self.symbol = spec.paper_symbol or self.name
+            self.symbol = spec.symbol or self.name
         return self
 
 

@@ -47,6 +47,7 @@ __all__ = [
     "DesirabilitySolution",
     "ResponseGoal",
     "Search",
+    "climb",
     "desirability_at",
     "optimize_desirability",
     "overall_desirability",
@@ -247,6 +248,35 @@ class DesirabilityResult:
         return pd.DataFrame(rows)
 
 
+def climb(goals: Sequence[ResponseGoal], y: Any) -> np.ndarray:
+    """What a search for the best overall desirability climbs, per point: D where D > 0, else
+    minus the summed shortfall of the responses outside their limits.
+
+    D alone is flat (0) wherever one response lies outside its limits, so a climb started there
+    has no way up; the shortfall (:meth:`ResponseGoal.shortfall`) gives it one, and every
+    point with D > 0 scores above every point with D = 0.
+
+    Parameters
+    ----------
+    goals : sequence of ResponseGoal, length r
+    y : array_like, shape (m, r)
+        The responses of m points, in the goals' order (units of each response).
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        In [-inf, 1]; higher is better.
+    """
+    y = np.atleast_2d(np.asarray(y, dtype=float))
+    d = np.column_stack([g.desirability(y[:, i]) for i, g in enumerate(goals)])
+    return _climb(goals, y, overall_desirability(d, [int(g.importance) for g in goals]))
+
+
+def _climb(goals: Sequence[ResponseGoal], y: np.ndarray, big_d: np.ndarray) -> np.ndarray:
+    gap = sum(g.shortfall(y[:, i]) for i, g in enumerate(goals))
+    return np.where(big_d > 0.0, big_d, -gap)
+
+
 def desirability_at(predictors: Mapping[str, Predictor], goals: Sequence[ResponseGoal],
                     x: np.ndarray) -> np.ndarray:
     """Overall desirability D (m,) of coded settings ``x`` (m, k)."""
@@ -301,8 +331,7 @@ class _Objective:
     def score(self, x: np.ndarray) -> np.ndarray:
         """What the search minimises: -D where D > 0, else the summed shortfall (>= 0)."""
         y, _d, big_d = self.evaluate(x)
-        gap = sum(g.shortfall(y[:, i]) for i, g in enumerate(self.goals))
-        score = np.where(big_d > 0.0, -big_d, gap)
+        score = -_climb(self.goals, y, big_d)
         if self.feasible is not None:
             ok = np.asarray(self.feasible(x), dtype=bool).reshape(-1)
             score = np.where(ok, score, self.INFEASIBLE)

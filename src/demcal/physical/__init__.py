@@ -32,7 +32,7 @@ from demcal.physical.derive import (
     TemplateChoice,
     derive_parameters,
 )
-from demcal.physical.parameters import PARAMETERS, ParameterInfo, parameter_info
+from demcal.physical.parameters import PARAMETERS, Parameter, parameter_info
 from demcal.physical.schema import Measurements, load_measurements, parse_measurements
 from demcal.physical.stats import (
     RANGE_RULES,
@@ -50,7 +50,7 @@ __all__ = [
     "FactorRange",
     "FixedParameter",
     "Measurements",
-    "ParameterInfo",
+    "Parameter",
     "PhysicalResult",
     "RayleighStep",
     "RepeatSummary",

@@ -33,7 +33,7 @@ import numpy as np
 from demcal.dem.shapes import ClumpTemplate, cylinder_template, cylinder_volume_error
 from demcal.errors import InputError
 from demcal.physical.conversions import friction_from_angle, rayleigh_time_step
-from demcal.physical.parameters import PARAMETERS, ParameterInfo
+from demcal.physical.parameters import PARAMETERS, Parameter
 from demcal.physical.schema import InclinedPlane, Measurements, Shape, parse_measurements
 from demcal.physical.stats import (
     RANGE_RULES,
@@ -67,7 +67,7 @@ class FixedParameter:
     measured: RepeatSummary | None = None
 
     @property
-    def info(self) -> ParameterInfo:
+    def info(self) -> Parameter:
         """The parameter's description (symbol, unit, bounds)."""
         return PARAMETERS[self.name]
 
@@ -77,7 +77,7 @@ class FixedParameter:
             "name": self.name,
             "symbol": self.info.symbol,
             "value": self.value,
-            "unit": self.info.unit,
+            "unit": self.info.unit_text,
             "source": self.source,
         }
 
@@ -94,7 +94,7 @@ class FactorRange:
     rule: str | None = None
 
     @property
-    def info(self) -> ParameterInfo:
+    def info(self) -> Parameter:
         """The parameter's description (symbol, unit, bounds)."""
         return PARAMETERS[self.name]
 
@@ -105,7 +105,7 @@ class FactorRange:
             "symbol": self.info.symbol,
             "low": self.low,
             "high": self.high,
-            "unit": self.info.unit,
+            "unit": self.info.unit_text,
             "source": self.source,
             "rule": self.rule,
         }
@@ -263,7 +263,7 @@ class PhysicalResult:
                         "kind": "factor",
                         "low": f.low,
                         "high": f.high,
-                        "unit": info.unit,
+                        "unit": info.unit_text,
                         "display": f"{_fmt(f.low * info.display_scale)}"
                         f"-{_fmt(f.high * info.display_scale)}",
                         "display_unit": info.display_unit,
@@ -279,7 +279,7 @@ class PhysicalResult:
                         "label": info.label,
                         "kind": "fixed",
                         "value": p.value,
-                        "unit": info.unit,
+                        "unit": info.unit_text,
                         "display": _fmt(p.value * info.display_scale),
                         "display_unit": info.display_unit,
                         "source": p.source,

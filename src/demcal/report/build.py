@@ -406,8 +406,11 @@ def _steepest(b: _Builder) -> str:
         s = view.summary
         direction = ", ".join(f"{d.symbol(k)} {'up' if v > 0 else 'down'}"
                               for k, v in (s.get("direction") or {}).items())
+        climbed = (f" The path climbed the overall desirability of "
+                   f"{', '.join(s['followed'])} (first-order models over the screening runs)."
+                   if len(s.get("followed") or []) > 1 else "")
         parts = [f"<p>Direction: {escape(direction or '—')}; best step: "
-                 f"{escape(str(s.get('best_step', '—')))}.</p>",
+                 f"{escape(str(s.get('best_step', '—')))}.{escape(climbed)}</p>",
                  b.table(T.steepest_table(s, d.symbols)),
                  b.figure("steepest", "AoR (line) and relative error to the measurement (bars) "
                           "along the path.",

@@ -167,7 +167,7 @@ def material_card(data: ReportData) -> MaterialCard | None:
     engine, test, shape = _engine(data)
     symbols = dict(data.symbols)
     for name, spec in PARAMETERS.items():
-        symbols.setdefault(name, spec.paper_symbol)
+        symbols.setdefault(name, spec.symbol)
     verification = _verification_block(ver, opt, data)
     study = data.meta.get("study") or {}
     return MaterialCard(parameters=params, calibrated=tuple(k for k in chosen if k in params),
@@ -275,7 +275,7 @@ def parameter_table(data: ReportData, card: MaterialCard | None = None) -> Table
     for name, spec in PARAMETERS.items():
         phys = rows_by_name.get(name) or {}
         symbol = (factors.get(name) or {}).get("symbol") or phys.get("symbol") or \
-            spec.paper_symbol
+            spec.symbol
         if name in factors:
             lo, hi = factors[name].get("low"), factors[name].get("high")
             value = _range_text(lo, hi)

@@ -314,10 +314,15 @@ def steepest_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Ta
     steps = summary.get("steps") or []
     rows = _path_rows(steps, names, symbols, {"AoR (deg)": "aor_deg",
                                                "relative error %": "relative_error_percent"})
+    # several responses: the others' means and the overall desirability the path climbed
+    others = [n for n in summary.get("followed") or [] if n != "aor_deg"]
     for row, s in zip(rows, steps, strict=True):
         row["best"] = "best" if s.get("step") == best else ""
+        row.update({n: _num((s.get("responses") or {}).get(n)) for n in others})
+        if others:
+            row["D"] = _num(s.get("desirability"))
     cols = ["step", *(symbols.get(n, n) for n in names), "AoR (deg)", "relative error %",
-            "outcome", "best"]
+            *others, *(["D"] if others else []), "outcome", "best"]
     return Table("steepest", "Path of steepest ascent (cf. Table 6)", _frame(rows, cols))
 
 

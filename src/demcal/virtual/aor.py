@@ -45,6 +45,7 @@ from demcal.virtual.outcome import (
     classify_after_lift,
     classify_settled,
     footprint,
+    mass_in_tube,
     mass_outside,
 )
 from demcal.virtual.parameters import check_parameters
@@ -54,8 +55,10 @@ from demcal.virtual.settle import settle_state
 __all__ = ["RESPONSES", "AoRResult", "run_aor"]
 
 #: The responses the lift test reports for a pile: the angle (deg), the pile's height and base
-#: diameter (m), the fill's loose bulk density (kg/m^3); each is an AoRResult field.
-RESPONSES = ("aor_deg", "pile_height_m", "base_diameter_m", "bulk_density_kg_m3")
+#: diameter (m), the fill's loose bulk density (kg/m^3), the mass the lifted cylinder retained
+#: (kg); each is an AoRResult field.
+RESPONSES = ("aor_deg", "pile_height_m", "base_diameter_m", "bulk_density_kg_m3",
+             "mass_left_kg")
 
 log = logging.getLogger("demcal.virtual")
 
@@ -97,6 +100,9 @@ class AoRResult:
     fill_level_m: float | None = None
     #: its loose bulk density: the fill's mass over the cylinder's volume to that level, kg/m^3
     bulk_density_kg_m3: float | None = None
+    #: the mass still inside the lifted cylinder at the end (above its bottom rim, within its
+    #: inner radius: :func:`~demcal.virtual.outcome.mass_in_tube`), kg; None before a lift
+    mass_left_kg: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (``aor_deg`` is None unless the outcome is ``pile``)."""
@@ -104,8 +110,8 @@ class AoRResult:
 
     def responses(self) -> dict[str, float]:
         """What the test measured, by response name: the angle (deg), the pile's height and
-        base diameter (m), the fill's loose bulk density (kg/m^3); none unless the outcome is
-        ``pile``."""
+        base diameter (m), the fill's loose bulk density (kg/m^3), the mass the lifted
+        cylinder retained (kg); none unless the outcome is ``pile``."""
         if self.outcome != "pile":
             return {}
         return finite_responses({name: getattr(self, name) for name in RESPONSES})
@@ -524,6 +530,7 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
         fill_level_m=run.fill_level,
         bulk_density_kg_m3=bulk_density(run.fill_mass or 0.0, run.fill_level,
                                         0.5 * config.geometry.cylinder_inner_diameter),
+        mass_left_kg=_mass_left(sim, run, config, pos, mass),
         settled=settled and outcome in (Outcome.PILE, Outcome.COLUMN, Outcome.SCATTERED),
         time_step_s=float(sim.dt[w]),
         sim_time_s=t,
@@ -536,6 +543,18 @@ def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome 
         artefacts=artefacts,
     )
     run.done = True
+
+
+def _mass_left(sim: Simulation, run: _Run, config: AoRTestConfig, pos: np.ndarray,
+               mass: np.ndarray) -> float | None:
+    """The mass the lifted cylinder still holds, kg (None for a run that ended before its
+    lift: the whole fill is in the tube, nothing was retained)."""
+    if "lift" not in run.phase_times:
+        return None
+    g = config.geometry
+    return mass_in_tube(pos, mass, tube_bottom=float(sim.wall_origin(run.index, TUBE)[2]),
+                        tube_height=g.cylinder_height,
+                        tube_radius=0.5 * g.cylinder_inner_diameter)
 
 
 def _save_pile(path: str | Path, centres: np.ndarray, radii: np.ndarray) -> str | None:

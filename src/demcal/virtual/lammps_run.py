@@ -36,7 +36,13 @@ from demcal.virtual.aor import AoRResult
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.lammps_aor import FINAL, INPUT, LIFTED, LammpsCase, write_case
 from demcal.virtual.lammps_options import LammpsOptions
-from demcal.virtual.outcome import Outcome, classify_after_lift, classify_settled, footprint
+from demcal.virtual.outcome import (
+    Outcome,
+    classify_after_lift,
+    classify_settled,
+    footprint,
+    mass_in_tube,
+)
 from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 
@@ -175,6 +181,10 @@ def _result(case: LammpsCase, config: AoRTestConfig, wall: float,
     on_plate = com[:, 2] > -0.01
     base["mass_on_plate_kg"] = float(mass[on_plate].sum())
     base["particles_lost"] = int(case.n_clumps - len(mass))
+    # the tube stays where the lift left it (the script freezes its offset): what it retained
+    base["mass_left_kg"] = mass_in_tube(com, mass, tube_bottom=ev["lifted"][1],
+                                        tube_height=g.cylinder_height,
+                                        tube_radius=0.5 * g.cylinder_inner_diameter)
     if outcome is not None:
         return AoRResult(outcome=outcome.value, reason=reason, **base)
     outcome, reason = classify_settled(

@@ -173,7 +173,7 @@ class MaterialCard:
             law = parameter_law(name)
             out.append({
                 "parameter": name,
-                "symbol": self.symbols.get(name) or (spec.paper_symbol if spec else ""),
+                "symbol": self.symbols.get(name) or (spec.symbol if spec else ""),
                 "value": value, "unit": (spec.unit if spec else "") or "-",
                 "role": "calibrated" if name in self.calibrated else "fixed",
                 "law": law, "description": spec.description if spec else ""})

@@ -22,7 +22,8 @@ import numpy as np
 
 from demcal.virtual.config import AoRTestConfig, OutcomeCriteria
 
-__all__ = ["Outcome", "classify_after_lift", "classify_settled", "footprint", "mass_outside"]
+__all__ = ["Outcome", "classify_after_lift", "classify_settled", "footprint", "mass_in_tube",
+           "mass_outside"]
 
 
 class Outcome(StrEnum):
@@ -59,14 +60,44 @@ def classify_after_lift(positions: np.ndarray, masses: np.ndarray, *, tube_botto
     total = float(np.sum(masses))
     if total <= 0:
         return None, None
-    rho = np.hypot(positions[:, 0], positions[:, 1])
-    inside = (rho < tube_radius) & (positions[:, 2] > tube_bottom) & (
-        positions[:, 2] < tube_bottom + tube_height)
-    frac = float(np.sum(masses[inside])) / total
+    frac = mass_in_tube(positions, masses, tube_bottom=tube_bottom, tube_height=tube_height,
+                        tube_radius=tube_radius) / total
     if frac >= criteria.plug_mass_fraction:
         return Outcome.PLUG, (f"{frac:.0%} of the mass rose with the cylinder (plug threshold "
                               f"{criteria.plug_mass_fraction:.0%})")
     return None, None
+
+
+def mass_in_tube(positions: np.ndarray, masses: np.ndarray, *, tube_bottom: float,
+                 tube_height: float, tube_radius: float) -> float:
+    """The mass inside the cylinder, kg: clumps whose centre lies within its inner radius of
+    its axis (the z axis) and between its bottom rim and its top.
+
+    After the lift it is what the cylinder retained (the lift test's ``mass_left_kg``): the
+    material held up in the tube by its wall friction or cohesion instead of flowing out into
+    the pile; the plug rule (:func:`classify_after_lift`) reads it as a fraction. Clump centres
+    decide, as for the plug, so a particle straddling the rim counts on one side only.
+
+    Parameters
+    ----------
+    positions : (n, 3) ndarray
+        Clump centres, m.
+    masses : (n,) ndarray
+        Clump masses, kg.
+    tube_bottom, tube_height, tube_radius : float
+        The cylinder's bottom rim height (where the lift left it), length and inner radius, m.
+
+    Returns
+    -------
+    float
+        kg; 0.0 for no clump.
+    """
+    positions = np.asarray(positions, dtype=float).reshape(-1, 3)
+    masses = np.asarray(masses, dtype=float).reshape(-1)
+    rho = np.hypot(positions[:, 0], positions[:, 1])
+    inside = (rho < tube_radius) & (positions[:, 2] > tube_bottom) & (
+        positions[:, 2] < tube_bottom + tube_height)
+    return float(np.sum(masses[inside]))
 
 
 def footprint(config: AoRTestConfig) -> dict[str, float]:
