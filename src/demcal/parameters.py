@@ -73,6 +73,33 @@ class Parameter:
         """The description as a table's label (capitalised)."""
         return self.description[:1].upper() + self.description[1:]
 
+    # The names the two registries this one replaced gave these fields (kept for callers of
+    # demcal.physical.parameters.ParameterInfo and demcal.virtual.parameters.ParameterSpec).
+    @property
+    def paper_symbol(self) -> str:
+        """Alias of :attr:`symbol`."""
+        return self.symbol
+
+    @property
+    def lower(self) -> float:
+        """Alias of :attr:`low`."""
+        return self.low
+
+    @property
+    def upper(self) -> float:
+        """Alias of :attr:`high`."""
+        return self.high
+
+    @property
+    def lower_inclusive(self) -> bool:
+        """Whether :attr:`low` is allowed."""
+        return not self.low_open
+
+    @property
+    def upper_inclusive(self) -> bool:
+        """Whether :attr:`high` is allowed."""
+        return not self.high_open
+
     @property
     def unit_text(self) -> str:
         """The SI unit as printed: ``"-"`` for a dimensionless value."""

@@ -12,7 +12,10 @@ from __future__ import annotations
 from demcal.parameters import PARAMETERS as _REGISTRY
 from demcal.parameters import Parameter
 
-__all__ = ["PARAMETERS", "Parameter", "parameter_info"]
+__all__ = ["PARAMETERS", "Parameter", "ParameterInfo", "parameter_info"]
+
+#: The name this module gave :class:`~demcal.parameters.Parameter` before the registries merged.
+ParameterInfo = Parameter
 
 #: Every parameter demcal.physical can fix or give a range to, in the order of the paper's
 #: Table 1 (then the rest).

@@ -7,9 +7,20 @@ Each parameter's symbol, description, unit and bounds stand once, in :mod:`demca
 from __future__ import annotations
 
 from demcal.errors import InputError
-from demcal.parameters import PARAMETERS, Parameter
+from demcal.parameters import (
+    MAX_DENSITY,
+    MAX_FRICTION,
+    MAX_MODULUS,
+    MAX_SURFACE_ENERGY,
+    PARAMETERS,
+    Parameter,
+)
 
-__all__ = ["PARAMETERS", "Parameter", "check_parameters", "parse_assignments"]
+__all__ = ["MAX_DENSITY", "MAX_FRICTION", "MAX_MODULUS", "MAX_SURFACE_ENERGY", "PARAMETERS",
+           "Parameter", "ParameterSpec", "check_parameters", "parse_assignments"]
+
+#: The name this module gave :class:`~demcal.parameters.Parameter` before the registries merged.
+ParameterSpec = Parameter
 
 
 def check_parameters(values: dict[str, float]) -> dict[str, float]:
