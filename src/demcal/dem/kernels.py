@@ -193,6 +193,53 @@ def slot_at_least(partner, i, n_slots, j):
     return lo
 
 
+@njit(cache=True, inline="always")  # numba IR inlining: no call per contact
+def zero_sums(force, torque, roll, i):
+    """Zero sphere ``i``'s force, torque and rolling sums."""
+    store2(force, i, ZERO3)
+    store2(torque, i, ZERO3)
+    store2(roll, i, ZERO3)
+
+
+@njit(cache=True, inline="always")  # numba IR inlining: no call per contact
+def canonical_pair(i, j, radii, e, clumps):
+    """Orient the pair (i, j) canonically: a = the lower index, b = the higher.
+
+    ``radii``, ``e`` (from i to j) and ``clumps`` are i's and j's; returns
+    ``(a, b, ra, rb, d, ca, cb)`` with d = b - a. It is the same on both sides bitwise
+    (x - y == -(y - x) in IEEE arithmetic), so the two sides of a pair see one contact.
+    """
+    ri, rj = radii
+    ci, cj = clumps
+    if i < j:
+        return i, j, ri, rj, e, ci, cj
+    return j, i, rj, ri, (-e[0], -e[1], -e[2]), cj, ci
+
+
+@njit(cache=True, inline="always")  # numba IR inlining: no call per contact
+def relative_velocity(c_pos, c_veval, c_omega, clumps, point):
+    """The levers from clumps a and b to the contact ``point`` and the velocity of b's
+    material point there relative to a's, m/s: ``(pa, pb, v)``."""
+    ca, cb = clumps
+    cx, cy, cz = point
+    pax = cx - c_pos[ca, 0]
+    pay = cy - c_pos[ca, 1]
+    paz = cz - c_pos[ca, 2]
+    pbx = cx - c_pos[cb, 0]
+    pby = cy - c_pos[cb, 1]
+    pbz = cz - c_pos[cb, 2]
+    wax = c_omega[ca, 0]
+    way = c_omega[ca, 1]
+    waz = c_omega[ca, 2]
+    wbx = c_omega[cb, 0]
+    wby = c_omega[cb, 1]
+    wbz = c_omega[cb, 2]
+    vx = (c_veval[cb, 0] + wby * pbz - wbz * pby) - (c_veval[ca, 0] + way * paz - waz * pay)
+    vy = (c_veval[cb, 1] + wbz * pbx - wbx * pbz) - (c_veval[ca, 1] + waz * pax - wax * paz)
+    vz = (c_veval[cb, 2] + wbx * pby - wby * pbx) - (c_veval[ca, 2] + wax * pay - way * pax)
+    return (pax, pay, paz), (pbx, pby, pbz), (vx, vy, vz)
+
+
 @njit(cache=True)
 def pair_contacts(lo, hi, below, sph, clu, nb, worlds, prm, flags):
     """Sphere-sphere part of :func:`sphere_forces`: for spheres ``lo`` to ``hi - 1``, the
@@ -232,18 +279,14 @@ def pair_contacts(lo, hi, below, sph, clu, nb, worlds, prm, flags):
     cap = nb_index.shape[1]
     if below == 0:  # no partner below index 0 (the CPU's first block): zero sums
         for i in range(lo, hi):
-            store2(sph_force, i, ZERO3)
-            store2(sph_torque, i, ZERO3)
-            store2(sph_roll, i, ZERO3)
+            zero_sums(sph_force, sph_torque, sph_roll, i)
         return
     for i in range(lo, hi):
         ci = s_clump[i]
         # no slot below ``below`` (most spheres of the CPU's blocks), or an inactive sphere
         if (nb_count[i] == 0 or nb_index[i, 0] >= below or c_state[ci] != ACTIVE
                 or worlds_active[clu_world[ci]] == 0):
-            store2(sph_force, i, ZERO3)
-            store2(sph_torque, i, ZERO3)
-            store2(sph_roll, i, ZERO3)
+            zero_sums(sph_force, sph_torque, sph_roll, i)
             continue
         w = clu_world[ci]
         dt = worlds_dt[w]
@@ -284,28 +327,8 @@ def pair_contacts(lo, hi, below, sph, clu, nb, worlds, prm, flags):
                 if use_c:
                     zero3(nb_rhist, i, k)
                 continue
-            # canonical orientation: a = lower index, b = higher index; d = b - a is the
-            # same on both sides bitwise (x - y == -(y - x) in IEEE arithmetic)
-            if i < j:
-                a = i
-                b = j
-                ra = ri
-                rb = rj
-                dx = ex
-                dy = ey
-                dz = ez
-                ca = ci
-                cb = cj
-            else:
-                a = j
-                b = i
-                ra = rj
-                rb = ri
-                dx = -ex
-                dy = -ey
-                dz = -ez
-                ca = cj
-                cb = ci
+            a, b, ra, rb, (dx, dy, dz), ca, cb = canonical_pair(
+                i, j, (ri, rj), (ex, ey, ez), (ci, cj))
             dist = math.sqrt(dist2)
             nx = dx / dist
             ny = dy / dist
@@ -317,40 +340,19 @@ def pair_contacts(lo, hi, below, sph, clu, nb, worlds, prm, flags):
             meff = ma * mb / (ma + mb)
             # contact point and relative velocity (b w.r.t. a) there
             lever = ra - 0.5 * overlap
-            cx = s_pos[a, 0] + nx * lever
-            cy = s_pos[a, 1] + ny * lever
-            cz = s_pos[a, 2] + nz * lever
-            pax = cx - c_pos[ca, 0]
-            pay = cy - c_pos[ca, 1]
-            paz = cz - c_pos[ca, 2]
-            pbx = cx - c_pos[cb, 0]
-            pby = cy - c_pos[cb, 1]
-            pbz = cz - c_pos[cb, 2]
-            wax = c_omega[ca, 0]
-            way = c_omega[ca, 1]
-            waz = c_omega[ca, 2]
-            wbx = c_omega[cb, 0]
-            wby = c_omega[cb, 1]
-            wbz = c_omega[cb, 2]
-            vx = (c_veval[cb, 0] + wby * pbz - wbz * pby) - (c_veval[ca, 0] + way * paz - waz * pay)
-            vy = (c_veval[cb, 1] + wbz * pbx - wbx * pbz) - (c_veval[ca, 1] + waz * pax - wax * paz)
-            vz = (c_veval[cb, 2] + wbx * pby - wby * pbx) - (c_veval[ca, 2] + wax * pay - way * pax)
+            point = (s_pos[a, 0] + nx * lever, s_pos[a, 1] + ny * lever,
+                     s_pos[a, 2] + nz * lever)
+            pa, pb, vel = relative_velocity(c_pos, c_veval, c_omega, (ca, cb), point)
             # this sphere's side: the force on b acts on i with sign sgn, lever p from i's clump
-            if i == b:
-                sgn = 1.0
-                px = pbx
-                py = pby
-                pz = pbz
-            else:
-                sgn = -1.0
-                px = pax
-                py = pay
-                pz = paz
+            sgn = 1.0 if i == b else -1.0
+            px, py, pz = pb if i == b else pa
             params = pair_row(pair_params, w, s_material[a], s_material[b])
             arad, fb, xi, roll_a, roll_c = contact_response(
-                overlap, (nx, ny, nz), (vx, vy, vz), params,
+                overlap, (nx, ny, nz), vel, params,
                 reff, meff, dt, load3(nb_hist, i, k), rolling_model, spin, om_i, (px, py, pz),
-                (wbx - wax, wby - way, wbz - waz), load3(nb_rhist, i, k) if use_c else ZERO3)
+                (c_omega[cb, 0] - c_omega[ca, 0], c_omega[cb, 1] - c_omega[ca, 1],
+                 c_omega[cb, 2] - c_omega[ca, 2]),
+                load3(nb_rhist, i, k) if use_c else ZERO3)
             if arad <= 0.0:
                 zero3(nb_hist, i, k)
                 if use_c:
