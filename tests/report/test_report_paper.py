@@ -16,6 +16,7 @@ from scipy import stats
 
 from demcal import report
 from demcal.store import RunStore
+from demcal.summaries import Verification
 
 
 def _number(cell: str) -> float | None:
@@ -227,7 +228,7 @@ def test_figures_are_callable_from_python(paper_report):
             report.steepest_figure(summ["steepest"], 44.12),
             report.surface_figure(summ["rsm"], ("x3", "x4")),
             report.predicted_actual_figure(summ["rsm"]),
-            report.verification_figure(summ["verification"], 44.12),
+            report.verification_figure(Verification.from_summary(summ["verification"]), 44.12),
             report.comparison_figure(None, summ["verification"]["pile_png"])]
     assert all(isinstance(f, Figure) and f.axes for f in figs)
     contour = figs[4].axes[1]

@@ -37,6 +37,7 @@ from demcal.calibrate.runner import Point
 from demcal.doe import bayes
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord
+from demcal.summaries import Verification
 
 __all__ = ["DEFAULT_RELATIVE_STD", "PILE", "STAGE", "can_fail", "lab_responses", "run_bayes",
            "settings"]
@@ -356,12 +357,13 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
 
 def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> dict[str, Any]:
     opt = ctx.results["optimize"]
+    typed = Verification.from_summary(ver)
     aor = summary["predicted"].get(AOR, {}).get("mean")
     result = {
         "study": ctx.study.name, "strategy": STAGE, **summary,
-        "optimum_full": ver["params"], "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
-        "verification": {k: ver.get(k) for k in VERIFICATION_KEYS},
-        "rounds": [refine.round_row(opt, ver)],
+        "optimum_full": typed.params, "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
+        "verification": {k: getattr(typed, k) for k in VERIFICATION_KEYS},
+        "rounds": [refine.round_row(opt, typed)],
         # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
         "n_runs": ctx.store.count(), "n_runs_strategy": summary["n_runs"],
         "n_runs_executed": ctx.runner.executed,

@@ -27,6 +27,7 @@ from demcal.execute.local import GPU_CHUNK, default_chunk, default_workers
 from demcal.execute.tasks import TestDef
 from demcal.store import STAGES as STAGE_TITLES
 from demcal.store import RunStore
+from demcal.summaries import Verification
 
 __all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def"]
 
@@ -256,16 +257,17 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         getattr(st, name)(ctx)
     st.rsm(ctx)
     refine.run_rounds(ctx)
-    opt, ver = ctx.results["optimize"], ctx.results["verification"]
+    opt, ver_summary = ctx.results["optimize"], ctx.results["verification"]
+    ver = Verification.from_summary(ver_summary)
     rounds = [refine.round_row(o, v) for o, v in zip(
-        [*opt.get("rounds", []), opt], [*ver.get("rounds", []), ver], strict=True)]
+        [*opt.get("rounds", []), opt], [*ver.rounds, ver], strict=True)]
     result = {
         "study": ctx.study.name,
         "optimum": opt["chosen"],
-        "optimum_full": ver["params"],
+        "optimum_full": ver.params,
         "predicted_aor_deg": opt["predicted_aor_deg"],
         "target_aor_deg": ctx.target,
-        "verification": {k: ver.get(k) for k in (
+        "verification": {k: getattr(ver, k) for k in (
             "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg",
             "ci_high_deg", "p_value", "consistent", "test", "half_width_deg",
             "half_width_goal_deg", "half_width_reached", "confirm_pi_low_deg",
@@ -288,6 +290,6 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         result["responses"] = {
             "goals": opt["responses"]["goals"], "desirability": opt["responses"]["desirability"],
             "predicted": opt["candidates"][0]["predicted"],
-            "verification": ver["responses"]}
+            "verification": ver_summary["responses"]}
     ctx.store.set_meta("result", result)
     return result

@@ -24,11 +24,12 @@ from __future__ import annotations
 from typing import Any
 
 from demcal.calibrate import stages as st
+from demcal.summaries import Verification
 
 __all__ = ["needs_another_round", "round_row", "run_rounds"]
 
 
-def needs_another_round(verification: dict[str, Any],
+def needs_another_round(verification: Verification,
                         tolerance_percent: float | None = None) -> bool:
     """Does a verification summary call for a refinement round?
 
@@ -38,15 +39,14 @@ def needs_another_round(verification: dict[str, Any],
     ``tolerance_percent`` (the study's acceptance criterion, when it sets one). Runs without a
     pile are a problem of the region, not of the surface: no round.
     """
-    if verification.get("n_piles", 0) < len(verification.get("aor_deg") or []):
+    if verification.n_piles < len(verification.aor_deg):
         return False
-    rel = verification.get("relative_error_percent")
+    rel = verification.relative_error_percent
     missed = tolerance_percent is not None and rel is not None and rel > tolerance_percent
-    return missed or verification.get("confirmed") is False or \
-        verification.get("target_in_interval") is False
+    return missed or verification.confirmed is False or verification.target_in_interval is False
 
 
-def round_row(optimum: dict[str, Any], verification: dict[str, Any]) -> dict[str, Any]:
+def round_row(optimum: dict[str, Any], verification: Verification) -> dict[str, Any]:
     """One round in a few numbers: its optimum, prediction, the offset it was aimed by (a
     refinement round) and verification (deg)."""
     keys = ("n_piles", "aor_mean_deg", "aor_std_deg", "relative_error_percent",
@@ -54,10 +54,10 @@ def round_row(optimum: dict[str, Any], verification: dict[str, Any]) -> dict[str
             "confirm_pi_high_deg", "confirmed", "target_in_interval", "within_tolerance",
             "p_value")
     aimed = ("surface_offset_deg", "measured_offset_deg", "offset_weight")
-    return {"round": int(verification.get("round", 1)), "optimum": optimum["chosen"],
+    return {"round": verification.round_number, "optimum": optimum["chosen"],
             "predicted_aor_deg": optimum["predicted_aor_deg"],
             **{k: optimum[k] for k in aimed if k in optimum},
-            **{k: verification.get(k) for k in keys}}
+            **{k: getattr(verification, k) for k in keys}}
 
 
 def run_rounds(ctx: st.Context) -> dict[str, Any]:
@@ -74,7 +74,7 @@ def run_rounds(ctx: st.Context) -> dict[str, Any]:
         st.optimize(ctx)
         ver = st.verification(ctx)
         if ctx.rounds.number >= opts.max_rounds or \
-                not needs_another_round(ver, opts.tolerance_percent):
+                not needs_another_round(Verification.from_summary(ver), opts.tolerance_percent):
             return ver
         ctx.rounds.optimize.append(ctx.results["optimize"])  # their history is dropped
         ctx.rounds.verification.append(ver)                 # when they are stored again

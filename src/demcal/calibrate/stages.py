@@ -36,6 +36,7 @@ from demcal.calibrate.verify import (
 )
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord, RunStore, params_hash
+from demcal.summaries import ResponseVerification, Verification
 from demcal.virtual import PARAMETERS
 
 __all__ = ["Context", "adequacy", "choose_model", "optimize", "rangefind", "rsm", "screening",
@@ -995,27 +996,25 @@ def verification(ctx: Context) -> dict[str, Any]:
     rel = None if mean is None else abs(mean - ctx.target) / ctx.target * 100.0
     png = next((r.artefacts.get("pile_png") for r in recs if r.artefacts.get("pile_png")), None)
     hw = interval_half_width(vals)
-    summary = {"params": params, "aor_deg": aors, "outcomes": [r.outcome for r in recs],
-               "aor_mean_deg": mean, "aor_std_deg": std, "relative_error_percent": rel,
-               "n": n, "n_piles": int(vals.size), "pile_png": png,
-               "half_width_deg": hw if math.isfinite(hw) else None,
-               "half_width_goal_deg": opts.half_width_deg,
-               "half_width_reached": bool(opts.half_width_deg is not None
-                                          and hw <= opts.half_width_deg),
-               "sized_with_std_deg": sigma, "sized_with_df": sigma_df,
-               **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)}
     model = ctx.results.get("_rsm_model")
     tol = opts.tolerance_percent
-    summary["tolerance_percent"] = tol
-    summary["within_tolerance"] = None if tol is None or rel is None else bool(rel <= tol)
-    summary.update(confirmation(model, ctx.results["optimize"]["chosen"], vals,
-                                offset=ctx.rounds.offset(model)))
-    if ctx.several:
-        summary["responses"] = {name: c.to_dict()
-                                for name, c in several.check_responses(ctx, recs).items()}
-    if k > 1:
-        summary["round"] = k
-    summary = with_rounds(summary, ctx.rounds.verification)
+    checks = several.check_responses(ctx, recs) if ctx.several else None
+    ver = Verification(
+        params=params, aor_deg=aors, outcomes=[r.outcome for r in recs], aor_mean_deg=mean,
+        aor_std_deg=std, relative_error_percent=rel, n=n, n_piles=int(vals.size),
+        pile_png=png, half_width_deg=hw if math.isfinite(hw) else None,
+        half_width_goal_deg=opts.half_width_deg,
+        half_width_reached=bool(opts.half_width_deg is not None and hw <= opts.half_width_deg),
+        sized_with_std_deg=sigma, sized_with_df=sigma_df,
+        **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n),
+        tolerance_percent=tol,
+        within_tolerance=None if tol is None or rel is None else bool(rel <= tol),
+        **confirmation(model, ctx.results["optimize"]["chosen"], vals,
+                       offset=ctx.rounds.offset(model)),
+        responses=None if checks is None else {
+            name: ResponseVerification.from_summary(c.to_dict()) for name, c in checks.items()},
+        round=k if k > 1 else None)
+    summary = with_rounds(ver.to_summary(), ctx.rounds.verification)
     ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
     ctx.results["verification"] = summary
     return summary

@@ -138,15 +138,14 @@ def _overview(b: _Builder) -> str:
     d = b.data
     study = d.meta.get("study") or {}
     name = study.get("name") or d.study_dir.name
-    opt, ver = d.stage("optimize").summary, d.stage("verification").summary
+    opt, ver = d.stage("optimize").summary, d.verification
     t = d.target or {}
     cards = [("Measured AoR", _fmt(t.get("aor_deg"), ".2f", "°")
               + (f" ± {_fmt(t.get('std_deg'), '.2f')}°" if t.get("std_deg") is not None else "")),
              ("Predicted at optimum", _fmt(opt.get("predicted_aor_deg"), ".2f", "°")),
-             ("Verified AoR", _fmt(ver.get("aor_mean_deg"), ".2f", "°")
-              + (f" ± {_fmt(ver.get('aor_std_deg'), '.2f')}°"
-                 if ver.get("aor_std_deg") is not None else "")),
-             ("Relative error", _fmt(ver.get("relative_error_percent"), ".2f", " %"))]
+             ("Verified AoR", _fmt(ver.aor_mean_deg, ".2f", "°")
+              + (f" ± {_fmt(ver.aor_std_deg, '.2f')}°" if ver.aor_std_deg is not None else "")),
+             ("Relative error", _fmt(ver.relative_error_percent, ".2f", " %"))]
     chosen = opt.get("chosen") or {}
     cards += [(f"{d.symbol(k)} ({k})", _fmt(v, ".4g")) for k, v in chosen.items()]
     grid = "".join(f'<div class="card"><div class="k">{escape(k)}</div>'
@@ -529,7 +528,7 @@ def _optimize(b: _Builder) -> str:
 def _several_responses(b: _Builder) -> str:
     """Each response's goal, model, prediction and verification (several-response studies)."""
     view = RS.responses_view(b.data.stage("rsm").summary, b.data.stage("optimize").summary,
-                             b.data.stage("verification").summary)
+                             b.data.verification)
     if view is None:
         return ""
     goals, verified = RS.responses_tables(view)
@@ -550,7 +549,7 @@ def _verification(b: _Builder) -> str:
     d, view = b.data, b.data.stage("verification")
 
     def render() -> str:
-        s = view.summary
+        s = d.verification
         t = d.target or {}
         parts = ['<div class="row">' + b.table(T.verification_summary_table(s, d.target_aor_deg))
                  + b.table(T.verification_table(s)) + "</div>"]
@@ -568,7 +567,7 @@ def _verification(b: _Builder) -> str:
             with_fig.sort(key=lambda p: abs(T._num(p.get("mean_deg")) - goal)
                           if T._num(p.get("mean_deg")) is not None else math.inf)
         photo_fig = with_fig[0].get("figure") if with_fig else None
-        pile = s.get("pile_png")
+        pile = s.pile_png
 
         def resolve(p: str | None) -> Path | None:
             if not p:
@@ -578,7 +577,7 @@ def _verification(b: _Builder) -> str:
         # every verification replicate's pile beside a measured photo (cycled): both are the
         # diagnostic figure of demcal.measure's boundary and flank-line fit
         runs = sorted((r for r in view.runs if (r.artefacts or {}).get("pile_png")
-                       and r.params == s.get("params")),  # the last round's piles
+                       and r.params == s.params),  # the last round's piles
                       key=lambda r: (r.point, r.replicate))
         shown = [p for p in photos if p.get("figure")]
         if runs:
@@ -609,7 +608,7 @@ def _verification(b: _Builder) -> str:
         else:
             parts.append('<p class="note">No photo or pile image is stored, so the side-by-side '
                          "comparison is not shown.</p>")
-        params = s.get("params") or {}
+        params = s.params
         if params:
             parts.append(b.table(T.Table("verification_params",
                                          "Full parameter set verified (SI units)",

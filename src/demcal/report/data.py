@@ -14,6 +14,7 @@ from typing import Any
 
 from demcal.errors import InputError, StoreError
 from demcal.store import STAGES, STORE_NAME, RunRecord, RunStore
+from demcal.summaries import Verification
 
 __all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
 
@@ -105,6 +106,11 @@ class ReportData:
     def stage(self, name: str) -> StageView:
         """The stage ``name`` (status ``missing`` if never started)."""
         return self.stages.get(name, StageView(name, "missing"))
+
+    @property
+    def verification(self) -> Verification:
+        """The verification stage's summary, typed (empty when the stage has not run)."""
+        return Verification.from_summary(self.stage("verification").summary)
 
     @property
     def target(self) -> dict[str, Any] | None:

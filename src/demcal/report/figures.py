@@ -26,6 +26,7 @@ from matplotlib.image import imread
 
 from demcal.report.surface import StoredSurface
 from demcal.report.tables import term_label
+from demcal.summaries import Verification
 
 __all__ = [
     "comparison_figure",
@@ -253,10 +254,10 @@ def predicted_actual_figure(summary: Mapping[str, Any]) -> Figure:
 
 
 # -------------------------------------------------------------------------------- verification
-def verification_figure(summary: Mapping[str, Any], target_aor_deg: float | None = None,
+def verification_figure(ver: Verification, target_aor_deg: float | None = None,
                         target_std_deg: float | None = None) -> Figure:
     """Verification replicates (deg) with their mean ± std and the measured target."""
-    aors = np.array([_num(a) for a in summary.get("aor_deg") or []])
+    aors = np.array([_num(a) for a in ver.aor_deg])
     fig = _figure(6.5, 3.0)
     ax = fig.add_subplot()
     x = np.arange(1, len(aors) + 1)
@@ -265,7 +266,7 @@ def verification_figure(summary: Mapping[str, Any], target_aor_deg: float | None
     if (~ok).any():
         ax.plot(x[~ok], np.full((~ok).sum(), np.nanmin(aors) if ok.any() else 0.0), "x",
                 color=_NOPILE, ms=8, mew=2, label="no pile")
-    mean, std = _num(summary.get("aor_mean_deg")), _num(summary.get("aor_std_deg"))
+    mean, std = _num(ver.aor_mean_deg), _num(ver.aor_std_deg)
     if math.isfinite(mean):
         ax.axhline(mean, color=_PILE, lw=1, label=f"simulated mean {mean:.2f}°")
         if math.isfinite(std):

@@ -22,6 +22,7 @@ from demcal.display import readable
 from demcal.report import responses as RS
 from demcal.report.data import ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
+from demcal.summaries import Verification
 from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
@@ -29,33 +30,32 @@ __all__ = ["card_table", "material_card", "measurement_label", "measurements_tab
            "parameter_table", "verification_line", "write_material_card"]
 
 
-def verification_line(ver: Mapping[str, Any], target: Mapping[str, Any] | None) -> str:
+def verification_line(ver: Verification, target: Mapping[str, Any] | None) -> str:
     """One sentence: verified AoR mean ± std (n) against the measurement, error, p, verdict."""
-    mean, std = _num(ver.get("aor_mean_deg")), _num(ver.get("aor_std_deg"))
+    mean, std = _num(ver.aor_mean_deg), _num(ver.aor_std_deg)
     if mean is None:
-        n_piles = ver.get("n_piles")
-        return ("not verified" if not ver else
-                f"verification formed no pile ({n_piles or 0} of {ver.get('n', '?')} runs)")
+        return ("not verified" if not ver.done else
+                f"verification formed no pile ({ver.n_piles} of {ver.n} runs)")
     t = target or {}
     out = f"verified AoR {mean:.2f}"
     out += f" ± {std:.2f}°" if std is not None else "°"
-    out += f" (n = {ver.get('n')})"
+    out += f" (n = {ver.n})"
     goal = _num(t.get("aor_deg"))
     if goal is not None:
         tstd = _num(t.get("std_deg"))
         out += f" vs measured {goal:.2f}" + (f" ± {tstd:.2f}°" if tstd is not None else "°")
         if t.get("n"):
             out += f" (n = {t.get('n')})"
-    rel = _num(ver.get("relative_error_percent"))
+    rel = _num(ver.relative_error_percent)
     if rel is not None:
         out += f"; relative error {rel:.2f} %"
-    p = _num(ver.get("p_value"))
+    p = _num(ver.p_value)
     if p is not None:
         out += f"; p = {p:.3g}"
-    if ver.get("consistent") is not None:
-        out += ", consistent" if ver.get("consistent") else ", differs"
-    if ver.get("confirmed") is not None:
-        out += ("; the response surface's prediction confirmed" if ver.get("confirmed") else
+    if ver.consistent is not None:
+        out += ", consistent" if ver.consistent else ", differs"
+    if ver.confirmed is not None:
+        out += ("; the response surface's prediction confirmed" if ver.confirmed else
                 "; the response surface's prediction not confirmed")
     return out
 
@@ -106,15 +106,15 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
     return engine, test_out, shape
 
 
-def _verification_block(ver: Mapping[str, Any], opt: Mapping[str, Any],
+def _verification_block(ver: Verification, opt: Mapping[str, Any],
                         data: ReportData) -> dict[str, Any]:
     """The card's [verification]: its line, the numbers behind it, the round it is from."""
     verification = {"line": verification_line(ver, data.target)}
     for key in ("aor_mean_deg", "aor_std_deg", "n", "relative_error_percent", "p_value",
                 "consistent", "ci_low_deg", "ci_high_deg", "confirm_pi_low_deg",
                 "confirm_pi_high_deg", "confirmed", "target_in_interval"):
-        if ver.get(key) is not None:
-            verification[key] = ver[key]
+        if getattr(ver, key) is not None:
+            verification[key] = getattr(ver, key)
     if data.target_aor_deg is not None:
         verification["target_aor_deg"] = data.target_aor_deg
     if opt.get("predicted_aor_deg") is not None:
@@ -127,8 +127,8 @@ def _verification_block(ver: Mapping[str, Any], opt: Mapping[str, Any],
             ("std", r.verified_std), ("n", r.verified_n),
             ("relative_error_percent", r.relative_error_percent),
             ("consistent", r.consistent)) if v is not None} for r in several.rows}
-    if ver.get("round", 1) > 1:  # a refinement round's (demcal.calibrate.refine)
-        verification["round"] = ver["round"]
+    if ver.round_number > 1:  # a refinement round's (demcal.calibrate.refine)
+        verification["round"] = ver.round_number
         for key in ("surface_offset_deg", "measured_offset_deg", "offset_weight"):
             if opt.get(key) is not None:
                 verification[key] = opt[key]
@@ -143,11 +143,11 @@ def material_card(data: ReportData) -> MaterialCard | None:
     response-surface runs (which hold every other parameter where the optimum has it) and the
     fixed values; a parameter still missing comes from the study's material preset.
     """
-    ver = data.stage("verification").summary
+    ver = data.verification
     opt = data.stage("optimize").summary
     result = data.meta.get("result") or {}
     chosen = opt.get("chosen") or result.get("optimum") or {}
-    params = ver.get("params") or result.get("optimum_full")
+    params = ver.params or result.get("optimum_full")
     if not params:
         if not chosen:
             return None

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from demcal.report.tables import Table
+from demcal.summaries import ResponseVerification, Verification
 
 __all__ = ["ResponseRow", "ResponsesView", "overlay_figure", "responses_tables", "responses_view"]
 
@@ -55,31 +56,30 @@ class ResponsesView:
 
 
 def responses_view(rsm: Mapping[str, Any], optimize: Mapping[str, Any],
-                   verification: Mapping[str, Any]) -> ResponsesView | None:
+                   verification: Verification) -> ResponsesView | None:
     """The typed view of the stored summaries; None for a study with the angle alone."""
     own = optimize.get("responses")
     if not own:
         return None
     fits = rsm.get("responses") or {}
     best = (optimize.get("candidates") or [{}])[0]
-    checks = verification.get("responses") or {}
+    checks = verification.responses or {}
     rows = []
     for g in own["goals"]:
         name = g["name"]
         fit = fits.get(name) or {}
         adequacy = fit.get("adequacy") or {}
-        check = checks.get(name) or {}
-        lab = check.get("lab") or {}
+        check = checks.get(name) or ResponseVerification()
+        lab = check.lab or {}
         if name == "aor_deg":  # the angle: its own model and verification
             fit = {"model": rsm.get("model"), "adequate": rsm.get("adequate"),
                    "equation_actual": rsm.get("equation_actual")}
             adequacy = rsm.get("adequacy") or {}
-            check = {"mean": verification.get("aor_mean_deg"),
-                     "std": verification.get("aor_std_deg"),
-                     "n": verification.get("n_piles"),
-                     "relative_error_percent": verification.get("relative_error_percent"),
-                     "p_value": verification.get("p_value"),
-                     "consistent": verification.get("consistent")}
+            check = ResponseVerification(
+                mean=verification.aor_mean_deg, std=verification.aor_std_deg,
+                n=verification.n_piles,
+                relative_error_percent=verification.relative_error_percent,
+                p_value=verification.p_value, consistent=verification.consistent)
             lab = {"mean": g.get("target")}
         rows.append(ResponseRow(
             name=name, goal=g["goal"], low=g["low"], high=g["high"], target=g.get("target"),
@@ -88,10 +88,10 @@ def responses_view(rsm: Mapping[str, Any], optimize: Mapping[str, Any],
             equation=fit.get("equation_actual"),
             predicted=(best.get("predicted") or {}).get(name),
             individual=(best.get("individual") or {}).get(name),
-            verified_mean=check.get("mean"), verified_std=check.get("std"),
-            verified_n=check.get("n"), lab_mean=lab.get("mean"),
-            relative_error_percent=check.get("relative_error_percent"),
-            p_value=check.get("p_value"), consistent=check.get("consistent")))
+            verified_mean=check.mean, verified_std=check.std,
+            verified_n=check.n, lab_mean=lab.get("mean"),
+            relative_error_percent=check.relative_error_percent,
+            p_value=check.p_value, consistent=check.consistent))
     return ResponsesView(tuple(rows), own.get("desirability"), tuple(own.get("unmet") or ()))
 
 

@@ -18,6 +18,7 @@ import pandas as pd
 from demcal.display import readable
 from demcal.doe.anova import significance
 from demcal.report.data import ReportData, StageView
+from demcal.summaries import Verification
 
 __all__ = [
     "Table",
@@ -419,10 +420,10 @@ def candidates_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> 
     return Table("candidates", "Optimum and ranked alternatives", _frame(rows, cols))
 
 
-def verification_table(summary: Mapping[str, Any]) -> Table:
+def verification_table(ver: Verification) -> Table:
     """Each verification replicate: AoR (deg) and outcome."""
-    aors = list(summary.get("aor_deg") or [])
-    outs = list(summary.get("outcomes") or [])
+    aors: list[float | None] = list(ver.aor_deg)
+    outs = list(ver.outcomes)
     n = max(len(aors), len(outs))
     aors += [None] * (n - len(aors))
     outs += [""] * (n - len(outs))
@@ -432,20 +433,20 @@ def verification_table(summary: Mapping[str, Any]) -> Table:
                  _frame(rows, ["replicate", "AoR (deg)", "outcome"]))
 
 
-def verification_summary_table(summary: Mapping[str, Any], target: float | None) -> Table:
+def verification_summary_table(ver: Verification, target: float | None) -> Table:
     """Mean ± std of the replicates, their 95 % interval, the relative error against the
     measurement and the t-test's p and verdict (see demcal.calibrate.verify.compare_to_target),
     and Design-Expert's confirmation: the surface's prediction interval for the mean of the n
     runs and whether the mean lies inside it (demcal.calibrate.verify.confirmation)."""
-    lo, hi = summary.get("ci_low_deg"), summary.get("ci_high_deg")
-    plo, phi = summary.get("confirm_pi_low_deg"), summary.get("confirm_pi_high_deg")
-    ok, confirmed = summary.get("consistent"), summary.get("confirmed")
-    rows = [{"n": summary.get("n"), "mean AoR (deg)": _num(summary.get("aor_mean_deg")),
-             "std (deg)": _num(summary.get("aor_std_deg")),
+    lo, hi = ver.ci_low_deg, ver.ci_high_deg
+    plo, phi = ver.confirm_pi_low_deg, ver.confirm_pi_high_deg
+    ok, confirmed = ver.consistent, ver.confirmed
+    rows = [{"n": ver.n, "mean AoR (deg)": _num(ver.aor_mean_deg),
+             "std (deg)": _num(ver.aor_std_deg),
              "95 % interval (deg)": "" if lo is None else f"{lo:.2f}-{hi:.2f}",
              "measured AoR (deg)": target,
-             "relative error %": _num(summary.get("relative_error_percent")),
-             "p": _num(summary.get("p_value")),
+             "relative error %": _num(ver.relative_error_percent),
+             "p": _num(ver.p_value),
              "verdict": "" if ok is None else ("consistent" if ok else "differs"),
              "surface's 95 % PI for the mean (deg)": "" if plo is None else
              f"{plo:.2f}-{phi:.2f}",
@@ -457,29 +458,29 @@ def verification_summary_table(summary: Mapping[str, Any], target: float | None)
                                "surface's 95 % PI for the mean (deg)", "confirmation"]))
 
 
-def verification_rounds_table(optimize: Mapping[str, Any], verification: Mapping[str, Any],
+def verification_rounds_table(optimize: Mapping[str, Any], verification: Verification,
                               symbols: Mapping[str, str]) -> Table | None:
     """One row per verification round (demcal.calibrate.refine), None for a single round:
     the round's optimum, the offset the earlier rounds measured, the share of it applied
     and the surface offset it aimed by (deg), the piles' mean and std (deg),
     the relative error to the target and Design-Expert's confirmation."""
     opts = [*optimize.get("rounds", []), optimize]
-    vers = [*verification.get("rounds", []), verification]
+    vers = [*verification.rounds, verification]
     if len(vers) < 2 or len(opts) != len(vers):
         return None
     names = list(opts[-1].get("chosen") or {})
     rows = []
     for o, v in zip(opts, vers, strict=True):
-        conf = v.get("confirmed")
-        rows.append({"round": v.get("round", 1),
+        conf = v.confirmed
+        rows.append({"round": v.round_number,
                      **{symbols.get(n, n): _num((o.get("chosen") or {}).get(n)) for n in names},
                      "measured offset (deg)": _num(o.get("measured_offset_deg",
                                                          o.get("surface_offset_deg", 0.0))),
                      "share applied": _num(o.get("offset_weight", 1.0)),
                      "surface offset (deg)": _num(o.get("surface_offset_deg", 0.0)),
-                     "piles": v.get("n_piles"), "mean AoR (deg)": _num(v.get("aor_mean_deg")),
-                     "std (deg)": _num(v.get("aor_std_deg")),
-                     "relative error %": _num(v.get("relative_error_percent")),
+                     "piles": v.n_piles, "mean AoR (deg)": _num(v.aor_mean_deg),
+                     "std (deg)": _num(v.aor_std_deg),
+                     "relative error %": _num(v.relative_error_percent),
                      "confirmation": "" if conf is None else
                      ("confirmed" if conf else "not confirmed")})
     cols = ["round", *[symbols.get(n, n) for n in names], "measured offset (deg)",
