@@ -80,19 +80,24 @@ def test_wall_coverage_counts_the_sectors_with_material_against_the_wall():
     assert wall_coverage(np.zeros((1, 2)), radius=R_DRUM, reach=0.005) == 0.0
 
 
-def _stats(flowing, airborne=0.0, coverage=0.4, n=20):
+def _stats(flowing, airborne=0.0, coverage=0.4, carried=0.8, n=20):
     return FrameStats(np.full(n, flowing, dtype=float), np.full(n, airborne),
-                      np.full(n, coverage))
+                      np.full(n, coverage), np.full(n, carried))
 
 
 def test_outcomes_of_the_frames():
     assert classify_frames(_stats(0.3), 0.4) == (DrumOutcome.ROLLING, None)
     flowing = np.r_[np.zeros(10), np.full(10, 0.3)]
-    out, why = classify_frames(FrameStats(flowing, np.zeros(20), np.full(20, 0.4)), 0.4)
+    out, why = classify_frames(FrameStats(flowing, np.zeros(20), np.full(20, 0.4),
+                                          np.full(20, 0.8)), 0.4)
     assert out is DrumOutcome.SLUMPING and "50%" in why
     out, why = classify_frames(_stats(0.3, airborne=CATARACT_AIRBORNE + 0.01), 0.4)
     assert out is DrumOutcome.CATARACTING and "flew" in why
     out, why = classify_frames(_stats(0.0, coverage=1.0), 0.4)
     assert out is DrumOutcome.CENTRIFUGING and "whole wall" in why
+    out, why = classify_frames(_stats(1.0, carried=0.05), 0.4)
+    assert out is DrumOutcome.SLIPPING and "slides on the wall" in why
+    # no clump against the wall in any frame: nothing says it slips
+    assert classify_frames(_stats(0.3, carried=np.nan), 0.4)[0] is DrumOutcome.ROLLING
     # a drum two-thirds full covers its wall without centrifuging
     assert classify_frames(_stats(0.3, coverage=1.0), 0.67)[0] is DrumOutcome.ROLLING

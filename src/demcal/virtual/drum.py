@@ -90,6 +90,7 @@ class DrumResult:
     com_frames_deg: list[float] = field(default_factory=list)
     flowing_fraction: float | None = None
     airborne_fraction: float | None = None
+    carried_fraction: float | None = None
     settled: bool = False
     time_step_s: float = 0.0
     sim_time_s: float = 0.0
@@ -137,6 +138,7 @@ class _Run:
     flowing: list[float] = field(default_factory=list)
     airborne: list[float] = field(default_factory=list)
     coverage: list[float] = field(default_factory=list)
+    carried: list[float] = field(default_factory=list)
 
     @property
     def t(self) -> float:
@@ -233,7 +235,8 @@ def _one_run(params: dict[str, float], seed: int, s: DrumSettings, backend: str,
         _frames(run, report)
     except _Stop as stop:
         return _result(run, (params, seed), stop.outcome, stop.reason)
-    stats = FrameStats(np.array(run.flowing), np.array(run.airborne), np.array(run.coverage))
+    stats = FrameStats(np.array(run.flowing), np.array(run.airborne), np.array(run.coverage),
+                       np.array(run.carried))
     outcome, reason = classify_frames(stats, s.fill_fraction)
     return _result(run, (params, seed), outcome, reason)
 
@@ -375,9 +378,11 @@ def _frames(run: _Run, report) -> None:
         pos, vel = sim.clump_positions(0), sim.clump_velocities(0)
         cuv = np.column_stack([-pos[:, 0], pos[:, 2]])
         # off the solid-body rotation omega x r (omega along +y): the flowing layer
-        body = np.cross(s.omega * AXIS, pos)
-        run.flowing.append(float(np.mean(np.linalg.norm(vel - body, axis=1)
-                                         > max(0.5 * s.omega * s.radius, SETTLE_MAX))))
+        off = np.linalg.norm(vel - np.cross(s.omega * AXIS, pos), axis=1) \
+            > max(0.5 * s.omega * s.radius, SETTLE_MAX)
+        run.flowing.append(float(np.mean(off)))
+        against = np.hypot(cuv[:, 0], cuv[:, 1]) >= s.radius - s.particle_size
+        run.carried.append(float(np.mean(~off[against])) if against.any() else math.nan)
         run.coverage.append(wall_coverage(cuv, radius=s.radius, reach=s.particle_size))
         if line is None:
             continue
@@ -408,6 +413,8 @@ def _result(run: _Run, what: tuple[dict[str, float], int], outcome: DrumOutcome,
         com_frames_deg=[float(a) for a in run.coms],
         flowing_fraction=float(np.mean(run.flowing)) if run.flowing else None,
         airborne_fraction=float(np.mean(run.airborne)) if run.airborne else None,
+        carried_fraction=float(np.nanmean(run.carried)) if np.isfinite(run.carried).any()
+        else None,
         settled="settled" in run.phase_times, time_step_s=float(sim.dt[0]),
         sim_time_s=run.t, wall_time_s=time.perf_counter() - run.t0,
         phase_times_s=dict(run.phase_times))

@@ -39,6 +39,9 @@ class DrumOutcome(StrEnum):
       a solid with the drum, then slumps);
     - ``cataracting``: particles thrown off the rising side fly over the surface;
     - ``centrifuging``: the material is carried round the whole wall;
+    - ``slipping``: the bed slides on the wall instead of being carried up with it (the
+      wall's friction is too low to lift it): its tilt is the wall's friction's, not the
+      material's;
     - ``unsettled``: the fill did not come to rest, or the angle's running mean kept
       drifting, within the time limit, or no surface could be measured;
     - ``unstable``: numerical failure of the engine.
@@ -51,6 +54,7 @@ class DrumOutcome(StrEnum):
     SLUMPING = "slumping"
     CATARACTING = "cataracting"
     CENTRIFUGING = "centrifuging"
+    SLIPPING = "slipping"
     UNSETTLED = "unsettled"
     UNSTABLE = "unstable"
 
@@ -148,11 +152,14 @@ class FrameStats:
         Fraction of the clumps above the fitted surface by more than a particle size.
     coverage : ndarray
         Fraction of the wall's sectors with material against them (:func:`wall_coverage`).
+    carried : ndarray
+        Fraction of the clumps against the wall that move with it (NaN: none against it).
     """
 
     flowing: np.ndarray
     airborne: np.ndarray
     coverage: np.ndarray
+    carried: np.ndarray
 
 
 #: a frame is "still" (nothing flows: the bed turns with the drum) below this flowing fraction
@@ -163,11 +170,13 @@ SLUMP_FRAMES = 0.25
 CATARACT_AIRBORNE = 0.05
 #: centrifuging: the wall is covered all round in at least this fraction of the frames
 CENTRIFUGE_FRAMES = 0.5
+#: slipping: on average fewer than this fraction of the clumps against the wall move with it
+SLIP_CARRIED = 0.2
 
 
 def classify_frames(stats: FrameStats, fill_fraction: float) -> tuple[DrumOutcome, str | None]:
     """The outcome of a steadily turning drum's frames, with its reason when it is not
-    ``rolling``.
+    ``rolling``: centrifuging, slipping, cataracting, slumping, else rolling, in this order.
 
     Parameters
     ----------
@@ -182,6 +191,12 @@ def classify_frames(stats: FrameStats, fill_fraction: float) -> tuple[DrumOutcom
         return DrumOutcome.CENTRIFUGING, (
             f"the material covered the whole wall in {covered:.0%} of the frames "
             f"(centrifuging threshold {CENTRIFUGE_FRAMES:.0%})")
+    carried = float(np.nanmean(stats.carried)) if np.isfinite(stats.carried).any() else 1.0
+    if carried < SLIP_CARRIED:
+        return DrumOutcome.SLIPPING, (
+            f"only {carried:.0%} of the particles against the wall moved with it on average "
+            f"(slipping threshold {SLIP_CARRIED:.0%}): the bed slides on the wall; raise the "
+            "wall friction")
     airborne = float(np.mean(stats.airborne))
     if airborne >= CATARACT_AIRBORNE:
         return DrumOutcome.CATARACTING, (
