@@ -30,7 +30,7 @@ from demcal.dem.walls import Drum
 from demcal.errors import InputError
 from demcal.limits import check_time_step
 from demcal.results import RunResult, finite_responses
-from demcal.virtual.aor import _materials
+from demcal.virtual.aor import material_table
 from demcal.virtual.drum_settings import DrumSettings
 from demcal.virtual.drum_surface import (
     MEASURED,
@@ -217,7 +217,7 @@ def _one_run(params: dict[str, float], seed: int, s: DrumSettings, backend: str,
     scales = draw_scales(n, s.particle, rng)
     lim = s.radius + 0.05
     drum = Drum(centre=np.zeros(3), axis=AXIS, radius=s.radius, width=s.width)
-    world = World(_materials(params), [ClumpGroup(template, "particle", n, scales=scales)],
+    world = World(material_table(params), [ClumpGroup(template, "particle", n, scales=scales)],
                   drum.walls(), domain_lo=(-lim, -0.5 * s.width - 0.05, -lim),
                   domain_hi=(lim, 0.5 * s.width + 0.05, lim))
     sim = Simulation([world], backend=backend, dt_fraction=s.dt_fraction,
