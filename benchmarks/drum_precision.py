@@ -18,6 +18,8 @@ Usage::
 
     python benchmarks/drum_precision.py --json benchmarks/results/drum_precision.json
     python benchmarks/drum_precision.py --fidelities quick --seeds 4 --pair-seeds 2
+    python benchmarks/drum_precision.py --fidelities standard --drum frames=100 \
+        --contrasts sliding_friction
 """
 
 from __future__ import annotations
@@ -42,11 +44,13 @@ CONTRASTS = {
 }
 
 
-def one_run(fidelity: str, overrides: dict[str, float], seed: int) -> dict:
-    """One drum run: its outcome, angles (deg), particles, CPU and wall time (s)."""
+def one_run(fidelity: str, overrides: dict[str, float], seed: int, drum: dict) -> dict:
+    """One drum run: its outcome, angles (deg), particles, CPU and wall time (s); ``drum``:
+    drum settings over the fidelity's."""
     params = preset_parameters("corn_stalk_dry", {**BASE, **overrides})
+    settings = drum_settings(fidelity, {"drum": drum})
     cpu, wall = time.process_time(), time.perf_counter()
-    (r,) = run_drum([params], settings=drum_settings(fidelity), seeds=[seed], backend="cpu")
+    (r,) = run_drum([params], settings=settings, seeds=[seed], backend="cpu")
     return {"fidelity": fidelity, "overrides": overrides, "seed": seed, "outcome": r.outcome,
             "reason": r.reason, "dynamic_aor_deg": r.dynamic_aor_deg,
             "com_angle_deg": r.com_angle_deg,
@@ -91,16 +95,21 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=6, help="replicates at the base point")
     ap.add_argument("--pair-seeds", type=int, default=3, help="replicates per contrast end")
     ap.add_argument("--json", type=Path, default=Path("drum_precision.json"))
+    ap.add_argument("--drum", nargs="*", default=[], metavar="NAME=VALUE",
+                    help="drum settings over the fidelity's, e.g. frames=100")
+    ap.add_argument("--contrasts", nargs="*", default=list(CONTRASTS), choices=list(CONTRASTS))
     args = ap.parse_args()
+    drum = {k: json.loads(v) for k, _, v in (a.partition("=") for a in args.drum)}
     runs: list[dict] = []
     meta = {"machine": platform.machine(), "python": platform.python_version(),
-            "base": {"preset": "corn_stalk_dry", **BASE}, "started": time.ctime()}
+            "base": {"preset": "corn_stalk_dry", **BASE}, "drum": drum,
+            "started": time.ctime()}
     for fid in args.fidelities:
         jobs = [({}, s) for s in range(args.seeds)]
-        for param, lo, hi in CONTRASTS.values():
+        for param, lo, hi in (CONTRASTS[c] for c in args.contrasts):
             jobs += [({param: v}, 100 + s) for v in (lo, hi) for s in range(args.pair_seeds)]
         for overrides, seed in jobs:
-            runs.append(one_run(fid, overrides, seed))
+            runs.append(one_run(fid, overrides, seed, drum))
             r = runs[-1]
             print(f"{fid} {overrides or 'base'} seed {seed}: {r['outcome']} "
                   f"{r['dynamic_aor_deg']} deg, {r['cpu_s']:.1f} CPU-s", flush=True)
