@@ -158,3 +158,24 @@ def test_simulate_drum_refuses_bad_settings_in_one_line_before_a_run(args, words
     assert res.exit_code == 2, res.output
     assert words in res.output and "Traceback" not in res.output
     assert len(res.output.strip().splitlines()) == 1, res.output
+
+
+def test_drum_summary_averages_only_when_every_run_measured():
+    from types import SimpleNamespace
+
+    from demcal.cli.simulate_drum_cmd import summarize_drum_runs
+
+    def run(outcome, angle, seed):
+        return SimpleNamespace(outcome=outcome, dynamic_aor_deg=angle, com_angle_deg=angle,
+                               surface_fluctuation_deg=2.0, froude=0.03, rpm=30.0,
+                               n_particles=90, time_step_s=1e-5, sim_time_s=1.0,
+                               wall_time_s=10.0, params={}, seed=seed)
+
+    both = summarize_drum_runs([run("rolling", 40.0, 0), run("slumping", 44.0, 1)])
+    assert both["outcome"] == "rolling" and both["dynamic_aor_deg"] == 42.0
+    assert both["dynamic_aor_seed_std_deg"] == pytest.approx(2.0 * 2**0.5)
+    assert both["wall_time_s"] == 20.0
+    mixed = summarize_drum_runs([run("slipping", None, 0), run("rolling", 40.0, 1),
+                                 run("slipping", None, 2)])
+    assert mixed["outcome"] == "slipping" and mixed["dynamic_aor_deg"] is None
+    assert mixed["n_measured"] == 1
