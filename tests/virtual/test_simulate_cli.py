@@ -119,3 +119,63 @@ def test_summary_of_several_piles_gives_the_seed_scatter_with_its_interval():
     lo, hi = out["aor_seed_std_ci95_deg"]
     assert lo == pytest.approx(2.0 * 0.5207, abs=2e-3)
     assert hi == pytest.approx(2.0 * 6.2847, abs=5e-3)
+
+
+#: the cheapest drum through the command line: few frames, a short steady-state window
+DRUM_SHORT = ["--preset", "corn_stalk_dry", "--backend", "cpu", "--test", "drum.frames=4",
+              "--test", "drum.steady_window=2"]
+
+
+def test_simulate_drum_json(tmp_path):
+    out = tmp_path / "drum.json"
+    res = CliRunner().invoke(app, ["simulate", "drum", *DRUM_SHORT, "--test", "drum.rpm=0",
+                                   "--seeds", "2", "--seed", "5", "--set",
+                                   "pp.static_friction=0.4", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    for key in ("outcome", "dynamic_aor_deg", "dynamic_aor_seed_std_deg", "com_angle_deg",
+                "surface_fluctuation_deg", "froude", "n_particles", "wall_time_s", "runs"):
+        assert key in data, key
+    assert data["outcome"] == "slumping" and data["froude"] == 0.0  # at rest nothing flows
+    assert [r["seed"] for r in data["runs"]] == [5, 6]
+    assert data["dynamic_aor_seed_std_deg"] >= 0.0 and abs(data["dynamic_aor_deg"]) < 15.0
+    assert data["params"]["pp.static_friction"] == 0.4
+    assert "rotating drum" in res.output and "dynamic angle" in res.output
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["--test", "drum.fill_fraction=1.2"], "drum.fill_fraction must be in (0, 1)"),
+    (["--test", "drum.rpm=400"], "the material centrifuges; the critical speed"),
+    (["--test", "drum.width=0.01"], "must be at least 2 particle sizes"),
+    (["--test", "drum.speed=3"], "drum.speed is not a drum setting"),
+    (["--fidelity", "paper"], "fidelity must be one of quick, standard"),
+    (["--seeds", "0"], "--seeds must be in 1..256"),
+    (["--set", "pp.static_friction=-1"], "pp.static_friction"),
+    (["--json", "/no/such/folder/d.json"], "--json"),
+])
+def test_simulate_drum_refuses_bad_settings_in_one_line_before_a_run(args, words):
+    res = CliRunner().invoke(app, ["simulate", "drum", "--backend", "cpu", *args])
+    assert res.exit_code == 2, res.output
+    assert words in res.output and "Traceback" not in res.output
+    assert len(res.output.strip().splitlines()) == 1, res.output
+
+
+def test_drum_summary_averages_only_when_every_run_measured():
+    from types import SimpleNamespace
+
+    from demcal.cli.simulate_drum_cmd import summarize_drum_runs
+
+    def run(outcome, angle, seed):
+        return SimpleNamespace(outcome=outcome, dynamic_aor_deg=angle, com_angle_deg=angle,
+                               surface_fluctuation_deg=2.0, froude=0.03, rpm=30.0,
+                               n_particles=90, time_step_s=1e-5, sim_time_s=1.0,
+                               wall_time_s=10.0, params={}, seed=seed)
+
+    both = summarize_drum_runs([run("rolling", 40.0, 0), run("slumping", 44.0, 1)])
+    assert both["outcome"] == "rolling" and both["dynamic_aor_deg"] == 42.0
+    assert both["dynamic_aor_seed_std_deg"] == pytest.approx(2.0 * 2**0.5)
+    assert both["wall_time_s"] == 20.0
+    mixed = summarize_drum_runs([run("slipping", None, 0), run("rolling", 40.0, 1),
+                                 run("slipping", None, 2)])
+    assert mixed["outcome"] == "slipping" and mixed["dynamic_aor_deg"] is None
+    assert mixed["n_measured"] == 1

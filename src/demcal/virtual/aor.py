@@ -52,7 +52,7 @@ from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 from demcal.virtual.settle import settle_state
 
-__all__ = ["RESPONSES", "AoRResult", "run_aor"]
+__all__ = ["RESPONSES", "AoRResult", "material_table", "run_aor"]
 
 #: The responses the lift test reports for a pile: the angle (deg), the pile's height and base
 #: diameter (m), the fill's loose bulk density (kg/m^3), the mass the lifted cylinder retained
@@ -117,7 +117,10 @@ class AoRResult:
         return finite_responses({name: getattr(self, name) for name in RESPONSES})
 
 
-def _materials(p: Mapping[str, float]) -> MaterialTable:
+def material_table(p: Mapping[str, float]) -> MaterialTable:
+    """The engine's materials (``particle``, ``wall``) and their pairs from a parameter set
+    (the names of :data:`demcal.virtual.parameters.PARAMETERS`, SI units); the lift test's
+    and the drum's."""
     particle = Material("particle", p["particle.density"], p["particle.shear_modulus"],
                         p["particle.poisson"])
     wall = Material("wall", p["wall.density"], p["wall.shear_modulus"], p["wall.poisson"])
@@ -249,7 +252,7 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
                      material="wall", name="cylinder"),
         ]
         worlds.append(World(
-            _materials(params), [ClumpGroup(template, "particle", cap, scales=scales)], walls,
+            material_table(params), [ClumpGroup(template, "particle", cap, scales=scales)], walls,
             domain_lo=(-half - 0.02, -half - 0.02, -0.05), domain_hi=(half + 0.02, half + 0.02,
                                                                       z_top)))
     sim = Simulation(worlds, backend=backend, dt_fraction=config.dt_fraction,

@@ -1,0 +1,163 @@
+"""``demcal simulate drum``: the rotating-drum test (with replicates) on demcal's engine."""
+
+from __future__ import annotations
+
+import collections
+import functools
+import inspect
+import json
+import math
+import typing
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from demcal.cli._common import EXIT_FAILURE, check_output_file, cli_errors, console, styled
+from demcal.cli._outputs import refuse_overwrites
+from demcal.cli.simulate_cmd import parse_test_overrides, simulate_app
+from demcal.errors import InputError
+from demcal.limits import MAX_REPLICATES, MAX_SEED
+
+__all__ = ["summarize_drum_runs"]
+
+
+def summarize_drum_runs(results: list) -> dict:
+    """Aggregate replicate drum runs: the mean of the measured runs' angles (``rolling`` or
+    ``slumping``), their seed-to-seed std, the mean centre-of-mass angle and fluctuation.
+
+    The outcome is ``rolling``/``slumping`` when every run measured an angle (the more
+    frequent of the two), else the most frequent outcome (a tie: the first run's); the
+    angles are None unless every run measured one.
+    """
+    from demcal.virtual.drum_surface import MEASURED
+
+    outcomes = [r.outcome for r in results]
+    measured = [r for r in results if r.outcome in MEASURED]
+    outcome = collections.Counter(outcomes).most_common(1)[0][0]
+    out: dict = {"outcome": outcome, "outcomes": outcomes, "n_runs": len(results),
+                 "n_measured": len(measured), "dynamic_aor_deg": None,
+                 "dynamic_aor_seed_std_deg": None, "dynamic_aor_sem_deg": None,
+                 "com_angle_deg": None, "surface_fluctuation_deg": None}
+    if measured and len(measured) == len(results):
+        angles = np.array([r.dynamic_aor_deg for r in measured])
+        std = float(angles.std(ddof=1)) if len(angles) > 1 else None
+        out.update(
+            dynamic_aor_deg=float(angles.mean()), dynamic_aor_seed_std_deg=std,
+            dynamic_aor_sem_deg=None if std is None else std / math.sqrt(len(angles)),
+            com_angle_deg=float(np.mean([r.com_angle_deg for r in measured])),
+            surface_fluctuation_deg=float(np.mean([r.surface_fluctuation_deg
+                                                   for r in measured])))
+    first = results[0]
+    out.update(froude=first.froude, rpm=first.rpm,
+               n_particles=int(np.mean([r.n_particles for r in results])),
+               time_step_s=first.time_step_s,
+               sim_time_s=float(np.mean([r.sim_time_s for r in results])),
+               wall_time_s=float(sum(r.wall_time_s for r in results)), params=first.params)
+    return out
+
+
+def _print(results: list, summary: dict, title: str) -> None:
+    table = Table(title=title)
+    for col in ("seed", "outcome", "angle (deg)", "CoM (deg)", "fluct. (deg)", "particles",
+                "sim time (s)", "wall (s)"):
+        table.add_column(col)
+
+    def f(x: float | None) -> str:
+        return "-" if x is None else f"{x:.2f}"
+
+    for r in results:
+        table.add_row(str(r.seed), r.outcome, f(r.dynamic_aor_deg), f(r.com_angle_deg),
+                      f(r.surface_fluctuation_deg), str(r.n_particles), f"{r.sim_time_s:.3f}",
+                      f"{r.wall_time_s:.1f}")
+    console.print(table)
+    if summary["dynamic_aor_deg"] is None:
+        reasons = sorted({r.reason for r in results if r.reason})
+        console.print(styled("outcome: ", (str(summary["outcome"]), "bold"),
+                             " (no angle). " + "; ".join(reasons)))
+        return
+    spread = "" if summary["dynamic_aor_sem_deg"] is None else (
+        f" +/- {summary['dynamic_aor_sem_deg']:.2f} (mean of {summary['n_runs']} runs; "
+        f"seed-to-seed std {summary['dynamic_aor_seed_std_deg']:.2f})")
+    console.print(f"dynamic angle = {summary['dynamic_aor_deg']:.2f} deg{spread}, centre of "
+                  f"mass {summary['com_angle_deg']:.2f} deg, surface fluctuation "
+                  f"{summary['surface_fluctuation_deg']:.2f} deg, Froude "
+                  f"{summary['froude']:.3g}", highlight=False)
+
+
+@dataclass(frozen=True)
+class DrumOptions:
+    """The options of ``demcal simulate drum``, typed: typer reads them as the command's
+    parameters (:func:`_with_options`), the command receives them as one object."""
+
+    preset: Annotated[str, typer.Option(
+        help="Material preset (corn_stalk, corn_stalk_dry).")] = "corn_stalk"
+    fidelity: Annotated[str, typer.Option(
+        help="Test fidelity: quick (60 mm drum, ~90 stalks) or standard (90 mm, ~270).")] \
+        = "quick"
+    set_: Annotated[list[str] | None, typer.Option(
+        "--set", help="Override a parameter: NAME=VALUE (SI units), repeatable.")] = None
+    test: Annotated[list[str] | None, typer.Option(
+        "--test", help="Override a drum setting: drum.NAME=VALUE, e.g. drum.rpm=15, "
+        "drum.fill_fraction=0.3, drum.diameter=0.08 (SI units), or particle.NAME=VALUE, "
+        "rolling_model=C; repeatable.")] = None
+    seeds: Annotated[int, typer.Option(
+        help="Replicates with seeds SEED..SEED+N-1, run one after the other.")] = 1
+    seed0: Annotated[int, typer.Option("--seed", help="First seed.")] = 0
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON.")] \
+        = None
+    backend: Annotated[str, typer.Option(help="Engine backend: auto, cpu or cuda.")] = "auto"
+
+
+def _with_options(options: type) -> Callable[[Callable[[Any], None]], Callable[..., None]]:
+    """A command taking one ``options`` object, shown to typer as the dataclass' fields (a
+    command's option list is a table, not a function's complexity: it is read as one)."""
+    hints = typing.get_type_hints(options, include_extras=True)
+
+    def wrap(func: Callable[[Any], None]) -> Callable[..., None]:
+        @functools.wraps(func)
+        def command(**kwargs: Any) -> None:
+            func(options(**kwargs))
+
+        command.__signature__ = inspect.Signature([  # type: ignore[attr-defined]
+            inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default,
+                              annotation=hints[f.name]) for f in fields(options)])
+        del command.__wrapped__  # typer must read the signature above, not func's
+        return command
+    return wrap
+
+
+@simulate_app.command("drum")
+@cli_errors
+@_with_options(DrumOptions)
+def simulate_drum(o: DrumOptions) -> None:
+    """Run the rotating-drum test and report its dynamic angle of repose (degrees)."""
+    from demcal.virtual.drum import run_drum
+    from demcal.virtual.drum_settings import drum_settings
+    from demcal.virtual.parameters import parse_assignments
+    from demcal.virtual.presets import preset_parameters
+
+    if not 1 <= o.seeds <= MAX_REPLICATES:
+        raise InputError(f"--seeds must be in 1..{MAX_REPLICATES}; got {o.seeds}")
+    if not 0 <= o.seed0 <= MAX_SEED - o.seeds + 1:
+        raise InputError(f"--seed must be in 0..{MAX_SEED - o.seeds + 1}; got {o.seed0}")
+    check_output_file(o.json_out, "--json")
+    refuse_overwrites({"--json": o.json_out}, [])
+    params = preset_parameters(o.preset, parse_assignments(o.set_ or []))
+    # every drum setting is checked here, before the engine is built
+    settings = drum_settings(o.fidelity, parse_test_overrides(o.test or []))
+    with console.status(f"drum test, {o.seeds} run(s)..."):
+        results = run_drum([params] * o.seeds, settings=settings,
+                           seeds=[o.seed0 + k for k in range(o.seeds)], backend=o.backend)
+    summary = summarize_drum_runs(results)
+    summary.update(runs=[r.to_dict() for r in results], fidelity=o.fidelity, preset=o.preset,
+                   engine="demcal")
+    if o.json_out is not None:  # first: the console may be gone (a closed pipe)
+        o.json_out.write_text(json.dumps(summary, indent=1, default=float))
+    _print(results, summary, f"rotating drum ({o.preset}, {o.fidelity}, {settings.rpm:g} rpm)")
+    if any(r.outcome == "unstable" for r in results):
+        raise typer.Exit(EXIT_FAILURE)

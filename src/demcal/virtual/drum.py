@@ -1,0 +1,420 @@
+"""The rotating-drum test: the dynamic angle of a bed in a turning drum, as a camera sees it.
+
+Each run goes through the test's phases: **fill** (the preset's particles placed at random
+in the drum as a loose packing and dropped from rest), **settle**, **spin-up** (the speed ramps
+from rest to its set rpm), **steady** (frames are taken until the running mean of the angle
+no longer drifts) and **frames** (the set number of frames averaged). The drum's axis is
+horizontal (the y axis), gravity along -z; the drum turns about +y, so its wall carries the
+bed up on the -x side. Each frame is the view through the end wall
+(:mod:`demcal.virtual.drum_surface`): the free surface's angle, the centre of mass' angle, the
+flowing and airborne fractions. Every run ends in one typed
+:class:`~demcal.virtual.drum_surface.DrumOutcome`.
+
+One run is one engine (:class:`~demcal.dem.simulation.Simulation`) of one world, run alone:
+a run's result is its seed's and its parameters', whatever else runs beside it.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from demcal.dem.simulation import Simulation
+from demcal.dem.state import ClumpGroup, World
+from demcal.dem.walls import Drum
+from demcal.errors import InputError
+from demcal.limits import check_time_step
+from demcal.results import RunResult, finite_responses
+from demcal.virtual.aor import material_table
+from demcal.virtual.drum_settings import DrumSettings
+from demcal.virtual.drum_surface import (
+    MEASURED,
+    DrumOutcome,
+    FrameStats,
+    classify_frames,
+    com_angle,
+    surface_line,
+    wall_coverage,
+)
+from demcal.virtual.factory import SphereGrid, draw_scales, make_template, place_in_cylinder
+from demcal.virtual.parameters import PARAMETERS, check_parameters
+from demcal.virtual.settle import settle_state
+
+__all__ = ["RESPONSES", "DrumResult", "run_drum"]
+
+#: The responses the drum test reports for a rolling or slumping bed: the dynamic angle, the
+#: centre of mass' angle and the surface's fluctuation over frames (deg); DrumResult fields
+#: without the ``drum_`` prefix.
+RESPONSES = ("drum_dynamic_aor_deg", "drum_com_angle_deg", "drum_surface_fluctuation_deg")
+
+#: progress callback: (run index, phase name, simulated time s, wall time s)
+Progress = Callable[[int, str, float, float], None]
+
+#: the drum turns about +y: its bottom moves towards -x, so the bed rises on the -x side
+AXIS = np.array([0.0, 1.0, 0.0])
+#: a quarter turn about x: the placement frame's axis (z) onto the drum's (y)
+_Q_FIX = np.array([math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0])
+#: rounds of the fill: what did not fit falls for FILL_FALL_S, then is tried again
+FILL_ROUNDS = 12
+FILL_FALL_S = 0.04
+#: the settle criterion of the fill (the lift test's defaults), m/s
+SETTLE_RMS, SETTLE_MAX = 0.005, 0.03
+
+
+@dataclass
+class DrumResult:
+    """What one rotating-drum test measured (SI units, angles in degrees).
+
+    ``dynamic_aor_deg`` (the mean over the steady frames of the free surface's angle),
+    ``com_angle_deg`` (the mean centre-of-mass angle from the vertical), ``surface_fluctuation_
+    deg`` (the standard deviation of the frames' angles) are None unless the outcome is
+    ``rolling`` or ``slumping``.
+    """
+
+    outcome: str
+    reason: str | None
+    dynamic_aor_deg: float | None
+    com_angle_deg: float | None
+    surface_fluctuation_deg: float | None
+    froude: float
+    rpm: float
+    n_particles: int
+    seed: int
+    params: dict[str, float]
+    frames_deg: list[float] = field(default_factory=list)
+    com_frames_deg: list[float] = field(default_factory=list)
+    flowing_fraction: float | None = None
+    airborne_fraction: float | None = None
+    carried_fraction: float | None = None
+    settled: bool = False
+    time_step_s: float = 0.0
+    sim_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    phase_times_s: dict[str, float] = field(default_factory=dict)
+    engine: str = "demcal"
+
+    @property
+    def angle_com_difference_deg(self) -> float | None:
+        """The dynamic angle less the centre-of-mass angle, deg (None without both)."""
+        if self.dynamic_aor_deg is None or self.com_angle_deg is None:
+            return None
+        return self.dynamic_aor_deg - self.com_angle_deg
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (with ``angle_com_difference_deg``)."""
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        out["angle_com_difference_deg"] = self.angle_com_difference_deg
+        return out
+
+    def responses(self) -> dict[str, float]:
+        """The measured responses by name (:data:`RESPONSES`); none unless the outcome is
+        ``rolling`` or ``slumping``."""
+        if self.outcome not in MEASURED:
+            return {}
+        return finite_responses({name: getattr(self, name.removeprefix("drum_"))
+                                 for name in RESPONSES})
+
+    def run_result(self, key: str) -> RunResult:
+        """This run as the study's typed :class:`~demcal.results.RunResult` under ``key``."""
+        return RunResult(key, self.outcome, self.responses(), self.reason, self.wall_time_s,
+                         self.to_dict())
+
+
+@dataclass
+class _Run:
+    """One run's engine and its record."""
+
+    sim: Simulation
+    settings: DrumSettings
+    t0: float  #: wall clock at the start, s
+    phase_times: dict[str, float] = field(default_factory=dict)
+    angles: list[float] = field(default_factory=list)
+    coms: list[float] = field(default_factory=list)
+    flowing: list[float] = field(default_factory=list)
+    airborne: list[float] = field(default_factory=list)
+    coverage: list[float] = field(default_factory=list)
+    carried: list[float] = field(default_factory=list)
+
+    @property
+    def t(self) -> float:
+        return float(self.sim.time[0])
+
+
+class _Stop(Exception):
+    """A run ends before its frames: its outcome and reason."""
+
+    def __init__(self, outcome: DrumOutcome, reason: str):
+        super().__init__(reason)
+        self.outcome, self.reason = outcome, reason
+
+
+def run_drum(parameter_sets: Sequence[Mapping[str, float]], *, settings: DrumSettings,
+             seeds: Sequence[int], backend: str = "auto",
+             progress: Progress | None = None) -> list[DrumResult]:
+    """Run rotating-drum tests, one after the other.
+
+    Parameters
+    ----------
+    parameter_sets : sequence of mapping
+        Complete parameter sets (every name of :data:`demcal.virtual.parameters.PARAMETERS`,
+        SI units), one per run; see :func:`demcal.virtual.presets.preset_parameters`.
+    settings : DrumSettings
+        The test (:func:`demcal.virtual.drum_settings.drum_settings`).
+    seeds : sequence of int
+        One seed per run (particle sizes, orientations and positions).
+    backend : {"auto", "cpu", "cuda"}
+        Engine backend.
+    progress : callable, optional
+        Called as ``progress(run, phase, sim_time_s, wall_time_s)`` at every frame.
+
+    Returns
+    -------
+    list of DrumResult
+        One per run, in order.
+    """
+    if len(parameter_sets) != len(seeds):
+        raise InputError(f"need one seed per parameter set; got {len(seeds)} seeds for "
+                         f"{len(parameter_sets)} sets")
+    checked = []
+    for i, pset in enumerate(parameter_sets):
+        params = check_parameters(dict(pset))
+        missing = set(PARAMETERS) - set(params)
+        if missing:
+            raise InputError(f"parameter set {i} lacks {', '.join(sorted(missing))}")
+        checked.append(params)
+    out = []
+    for i, (params, seed) in enumerate(zip(checked, seeds, strict=True)):
+        def report(phase: str, t: float, wall: float, i=i) -> None:
+            if progress is not None:
+                progress(i, phase, t, wall)
+        out.append(_one_run(params, int(seed), settings, backend, report))
+    return out
+
+
+def particle_count(settings: DrumSettings) -> int:
+    """The particles of a test: ``count``, or the fill's bed volume (``fill_fraction`` of the
+    drum's) at ``bed_solid_fraction`` over the mean particle volume (at least 10)."""
+    if settings.count is not None:
+        return settings.count
+    p = settings.particle
+    lo, hi = p.size_min, p.size_max
+    mean_s3 = (hi**4 - lo**4) / (4 * (hi - lo)) if hi > lo else lo**3
+    volume = math.pi * settings.radius**2 * settings.width
+    solid = settings.fill_fraction * volume * settings.bed_solid_fraction
+    return max(10, round(solid / (make_template(p).volume * mean_s3)))
+
+
+def _one_run(params: dict[str, float], seed: int, s: DrumSettings, backend: str,
+             report: Callable[[str, float, float], None]) -> DrumResult:
+    template = make_template(s.particle)
+    n = particle_count(s)
+    rng = np.random.default_rng(seed)
+    scales = draw_scales(n, s.particle, rng)
+    lim = s.radius + 0.05
+    drum = Drum(centre=np.zeros(3), axis=AXIS, radius=s.radius, width=s.width)
+    world = World(material_table(params), [ClumpGroup(template, "particle", n, scales=scales)],
+                  drum.walls(), domain_lo=(-lim, -0.5 * s.width - 0.05, -lim),
+                  domain_hi=(lim, 0.5 * s.width + 0.05, lim))
+    sim = Simulation([world], backend=backend, dt_fraction=s.dt_fraction,
+                     rolling_friction=s.rolling_model, raise_on_unstable=False)
+    try:
+        check_time_step(float(sim.dt[0]))
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    run = _Run(sim, s, time.perf_counter())
+    try:
+        _fill(run, template, scales, rng)
+        _settle(run, report)
+        _spin_up(run, drum, report)
+        _steady(run, report)
+        _frames(run, report)
+    except _Stop as stop:
+        return _result(run, (params, seed), stop.outcome, stop.reason)
+    stats = FrameStats(np.array(run.flowing), np.array(run.airborne), np.array(run.coverage),
+                       np.array(run.carried))
+    outcome, reason = classify_frames(stats, s.fill_fraction)
+    return _result(run, (params, seed), outcome, reason)
+
+
+def _to_world(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Placement frame (the drum's axis along z) to the world's (its axis along y): a
+    quarter turn about x, ``(x, y, z) -> (x, -z, y)``; orientations turned with it."""
+    world = np.column_stack([pos[:, 0], -pos[:, 2], pos[:, 1]])
+    w0, x0 = _Q_FIX[0], _Q_FIX[1]
+    w, x, y, z = quat.T
+    # the Hamilton product q_fix * q for q_fix = (w0, x0, 0, 0)
+    turned = np.column_stack([w0 * w - x0 * x, w0 * x + x0 * w, w0 * y - x0 * z,
+                              w0 * z + x0 * y])
+    return world, turned
+
+
+def _fill(run: _Run, template, scales: np.ndarray, rng: np.random.Generator) -> None:
+    """Place every particle at random in the drum without overlap; what does not fit falls
+    with the rest for a moment and is tried again above it (a full drum holds the loose
+    fill only once part of it has fallen)."""
+    s, sim = run.settings, run.sim
+    margin = float(scales.max() * template.bounding_radius)
+    todo = np.arange(len(scales))
+    for _ in range(FILL_ROUNDS):
+        centres, radii, _ = sim.spheres(0)
+        grid = SphereGrid(2.0 * float(template.radii.max() * scales.max()))
+        # the world's spheres in the placement frame: (x, y, z) -> (x, z, -y)
+        grid.add(np.column_stack([centres[:, 0], centres[:, 2], -centres[:, 1]]), radii)
+        idx, pos, quat = place_in_cylinder(template, scales[todo], radius=s.radius,
+                                           z_low=-0.5 * s.width + margin,
+                                           z_high=0.5 * s.width - margin, rng=rng, grid=grid,
+                                           attempts=30)
+        if len(idx):
+            world, turned = _to_world(pos, quat)
+            sim.place_clumps(0, todo[idx], world, turned)
+            todo = np.delete(todo, idx)
+        if len(todo) == 0:
+            return
+        _advance(run, FILL_FALL_S)
+    raise InputError(f"could not place {len(todo)} of {len(scales)} particles in the drum; "
+                     "lower drum.fill_fraction or drum.bed_solid_fraction")
+
+
+def _advance(run: _Run, duration: float) -> None:
+    """Advance by ``duration`` (s, whole steps); a numerical failure stops the run."""
+    sim = run.sim
+    sim.advance(max(1, round(duration / float(sim.dt[0]))))
+    if sim.world_errors[0] is not None:
+        raise _Stop(DrumOutcome.UNSTABLE, sim.world_errors[0])
+
+
+def _settle(run: _Run, report) -> None:
+    s, sim = run.settings, run.sim
+    tol = 0.05 * s.particle.diameter * s.particle.size_min
+    start = run.t
+
+    def spheres():
+        centres, radii, sphere_clump = sim.spheres(0)
+        return np.unique(sphere_clump), centres, radii, sphere_clump
+
+    while True:
+        _advance(run, s.frame_interval_s)
+        report("settle", run.t, time.perf_counter() - run.t0)
+        state = settle_state(sim.clump_velocities(0), spheres, rms_limit=SETTLE_RMS,
+                             max_limit=SETTLE_MAX, tolerance=tol)
+        if state.settled:
+            run.phase_times["settled"] = run.t
+            return
+        if run.t - start > s.settle_max_s:
+            raise _Stop(DrumOutcome.UNSETTLED,
+                        f"the fill did not settle within {s.settle_max_s} s (rms speed "
+                        f"{state.rms_speed:.3g} m/s, max {state.max_speed:.3g} m/s)")
+
+
+def _spin_up(run: _Run, drum: Drum, report) -> None:
+    """Ramp the speed linearly to ``rpm`` over ``spin_up_s`` in 20 steps (a sudden start
+    would throw the bed against the wall)."""
+    s = run.settings
+    ramp = 20 if s.spin_up_s > 0 else 1
+    for k in range(1, ramp + 1):
+        drum.set_speed(run.sim, 0, 0, s.omega * k / ramp)
+        if s.spin_up_s > 0:
+            _advance(run, s.spin_up_s / ramp)
+    report("spin-up", run.t, time.perf_counter() - run.t0)
+    run.phase_times["spun_up"] = run.t
+
+
+def _steady(run: _Run, report) -> None:
+    """Take frames until the running mean of the angle over the last ``steady_window``
+    frames is within ``steady_tolerance_deg`` of the one over the window before."""
+    s = run.settings
+    k = s.steady_window
+    start = run.t
+    angles: list[float] = []
+    while True:
+        _advance(run, s.frame_interval_s)
+        report("steady", run.t, time.perf_counter() - run.t0)
+        line = _frame_angle(run)
+        if line is not None:
+            angles.append(line)
+        if len(angles) >= 2 * k:
+            drift = abs(np.mean(angles[-k:]) - np.mean(angles[-2 * k:-k]))
+            if drift < s.steady_tolerance_deg:
+                run.phase_times["steady"] = run.t
+                return
+        if run.t - start > s.steady_max_s:
+            tail = "" if len(angles) < 2 * k else f" (its running mean still drifts by " \
+                f"{drift:.2f} deg over {k} frames)"
+            raise _Stop(DrumOutcome.UNSETTLED,
+                        f"the angle did not become steady within {s.steady_max_s} s" + tail)
+
+
+def _view(run: _Run) -> tuple[np.ndarray, np.ndarray]:
+    """The spheres in the side view: ``(u, v)`` centres (u towards the rising side, -x),
+    m, and radii, m."""
+    centres, radii, _ = run.sim.spheres(0)
+    return np.column_stack([-centres[:, 0], centres[:, 2]]), radii
+
+
+def _frame_angle(run: _Run) -> float | None:
+    uv, radii = _view(run)
+    s = run.settings
+    line = surface_line(uv, radii, bin_width=s.bin_width * s.particle_diameter,
+                        central_fraction=s.central_fraction)
+    return None if line is None else line.angle_deg
+
+
+def _frames(run: _Run, report) -> None:
+    """The averaged frames: each one's angle, centre-of-mass angle, flowing and airborne
+    fractions and wall coverage. A frame without a surface is skipped; fewer than half
+    measured ends the run as ``unsettled``."""
+    s, sim = run.settings, run.sim
+    for _ in range(s.frames):
+        _advance(run, s.frame_interval_s)
+        report("frames", run.t, time.perf_counter() - run.t0)
+        uv, radii = _view(run)
+        line = surface_line(uv, radii, bin_width=s.bin_width * s.particle_diameter,
+                            central_fraction=s.central_fraction)
+        pos, vel = sim.clump_positions(0), sim.clump_velocities(0)
+        cuv = np.column_stack([-pos[:, 0], pos[:, 2]])
+        # off the solid-body rotation omega x r (omega along +y): the flowing layer
+        off = np.linalg.norm(vel - np.cross(s.omega * AXIS, pos), axis=1) \
+            > max(0.5 * s.omega * s.radius, SETTLE_MAX)
+        run.flowing.append(float(np.mean(off)))
+        against = np.hypot(cuv[:, 0], cuv[:, 1]) >= s.radius - s.particle_size
+        run.carried.append(float(np.mean(~off[against])) if against.any() else math.nan)
+        run.coverage.append(wall_coverage(cuv, radius=s.radius, reach=s.particle_size))
+        if line is None:
+            continue
+        run.angles.append(line.angle_deg)
+        com = com_angle(cuv, sim.clump_masses(0))
+        if com is not None:
+            run.coms.append(com)
+        above = cuv[:, 1] - (line.slope * cuv[:, 0] + line.intercept)
+        run.airborne.append(float(np.mean(above > s.particle_size)))
+    if 2 * len(run.angles) < s.frames:
+        raise _Stop(DrumOutcome.UNSETTLED, f"no free surface found in {s.frames - len(run.angles)}"
+                    f" of {s.frames} frames")
+
+
+def _result(run: _Run, what: tuple[dict[str, float], int], outcome: DrumOutcome,
+            reason: str | None) -> DrumResult:
+    s, sim = run.settings, run.sim
+    params, seed = what
+    measured = outcome in MEASURED
+    angles = np.array(run.angles)
+    return DrumResult(
+        outcome=outcome.value, reason=reason,
+        dynamic_aor_deg=float(angles.mean()) if measured else None,
+        com_angle_deg=float(np.mean(run.coms)) if measured and run.coms else None,
+        surface_fluctuation_deg=float(angles.std(ddof=1)) if measured else None,
+        froude=s.froude, rpm=s.rpm, n_particles=sim.n_active(0), seed=seed,
+        params=dict(params), frames_deg=[float(a) for a in angles],
+        com_frames_deg=[float(a) for a in run.coms],
+        flowing_fraction=float(np.mean(run.flowing)) if run.flowing else None,
+        airborne_fraction=float(np.mean(run.airborne)) if run.airborne else None,
+        carried_fraction=float(np.nanmean(run.carried)) if np.isfinite(run.carried).any()
+        else None,
+        settled="settled" in run.phase_times, time_step_s=float(sim.dt[0]),
+        sim_time_s=run.t, wall_time_s=time.perf_counter() - run.t0,
+        phase_times_s=dict(run.phase_times))
