@@ -52,6 +52,24 @@ def test_def(study: Study, folder: Path | None = None) -> TestDef:
                    lammps=ex.lammps.model_dump(mode="json") if ex.engine == "lammps" else {})
 
 
+def beside_tests(study: Study, test: TestDef) -> dict[str, TestDef]:
+    """The tests run beside the study's (``[tests.drum]``), on the lift test's particles and
+    rolling model where the study's test is the engine's lift test (one material, two
+    tests)."""
+    drum = study.tests.drum
+    if drum is None:
+        return {}
+    overrides: dict[str, Any] = {"drum": dict(drum.drum)}
+    if test.kind == "aor":
+        from demcal.virtual import fidelity_config
+
+        config = fidelity_config(test.fidelity, **test.overrides)
+        overrides.update(particle=config.particle.model_dump(mode="json"),
+                         rolling_model=config.rolling_model)
+    return {"drum": TestDef(kind="drum", fidelity=drum.fidelity, overrides=overrides,
+                            backend=study.backend)}
+
+
 def engine_meta(study: Study) -> dict[str, Any]:
     """The store's meta ``"engine"``: which engine produced the study's runs."""
     engine = study.engine_data()
@@ -165,7 +183,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
                     progress=progress, external=external,
                     figures_dir=folder / "figures" / "runs",
                     stage_tests={name: replace(test, fidelity=fid)
-                                 for name, fid in study.stage_fidelities().items()})
+                                 for name, fid in study.stage_fidelities().items()},
+                    beside=beside_tests(study, test))
     own_aor = next((r for r in study.responses if r.name == AOR), None)
     specs = [aor_spec(own_aor, target), *study.other_responses()]
     labs = {s.name: lab for s in specs if (lab := s.lab(path.parent)) is not None}

@@ -15,6 +15,7 @@ and the next call re-runs exactly those runs.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -26,12 +27,20 @@ from demcal.execute.local import run_local
 from demcal.execute.tasks import RunTask, TestDef
 from demcal.execute.template_engine import ENGINE_FAILURES
 from demcal.results import RunResult
-from demcal.store import RunRecord, RunStore, params_hash, run_key
+from demcal.store import STAGES, RunRecord, RunStore, params_hash, run_key
 
 __all__ = ["ENGINE_FAILURES", "RETRY_DT_SCALE", "RETRY_OUTCOMES", "ExternalPending", "Point",
            "Runner"]
 
 RETRY_OUTCOMES = ("unstable", "unsettled")
+#: what the drum retries: its ``unsettled`` (no steady flow in its time) is a result, not a
+#: numerical failure a smaller time step would mend
+DRUM_RETRY_OUTCOMES = ("unstable",)
+
+
+def retry_outcomes(test: TestDef) -> tuple[str, ...]:
+    """The outcomes of ``test`` that are run again once at a smaller time step."""
+    return DRUM_RETRY_OUTCOMES if test.kind == "drum" else RETRY_OUTCOMES
 RETRY_DT_SCALE = 0.5
 
 
@@ -42,6 +51,23 @@ class ExternalPending(Exception):
         super().__init__(f"{stage}: {len(points)} runs to do externally")
         self.stage = stage
         self.points = points
+
+
+#: Stages that run the study's test alone: range finding looks for the angle's pile region.
+NOTHING_BESIDE = frozenset({"rangefind"})
+
+
+def beside_stage(stage: str, name: str) -> str:
+    """The stage name under which the runs of test ``name`` beside ``stage``'s are stored."""
+    return f"{stage}+{name}"
+
+
+def joined(main: RunRecord, beside: RunRecord) -> RunRecord:
+    """``main`` with the responses of the run ``beside`` it (a done one) added; the main
+    test's own responses win a name both report."""
+    if beside.status != "done" or not beside.responses:
+        return main
+    return dataclasses.replace(main, responses={**beside.responses, **main.responses})
 
 
 @dataclass(frozen=True)
@@ -83,16 +109,28 @@ class Runner:
     figures_dir : path, optional
         Engine runs that form a pile save a side view with the fitted flanks there
         (``<stage>_<hash>.png``, in the run's ``artefacts["pile_png"]``).
+    beside : dict of str -> TestDef, optional
+        Tests run beside ``test`` on every point of every stage but range finding (the drum:
+        ``{"drum": TestDef(kind="drum", ...)}``). Each is stored as its own run under the
+        stage ``<stage>+<name>`` (so a failed drum run loses no lift run, and each resumes
+        on its own); :meth:`run` returns the main test's runs with the responses of the
+        runs beside them joined in.
     """
 
     def __init__(self, store: RunStore, test: TestDef, *, workers: int = 1, dask: Any = None,
                  chunk: int = 1, progress: Callable[[str, int, int], None] | None = None,
                  external: bool = False, figures_dir: str | Path | None = None,
-                 stage_tests: dict[str, TestDef] | None = None, spread: bool = False) -> None:
+                 stage_tests: dict[str, TestDef] | None = None, spread: bool = False,
+                 beside: dict[str, TestDef] | None = None) -> None:
         self.store = store
         self.test = test
         self.test_hash = params_hash(test.identity())
+        self.beside = dict(beside or {})
         self.stage_tests = dict(stage_tests or {})
+        for stage in STAGES:
+            if stage not in NOTHING_BESIDE:
+                self.stage_tests.update({beside_stage(stage, name): t
+                                         for name, t in self.beside.items()})
         self._stage_hashes = {s: params_hash(t.identity()) for s, t in self.stage_tests.items()}
         self.workers = workers
         self.dask = dask
@@ -132,7 +170,7 @@ class Runner:
                started: float) -> RunRecord:
         """Store one run's result (as from :func:`demcal.execute.tasks.run_chunk`)."""
         outcome = res.outcome
-        failed = outcome in RETRY_OUTCOMES or outcome in ENGINE_FAILURES
+        failed = outcome in retry_outcomes(self.test_for(stage)) or outcome in ENGINE_FAILURES
         reason = res.reason
         if failed and reason is None:
             reason = f"outcome {outcome}"
@@ -194,7 +232,7 @@ class Runner:
             rec = self.record(stage, p, res, attempts, started)
             self.executed += 1
             count[0] += 1
-            if rec.outcome in RETRY_OUTCOMES and attempts < 2:
+            if rec.outcome in retry_outcomes(test) and attempts < 2:
                 retry.append(p)
             if self.progress is not None:
                 self.progress(stage, count[0], total)
@@ -224,11 +262,23 @@ class Runner:
         return [tasks[i:i + size] for i in range(0, len(tasks), size)], []
 
     def run(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:
-        """Make sure every point has a stored run; return the runs in ``points`` order.
+        """Make sure every point has a stored run of the test and of every test beside it;
+        return the test's runs in ``points`` order, each with the responses of the runs
+        beside it joined in (a failed run beside adds none).
 
         In external mode nothing runs: :class:`ExternalPending` is raised with the missing
         points (when every run is stored, the runs are returned as usual).
         """
+        out = self._run_test(stage, points)
+        if stage in NOTHING_BESIDE:
+            return out
+        for name in self.beside:
+            runs = self._run_test(beside_stage(stage, name), points)
+            out = [joined(r, b) for r, b in zip(out, runs, strict=True)]
+        return out
+
+    def _run_test(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:
+        """:meth:`run` for one test (``stage`` names it: ``<stage>+<name>`` for one beside)."""
         todo = self.missing(stage, points)
         if todo and self.external:
             raise ExternalPending(stage, todo)

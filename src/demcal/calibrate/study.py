@@ -166,6 +166,38 @@ class TestSpec(_M):
         return self
 
 
+class DrumTestSpec(_M):
+    """The rotating-drum test run beside the lift test (:mod:`demcal.virtual.drum`).
+
+    Every run of every stage but range finding runs the drum too, on the same parameters
+    and seed, with the lift test's particles and rolling model; its responses
+    (``drum_dynamic_aor_deg``, ...) join the run's. Each test's run is stored on its own, so
+    a failed drum run loses no lift run.
+    """
+
+    fidelity: Literal["quick", "standard"] = "quick"
+    drum: dict[str, Any] = Field(default_factory=dict, description="drum settings over the "
+                                 "fidelity's: diameter, width, fill_fraction, rpm, frames ...")
+
+    @model_validator(mode="after")
+    def _settings(self) -> DrumTestSpec:
+        from demcal.virtual.drum_settings import drum_settings
+
+        try:
+            drum_settings(self.fidelity, {"drum": dict(self.drum)})
+        except InputError as exc:
+            raise ValueError(f"drum: {exc}") from None
+        return self
+
+
+class TestsSpec(_M):
+    """Tests run beside the study's ``[test]`` (today: the rotating drum)."""
+
+    __test__ = False  # not a pytest class
+
+    drum: DrumTestSpec | None = None
+
+
 class RangefindOptions(_M):
     """Range finding: scan each listed factor at the others' centre, keep the pile part."""
 
@@ -358,6 +390,8 @@ class Study(_M):
                                           description="more responses beside the angle")
     factors: list[FactorSpec] = Field(min_length=1)
     test: TestSpec = TestSpec()
+    tests: TestsSpec = Field(default_factory=TestsSpec, description="tests run beside [test]: "
+                             "[tests.drum]")
     stages: Stages = Stages()
     strategy: Strategy = Strategy()
     executor: Executor = Executor()
@@ -371,6 +405,10 @@ class Study(_M):
         if self.engine is not None and self.test.kind != "aor":
             raise ValueError(f"engine: an external engine runs the test; test.kind must be "
                              f"'aor' (the default) with it; got {self.test.kind!r}")
+        if self.tests.drum is not None and (self.engine is not None
+                                            or self.executor.engine != "demcal"):
+            raise ValueError("tests.drum: the drum runs on demcal's engine only; remove "
+                             "[engine] or set executor.engine = 'demcal'")
         if self.replicates is None:
             self.replicates = (FIDELITY_REPLICATES[self.test.fidelity]
                                if self.test.kind == "aor" and self.engine is None else 1)
@@ -401,11 +439,16 @@ class Study(_M):
         result, known only once it runs)."""
         if self.engine is not None:
             return None
+        beside: set[str] = set()
+        if self.tests.drum is not None:
+            from demcal.virtual.drum import RESPONSES as DRUM
+
+            beside = set(DRUM)
         if self.test.kind == "analytic":
-            return {AOR, *((self.test.analytic or {}).get("responses") or {})}
+            return {AOR, *((self.test.analytic or {}).get("responses") or {}), *beside}
         from demcal.virtual.aor import RESPONSES
 
-        return set(RESPONSES)
+        return {*RESPONSES, *beside}
 
     def other_responses(self) -> list[ResponseSpec]:
         """The responses beside the angle, in the order given."""

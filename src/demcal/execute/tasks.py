@@ -7,6 +7,7 @@ a Dask worker) can run them with :func:`run_chunk`; the result of every run is a
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from collections.abc import Callable
@@ -26,9 +27,10 @@ MEASUREMENT_VERSION = 2
 @dataclass(frozen=True)
 class TestDef:
     """The virtual test: ``kind`` "aor" (fidelity, overrides; on ``engine`` "demcal" or
-    "lammps", started as ``lammps`` says), "analytic" (stand-in) or "template" (an external
-    engine: ``external`` as from :func:`demcal.execute.engine_spec.load_engine`, plus
-    ``runs_dir`` and ``symbols``)."""
+    "lammps", started as ``lammps`` says), "drum" (the rotating drum on demcal's engine:
+    fidelity and :func:`demcal.virtual.drum_settings.drum_settings`' overrides), "analytic"
+    (stand-in) or "template" (an external engine: ``external`` as from
+    :func:`demcal.execute.engine_spec.load_engine`, plus ``runs_dir`` and ``symbols``)."""
 
     __test__ = False  # not a pytest class
 
@@ -46,6 +48,8 @@ class TestDef:
         the engine does: a LAMMPS run is never taken for a demcal one, nor the other way)."""
         if self.kind == "analytic":
             return {"kind": "analytic", "analytic": self.analytic}
+        if self.kind == "drum":
+            return {"kind": "drum", "config": _drum_identity(self)}
         if self.kind == "template":
             from demcal.execute.engine_spec import engine_identity
 
@@ -65,6 +69,18 @@ class TestDef:
 
             out["engine"] = {"name": self.engine, "laws": LAWS_VERSION}
         return out
+
+
+def _drum_identity(test: TestDef) -> dict[str, Any]:
+    """The drum test as resolved (every setting, the particle's included)."""
+    import dataclasses
+
+    from demcal.virtual.drum_settings import drum_settings
+
+    settings = drum_settings(test.fidelity, test.overrides)
+    return {f.name: (v.model_dump(mode="json") if hasattr(v, "model_dump") else v)
+            for f in dataclasses.fields(settings)
+            for v in [getattr(settings, f.name)]}
 
 
 @dataclass(frozen=True)
@@ -139,6 +155,29 @@ def _aor_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None:
                     emit(RunResult(t.key, "unstable", reason=str(exc), wall_time_s=wall))
 
 
+def _drum_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None:
+    """The drum runs, one after another (each its own engine)."""
+    from demcal.errors import SimulationUnstable
+    from demcal.virtual.drum import run_drum
+    from demcal.virtual.drum_settings import drum_settings
+
+    test = tasks[0].test
+    for t in tasks:
+        settings = drum_settings(test.fidelity, test.overrides)
+        if t.dt_scale != 1.0:
+            settings = dataclasses.replace(settings,
+                                           dt_fraction=settings.dt_fraction * t.dt_scale)
+        t0 = time.perf_counter()
+        try:
+            (res,) = run_drum([t.params], settings=settings, seeds=[t.seed],
+                              backend=test.backend)
+        except SimulationUnstable as exc:
+            emit(RunResult(t.key, "unstable", reason=str(exc),
+                           wall_time_s=time.perf_counter() - t0))
+            continue
+        emit(res.run_result(t.key))
+
+
 def run_chunk(tasks: list[RunTask],
               on_result: Callable[[RunResult], None] | None = None) -> list[RunResult]:
     """Run a chunk of tasks (same test) and return one :class:`RunResult` per task.
@@ -168,6 +207,8 @@ def run_chunk(tasks: list[RunTask],
             responses = {"aor_deg": r["aor_deg"], **r.get("responses", {})} if pile else {}
             emit(RunResult(t.key, r["outcome"], responses=responses, reason=r["reason"],
                            wall_time_s=time.perf_counter() - t0, detail=r))
+    elif tasks[0].test.kind == "drum":
+        _drum_chunk(tasks, emit)
     elif tasks[0].test.kind == "template":
         from demcal.execute.template_engine import run_template
 
