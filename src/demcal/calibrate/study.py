@@ -636,6 +636,10 @@ kind = "aor"              # aor (the DEM engine) | analytic (a planted stand-in,
 fidelity = "quick"        # quick | small | standard | paper
 # overrides = { fill = { count = 200 } }
 
+# [tests.drum]            # the rotating drum beside the lift test (docs/drum.md); its
+# fidelity = "standard"   # responses (drum_dynamic_aor_deg, ...) may then be [[responses]]
+# drum = { rpm = 30 }
+
 [stages.rangefind]
 enabled = true            # scan ranges first; no-pile parts are cut off
 factors = ["x8"]          # default: every factor
