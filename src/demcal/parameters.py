@@ -151,13 +151,13 @@ MAX_SURFACE_ENERGY = 1e3
 
 #: Every parameter, in the engine's order (the material card's, the run sheets' columns).
 PARAMETERS: dict[str, Parameter] = {p.name: p for p in [
-    Parameter("particle.poisson", "x1", "Poisson ratio of the particle", "", 0.0, 0.5, 1,
+    Parameter("particle.poisson", "x1", "Poisson's ratio of the particle", "", 0.0, 0.5, 1,
               high_open=True),
     Parameter("particle.density", "rho1", "solid density of the particle", "kg/m^3", 0.0,
               MAX_DENSITY, 3, low_open=True),
     Parameter("particle.shear_modulus", "G1", "shear modulus of the particle", "Pa", 0.0,
               MAX_MODULUS, 2, low_open=True, display_unit="MPa", display_scale=1e-6),
-    Parameter("wall.poisson", "v2", "Poisson ratio of the walls (plate, cylinder)", "", 0.0,
+    Parameter("wall.poisson", "v2", "Poisson's ratio of the walls (plate, cylinder)", "", 0.0,
               0.5, 4, high_open=True),
     Parameter("wall.shear_modulus", "G2", "shear modulus of the walls", "Pa", 0.0, MAX_MODULUS,
               5, low_open=True, display_unit="MPa", display_scale=1e-6),
