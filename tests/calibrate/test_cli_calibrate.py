@@ -70,3 +70,38 @@ def test_move_ranges_within_hard_limits(study_file):
     assert (x3["low"], x3["high"]) == pytest.approx((0.6, 1.4))
     assert rf["target_in_range"] is True
     assert "moved within hard limits: pp.static_friction: 0.2..1 -> 0.6..1.4" in rf["message"]
+
+
+def test_hard_limits_alone_let_range_finding_move_ranges(study_file):
+    from demcal.calibrate import calibrate
+
+    study_file.write_text(study_file.read_text().replace(
+        '[stages.rangefind]\nfactors = ["x8"]',
+        '[stages.rangefind]\nfactors = ["x3", "x8"]\nhard_limits = { x3 = [0.2, 2.0] }'))
+    calibrate(study_file)
+    with RunStore(study_file.parent) as store:
+        rf = store.stage("rangefind").summary
+    assert "moved within hard limits: pp.static_friction: 0.2..1 -> 0.6..1.4" in rf["message"]
+
+
+def test_a_target_out_of_reach_of_the_hard_limits_stops_after_range_finding(study_file):
+    limits = ('hard_limits = { x2 = [0.1, 0.9], x3 = [0.2, 1.2], x4 = [0.0, 0.5], '
+              'x6 = [0.2, 0.9], x8 = [0.0, 0.05] }')
+    study_file.write_text(study_file.read_text().replace(
+        '[stages.rangefind]\nfactors = ["x8"]',
+        f'[stages.rangefind]\nfactors = ["x2", "x3", "x4", "x6", "x8"]\n{limits}').replace(
+        "aor_deg = 40.0", "aor_deg = 80.0"))
+    res = CliRunner().invoke(app, ["calibrate", str(study_file), "--workers", "1"])
+    assert res.exit_code == 3, res.output
+    line = next(x for x in res.output.splitlines() if "out of reach" in x)
+    assert "target 80 deg" in line and "widen hard_limits" in line
+    assert "Traceback" not in res.output
+    with RunStore(study_file.parent) as store:
+        stages = {r.stage for r in store.runs()}
+        assert stages == {"rangefind"} and store.count() > 0  # its runs are kept
+        rf = store.stage("rangefind")
+        assert rf.status == "failed" and rf.summary["reach_deg"][1] < 80.0
+    # a reachable target with the same limits runs on
+    study_file.write_text(study_file.read_text().replace("aor_deg = 80.0", "aor_deg = 40.0"))
+    res = CliRunner().invoke(app, ["calibrate", str(study_file), "--workers", "1"])
+    assert res.exit_code == 0, res.output

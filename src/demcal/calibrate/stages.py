@@ -361,7 +361,8 @@ def rangefind(ctx: Context) -> dict[str, Any]:
                    f"{hi:.2f} deg): ranges must move to {way} the AoR: "
                    + (", ".join(drivers) or "no factor with a measurable slope"))
         moved = False
-        if not inside and opts.move_ranges and attempt < opts.max_moves:
+        may_move = bool(hard) if opts.move_ranges is None else opts.move_ranges
+        if not inside and may_move and attempt < opts.max_moves:
             want_up = ctx.target > hi
             for name, s in slopes.items():
                 if name not in hard or s == 0:
@@ -389,10 +390,59 @@ def rangefind(ctx: Context) -> dict[str, Any]:
     summary = {**ctx.own_fidelity("rangefind"),
                "factors": rows, "response_min_deg": lo, "response_max_deg": hi,
                "target_in_range": inside, "message": msg}
+    if not inside:
+        _refuse_out_of_reach(ctx, summary, _reach(ctx, rows, hard))
     ctx.store.set_stage("rangefind", "done", summary,
                         inputs_hash=ctx.store.stage("rangefind").inputs_hash)
     ctx.results["rangefind"] = summary
     return summary
+
+
+def _reach(ctx: Context, rows: list[dict[str, Any]], hard: Mapping[str, tuple[float, float]]
+           ) -> tuple[float, float] | None:
+    """The response range the factors may reach within their hard limits, deg, or None
+    where the scans cannot tell.
+
+    Each factor's scan is fitted by a line (its piles); the response at the design centre is
+    the mean of those lines there, and each factor adds its line's change from its centre to
+    the hard limit that raises (or lowers) the response most: additive and linear, the
+    steepest path's own model. None unless every factor of the study was scanned, formed at
+    least two piles and has hard limits (a factor free to move can reach any angle).
+    """
+    if {r["name"] for r in rows} != {f["name"] for f in ctx.factors}:
+        return None
+    centre, up, down = [], 0.0, 0.0
+    for r in rows:
+        pts = [(p["value"], p["aor_deg"]) for p in r["points"] if p["aor_deg"] is not None]
+        if len(pts) < 2 or r["name"] not in hard:
+            return None
+        v, y = np.array(pts).T
+        slope, icpt = np.polyfit(v, y, 1)
+        c = 0.5 * (r["new_low"] + r["new_high"])
+        centre.append(icpt + slope * c)
+        ends = [slope * (h - c) for h in hard[r["name"]]]
+        up, down = up + max(ends), down + min(ends)
+    base = float(np.mean(centre))
+    return base + down, base + up
+
+
+def _refuse_out_of_reach(ctx: Context, summary: dict[str, Any],
+                         reach: tuple[float, float] | None) -> None:
+    """Stop the study after range finding (its runs kept) when the target lies beyond what
+    the factors may reach within their hard limits, with 10 % of that span as a margin for
+    the curvature and interactions a scan one factor at a time does not see."""
+    if reach is None:
+        return
+    low, high = reach
+    margin = 0.1 * (high - low)
+    if low - margin <= ctx.target <= high + margin:
+        return
+    err = (f"rangefind: target {ctx.target:g} deg is out of reach: within the hard limits the "
+           f"scans reach {low:.2f}..{high:.2f} deg (each factor's scan line, added); widen "
+           "hard_limits, add a factor, or check the target")
+    ctx.store.set_stage("rangefind", "failed", {**summary, "reach_deg": [low, high],
+                                                "error": err})
+    raise StudyError(err)
 
 
 # ------------------------------------------------------------------------------ screening

@@ -206,8 +206,9 @@ class RangefindOptions(_M):
     points: int = Field(5, ge=3, le=21)
     replicates: int | None = Field(None, ge=1, le=20, description="seeds per design point "
                                    "of this stage (default: the study's replicates)")
-    move_ranges: bool = Field(False, description="shift ranges within hard_limits when the "
-                              "target lies outside the response seen")
+    move_ranges: bool | None = Field(None, description="shift ranges within hard_limits when "
+                                     "the target lies outside the response seen (default: "
+                                     "true where hard_limits are set)")
     hard_limits: dict[str, tuple[float, float]] = Field(default_factory=dict)
     max_moves: int = Field(2, ge=0, le=10)
     fidelity: Literal[tuple(FIDELITIES)] | None = Field(
