@@ -85,6 +85,10 @@ def test_each_test_is_stored_and_resumed_on_its_own(tmp_path):
         # range finding runs the lift test alone
         runner.run("rangefind", points)
         assert runner.executed == 3
+        # any stage runs the drum beside (the Bayesian strategy's "bayes" too)
+        runner.run("bayes", points)
+        bayes_drum = next(r for r in store.runs() if r.stage == "bayes+drum")
+        assert runner.executed == 5 and bayes_drum.result["n_particles"] > 0
         # a resumed study re-runs nothing, and gets the same joined run back
         again = Runner(store, lift, beside={"drum": drum})
         assert again.run("screening", points)[0].responses == rec.responses

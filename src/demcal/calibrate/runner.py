@@ -27,7 +27,7 @@ from demcal.execute.local import run_local
 from demcal.execute.tasks import RunTask, TestDef
 from demcal.execute.template_engine import ENGINE_FAILURES
 from demcal.results import RunResult
-from demcal.store import STAGES, RunRecord, RunStore, params_hash, run_key
+from demcal.store import RunRecord, RunStore, params_hash, run_key
 
 __all__ = ["ENGINE_FAILURES", "RETRY_DT_SCALE", "RETRY_OUTCOMES", "ExternalPending", "Point",
            "Runner"]
@@ -127,11 +127,8 @@ class Runner:
         self.test_hash = params_hash(test.identity())
         self.beside = dict(beside or {})
         self.stage_tests = dict(stage_tests or {})
-        for stage in STAGES:
-            if stage not in NOTHING_BESIDE:
-                self.stage_tests.update({beside_stage(stage, name): t
-                                         for name, t in self.beside.items()})
         self._stage_hashes = {s: params_hash(t.identity()) for s, t in self.stage_tests.items()}
+        self._beside_hashes = {n: params_hash(t.identity()) for n, t in self.beside.items()}
         self.workers = workers
         self.dask = dask
         self.chunk = max(1, chunk)
@@ -144,11 +141,18 @@ class Runner:
         self.dask_timeout: float | None = None
 
     def test_for(self, stage: str) -> TestDef:
-        """The virtual test a stage runs (the study's, unless the stage has its own)."""
+        """The virtual test a stage runs (the study's, unless the stage has its own; a test
+        beside it for ``<stage>+<name>``)."""
+        _, plus, name = stage.partition("+")
+        if plus:
+            return self.beside[name]
         return self.stage_tests.get(stage, self.test)
 
     def stage_hash(self, stage: str) -> str:
         """The identity hash of the test a stage runs."""
+        _, plus, name = stage.partition("+")
+        if plus:
+            return self._beside_hashes[name]
         return self._stage_hashes.get(stage, self.test_hash)
 
     def key(self, stage: str, p: Point) -> str:
