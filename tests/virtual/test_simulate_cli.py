@@ -179,3 +179,29 @@ def test_drum_summary_averages_only_when_every_run_measured():
                                  run("slipping", None, 2)])
     assert mixed["outcome"] == "slipping" and mixed["dynamic_aor_deg"] is None
     assert mixed["n_measured"] == 1
+
+
+def test_simulate_drum_runs_a_material_card_exactly(tmp_path):
+    """A calibrated card in the drum: its parameters bit for bit, its rolling model."""
+    from demcal.virtual.material_card import MaterialCard
+    from demcal.virtual.presets import preset_parameters
+
+    params = {**preset_parameters("corn_stalk_dry"), "pp.static_friction": 0.1 + 0.2,
+              "pp.rolling_friction": 1.0 / 3.0}
+    card = MaterialCard(parameters=params, calibrated=("pp.static_friction",), study="t",
+                        engine={"version": "0.1.0", "backend": "cpu", "rolling_model": "C"},
+                        test={"kind": "aor", "fidelity": "quick",
+                              "overrides": {"fill": {"count": 80}}})
+    toml_path, _ = card.write(tmp_path)
+    out = tmp_path / "drum.json"
+    short = [a for a in DRUM_SHORT if a not in ("--preset", "corn_stalk_dry")]
+    res = CliRunner().invoke(app, ["simulate", "drum", *short, "--test", "drum.rpm=0",
+                                   "--material", str(toml_path), "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    assert data["rolling_model"] == "C" and data["material"] == str(toml_path)
+    run_params = data["runs"][0]["params"]
+    assert all(run_params[k].hex() == v.hex() for k, v in params.items())
+    both = CliRunner().invoke(app, ["simulate", "drum", "--material", str(toml_path),
+                                    "--preset", "corn_stalk"])
+    assert both.exit_code == 2 and "exclude each other" in both.output

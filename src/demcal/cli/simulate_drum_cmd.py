@@ -19,7 +19,12 @@ from rich.table import Table
 
 from demcal.cli._common import EXIT_FAILURE, check_output_file, cli_errors, console, styled
 from demcal.cli._outputs import refuse_overwrites
-from demcal.cli.simulate_cmd import parse_test_overrides, simulate_app
+from demcal.cli.simulate_cmd import (
+    material_inputs,
+    merge_overrides,
+    parse_test_overrides,
+    simulate_app,
+)
 from demcal.errors import InputError
 from demcal.limits import MAX_REPLICATES, MAX_SEED
 
@@ -94,8 +99,12 @@ class DrumOptions:
     """The options of ``demcal simulate drum``, typed: typer reads them as the command's
     parameters (:func:`_with_options`), the command receives them as one object."""
 
-    preset: Annotated[str, typer.Option(
-        help="Material preset (corn_stalk, corn_stalk_dry).")] = "corn_stalk"
+    preset: Annotated[str | None, typer.Option(
+        help="Material preset (corn_stalk, corn_stalk_dry; default corn_stalk).")] = None
+    material: Annotated[Path | None, typer.Option(
+        "--material", help="Material card (material.toml or material.json written by "
+        "demcal calibrate): its parameters, rolling model and particles; the drum's settings "
+        "stay the fidelity's.")] = None
     fidelity: Annotated[str, typer.Option(
         help="Test fidelity: quick (60 mm drum, 89 stalks, ~15 CPU-s) or standard (90 mm, "
         "268 stalks, 100 frames, ~100 CPU-s).")] \
@@ -132,6 +141,31 @@ def _with_options(options: type) -> Callable[[Callable[[Any], None]], Callable[.
     return wrap
 
 
+def _material(o: DrumOptions) -> tuple[dict[str, float], dict[str, Any], str]:
+    """The run's parameters, the drum overrides a material card brings (its rolling model
+    and particles) and the material's label: from ``--material`` or ``--preset``."""
+    from demcal.virtual.parameters import parse_assignments
+    from demcal.virtual.presets import preset_parameters
+
+    overrides = parse_assignments(o.set_ or [])
+    if o.material is None:
+        preset = o.preset or "corn_stalk"
+        return preset_parameters(preset, overrides), {}, preset
+    if o.preset is not None:
+        raise InputError("--material and --preset exclude each other (the card gives every "
+                         "parameter)")
+    card, params, card_test = material_inputs(o.material)
+    if card.engine_name != "demcal":
+        raise InputError(f"{o.material.name}: this card was calibrated for {card.engine_name}; "
+                         "the drum runs on demcal's engine only, whose laws its values do not "
+                         "mean")
+    lift = card_test["overrides"]
+    drum = {"rolling_model": lift["rolling_model"]}
+    if "particle" in lift:
+        drum["particle"] = lift["particle"]
+    return {**params, **overrides}, drum, f"material card {o.material.name}"
+
+
 @simulate_app.command("drum")
 @cli_errors
 @_with_options(DrumOptions)
@@ -139,26 +173,27 @@ def simulate_drum(o: DrumOptions) -> None:
     """Run the rotating-drum test and report its dynamic angle of repose (degrees)."""
     from demcal.virtual.drum import run_drum
     from demcal.virtual.drum_settings import drum_settings
-    from demcal.virtual.parameters import parse_assignments
-    from demcal.virtual.presets import preset_parameters
 
     if not 1 <= o.seeds <= MAX_REPLICATES:
         raise InputError(f"--seeds must be in 1..{MAX_REPLICATES}; got {o.seeds}")
     if not 0 <= o.seed0 <= MAX_SEED - o.seeds + 1:
         raise InputError(f"--seed must be in 0..{MAX_SEED - o.seeds + 1}; got {o.seed0}")
     check_output_file(o.json_out, "--json")
-    refuse_overwrites({"--json": o.json_out}, [])
-    params = preset_parameters(o.preset, parse_assignments(o.set_ or []))
+    refuse_overwrites({"--json": o.json_out},
+                      [] if o.material is None else [(o.material, "the material card")])
+    params, card_overrides, label = _material(o)
     # every drum setting is checked here, before the engine is built
-    settings = drum_settings(o.fidelity, parse_test_overrides(o.test or []))
+    settings = drum_settings(o.fidelity, merge_overrides(card_overrides,
+                                                         parse_test_overrides(o.test or [])))
     with console.status(f"drum test, {o.seeds} run(s)..."):
         results = run_drum([params] * o.seeds, settings=settings,
                            seeds=[o.seed0 + k for k in range(o.seeds)], backend=o.backend)
     summary = summarize_drum_runs(results)
-    summary.update(runs=[r.to_dict() for r in results], fidelity=o.fidelity, preset=o.preset,
-                   engine="demcal")
+    summary.update(runs=[r.to_dict() for r in results], fidelity=o.fidelity, preset=label,
+                   material=None if o.material is None else str(o.material),
+                   rolling_model=settings.rolling_model, engine="demcal")
     if o.json_out is not None:  # first: the console may be gone (a closed pipe)
         o.json_out.write_text(json.dumps(summary, indent=1, default=float))
-    _print(results, summary, f"rotating drum ({o.preset}, {o.fidelity}, {settings.rpm:g} rpm)")
+    _print(results, summary, f"rotating drum ({label}, {o.fidelity}, {settings.rpm:g} rpm)")
     if any(r.outcome == "unstable" for r in results):
         raise typer.Exit(EXIT_FAILURE)
