@@ -7,10 +7,12 @@ into the point's run as more responses; a drum run that measures nothing loses n
 from __future__ import annotations
 
 import pytest
+from typer.testing import CliRunner
 
 from demcal.calibrate.pipeline import beside_tests
 from demcal.calibrate.runner import Point, Runner, joined
 from demcal.calibrate.study import parse_study
+from demcal.cli import app
 from demcal.errors import InputError
 from demcal.execute.tasks import TestDef
 from demcal.store import RunRecord, RunStore
@@ -93,3 +95,14 @@ def test_each_test_is_stored_and_resumed_on_its_own(tmp_path):
         again = Runner(store, lift, beside={"drum": drum})
         assert again.run("screening", points)[0].responses == rec.responses
         assert again.executed == 0
+
+
+
+def test_the_drum_is_refused_with_external_runs(tmp_path):
+    study = tmp_path / "study.toml"
+    study.write_text('name = "beside"\n[target]\naor_deg = 40.0\n'
+                     '[[factors]]\nname = "pp.static_friction"\nlow = 0.3\nhigh = 0.7\n'
+                     '[tests.drum]\nfidelity = "quick"\n')
+    res = CliRunner().invoke(app, ["calibrate", str(study), "--external"])
+    assert res.exit_code == 2 and "[tests.drum] runs on demcal's engine" in res.output
+    assert not (tmp_path / "demcal.sqlite").exists()

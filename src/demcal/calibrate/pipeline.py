@@ -145,6 +145,9 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     """
     path = Path(study_file).resolve()
     study = load_study(path)
+    if external and study.tests.drum is not None:
+        raise InputError("--external: the runs are made outside demcal, but [tests.drum] runs "
+                         "on demcal's engine; calibrate without --external, or without the drum")
     if study.executor.engine == "lammps" and study.test.kind == "aor" and not external:
         from demcal.virtual.lammps_run import lammps_command
 
