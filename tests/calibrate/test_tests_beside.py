@@ -78,6 +78,7 @@ def test_each_test_is_stored_and_resumed_on_its_own(tmp_path):
         assert runner.executed == 2
         stored = {r.stage: r for r in store.runs()}
         assert set(stored) == {"screening", "screening+drum"}
+        assert runner.beside_keys == {stored["screening+drum"].key}  # counted as used
         assert rec.key == stored["screening"].key and rec.aor_deg is not None
         drum_run = stored["screening+drum"]
         assert drum_run.outcome == "rolling" and drum_run.result["n_particles"] > 0

@@ -299,7 +299,7 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         "n_runs": ctx.store.count(),
         # the runs this study's stages used: a reused store may hold others (another study's,
         # or this one's under earlier settings), which n_runs counts
-        "n_runs_used": len({r.key for r in ctx.records}),
+        "n_runs_used": len({r.key for r in ctx.records} | ctx.runner.beside_keys),
         "n_runs_executed": ctx.runner.executed,
         "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
         "rsm_adequate": ctx.results["rsm"]["adequate"],

@@ -129,6 +129,8 @@ class Runner:
         self.stage_tests = dict(stage_tests or {})
         self._stage_hashes = {s: params_hash(t.identity()) for s, t in self.stage_tests.items()}
         self._beside_hashes = {n: params_hash(t.identity()) for n, t in self.beside.items()}
+        #: the keys of the runs beside the test that :meth:`run` returned (joined)
+        self.beside_keys: set[str] = set()
         self.workers = workers
         self.dask = dask
         self.chunk = max(1, chunk)
@@ -278,6 +280,7 @@ class Runner:
             return out
         for name in self.beside:
             runs = self._run_test(beside_stage(stage, name), points)
+            self.beside_keys.update(r.key for r in runs)
             out = [joined(r, b) for r, b in zip(out, runs, strict=True)]
         return out
 
