@@ -54,6 +54,15 @@ def test_three_responses_pin_the_planted_point(three: tuple[Path, dict]) -> None
     assert res["n_runs_executed"] == res["n_runs_strategy"] + ver["n"]
 
 
+def test_the_command_prints_every_response_of_the_posterior(three: tuple[Path, dict]) -> None:
+    folder, res = three
+    assert set(res["responses"]["predicted"]) == {"drum_deg", "bulk_density_kg_m3"}
+    out = CliRunner().invoke(app, ["calibrate", str(folder / "study.toml"), "--workers", "1"])
+    assert out.exit_code == 0, out.output
+    line = next(x for x in out.output.splitlines() if x.startswith("drum_deg: lab"))
+    assert "predicted n/a" not in line and "with the lab" in out.output
+
+
 def test_resume_runs_nothing_and_gives_the_same_result(three: tuple[Path, dict]) -> None:
     folder, res = three
     again = calibrate(folder / "study.toml", workers=1)

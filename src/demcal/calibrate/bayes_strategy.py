@@ -369,7 +369,10 @@ def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> di
         "n_runs_executed": ctx.runner.executed,
         "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
     }
-    if ctx.several:
-        result["responses"] = {"verification": ver.get("responses")}
+    if ctx.several:  # the surrogates' means at the best point, as the DOE path's predictions
+        result["responses"] = {
+            "predicted": {name: p.get("mean") for name, p in summary["predicted"].items()
+                          if name not in (AOR, PILE)},
+            "verification": ver.get("responses")}
     ctx.store.set_meta("result", result)
     return result

@@ -84,19 +84,22 @@ def _print_responses(result: dict) -> None:
     several = result.get("responses")
     if not several:
         return
-    for name, check in several["verification"].items():
+    predicted = several.get("predicted") or {}  # the Bayesian strategy's: posterior means
+    for name, check in (several.get("verification") or {}).items():
         lab = (check.get("lab") or {}).get("mean")
         mean, std = check.get("mean"), check.get("std")
         verdict = {True: "consistent", False: "NOT consistent", None: "not judged"}[
             check.get("consistent")]
         console.print(
             f"{name}: lab {readable(lab) if lab is not None else 'n/a'}; predicted "
-            f"{readable(several['predicted'].get(name), 5)}; verification ({check['n']} "
+            f"{'n/a' if predicted.get(name) is None else readable(predicted[name], 5)}; "
+            f"verification ({check['n']} "
             f"runs): {'n/a' if mean is None else readable(mean, 5)} +/- "
             f"{'n/a' if std is None else readable(std, 3)}, {verdict} with the lab",
             highlight=False)
-    console.print(f"overall desirability at the optimum: {several['desirability']:.3f}",
-                  highlight=False)
+    if several.get("desirability") is not None:
+        console.print(f"overall desirability at the optimum: {several['desirability']:.3f}",
+                      highlight=False)
 
 
 def _print_bayes(result: dict) -> None:
