@@ -79,6 +79,7 @@ def test_the_fill_reads_a_loose_bulk_density():
         assert a.responses()["bulk_density_kg_m3"] == a.bulk_density_kg_m3
 
 
+@pytest.mark.slow  # an engine run; the measure itself: test_outcome's hand-built configuration
 def test_mass_left_is_what_the_lifted_cylinder_holds():
     """The lift test's ``mass_left_kg``: none of a pile the cylinder cleared (the lift stops
     only above the material), some of a run whose material rose with the cylinder, and a

@@ -53,6 +53,7 @@ def test_the_dynamic_angle_rises_with_sliding_friction():
     assert angles[0.8] > angles[0.2] + 2.0, angles
 
 
+@pytest.mark.slow  # an engine run; the rule itself: test_drum_surface's classify_frames cases
 def test_a_bed_on_a_slippery_wall_slides_instead_of_turning():
     """Wall friction 0.05 cannot carry the bed up: ``slipping``, with no angle."""
     settings = drum_settings("quick", {"drum": SHORT})
