@@ -33,6 +33,7 @@ __all__ = ["ENGINE_FAILURES", "RETRY_DT_SCALE", "RETRY_OUTCOMES", "ExternalPendi
            "Runner"]
 
 RETRY_OUTCOMES = ("unstable", "unsettled")
+RETRY_DT_SCALE = 0.5
 #: what the drum retries: its ``unsettled`` (no steady flow in its time) is a result, not a
 #: numerical failure a smaller time step would mend
 DRUM_RETRY_OUTCOMES = ("unstable",)
@@ -41,7 +42,6 @@ DRUM_RETRY_OUTCOMES = ("unstable",)
 def retry_outcomes(test: TestDef) -> tuple[str, ...]:
     """The outcomes of ``test`` that are run again once at a smaller time step."""
     return DRUM_RETRY_OUTCOMES if test.kind == "drum" else RETRY_OUTCOMES
-RETRY_DT_SCALE = 0.5
 
 
 class ExternalPending(Exception):

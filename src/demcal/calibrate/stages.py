@@ -314,7 +314,7 @@ def rangefind(ctx: Context) -> dict[str, Any]:
                 index.append((name, float(v), pt))
         recs = ctx.run("rangefind", points)
         y, outcomes = _point_responses(recs, 100 * len(names))
-        rows, aors, slopes = [], [], {}
+        rows, aors, lines = [], [], {}
         for name in names:
             f = ctx.factor(name)
             pts = [(v, pt) for n, v, pt in index if n == name]
@@ -334,7 +334,7 @@ def rangefind(ctx: Context) -> dict[str, Any]:
                     reason = ("no pile at " + ", ".join(cut) + f"; range cut to "
                               f"{new_low:g}..{new_high:g}")
             if piles.sum() >= 2:
-                slopes[name] = float(np.polyfit(vals[piles], ys[piles], 1)[0])
+                lines[name] = tuple(float(c) for c in np.polyfit(vals[piles], ys[piles], 1))
             aors += [float(v) for v in ys[piles]]
             rows.append({"name": name, "symbol": f["symbol"], "low": f["low"],
                          "high": f["high"], "new_low": new_low, "new_high": new_high,
@@ -342,6 +342,7 @@ def rangefind(ctx: Context) -> dict[str, Any]:
                                      "aor_deg": None if np.isnan(y[pt]) else float(y[pt])}
                                     for v, pt in pts],
                          "reason": reason})
+        slopes = {name: line[0] for name, line in lines.items()}
         if not aors:
             summary = {**ctx.own_fidelity("rangefind"),
                        "factors": rows, "response_min_deg": None, "response_max_deg": None,
@@ -391,19 +392,21 @@ def rangefind(ctx: Context) -> dict[str, Any]:
                "factors": rows, "response_min_deg": lo, "response_max_deg": hi,
                "target_in_range": inside, "message": msg}
     if not inside:
-        _refuse_out_of_reach(ctx, summary, _reach(ctx, rows, hard))
+        _refuse_out_of_reach(ctx, summary, _reach(ctx, rows, lines, hard))
     ctx.store.set_stage("rangefind", "done", summary,
                         inputs_hash=ctx.store.stage("rangefind").inputs_hash)
     ctx.results["rangefind"] = summary
     return summary
 
 
-def _reach(ctx: Context, rows: list[dict[str, Any]], hard: Mapping[str, tuple[float, float]]
-           ) -> tuple[float, float] | None:
+def _reach(ctx: Context, rows: list[dict[str, Any]],
+           lines: Mapping[str, tuple[float, float]],
+           hard: Mapping[str, tuple[float, float]]) -> tuple[float, float] | None:
     """The response range the factors may reach within their hard limits, deg, or None
     where the scans cannot tell.
 
-    Each factor's scan is fitted by a line (its piles); the response at the design centre is
+    ``lines``: each factor's scan line (slope, intercept) over its piles, as range finding
+    fitted them. The response at the design centre is
     the mean of those lines there, and each factor adds its line's change from its centre to
     the hard limit that raises (or lowers) the response most: additive and linear, the
     steepest path's own model. None unless every factor of the study was scanned, formed at
@@ -413,11 +416,9 @@ def _reach(ctx: Context, rows: list[dict[str, Any]], hard: Mapping[str, tuple[fl
         return None
     centre, up, down = [], 0.0, 0.0
     for r in rows:
-        pts = [(p["value"], p["aor_deg"]) for p in r["points"] if p["aor_deg"] is not None]
-        if len(pts) < 2 or r["name"] not in hard:
+        if r["name"] not in lines or r["name"] not in hard:  # under two piles, or free
             return None
-        v, y = np.array(pts).T
-        slope, icpt = np.polyfit(v, y, 1)
+        slope, icpt = lines[r["name"]]
         c = 0.5 * (r["new_low"] + r["new_high"])
         centre.append(icpt + slope * c)
         ends = [slope * (h - c) for h in hard[r["name"]]]
