@@ -87,9 +87,9 @@ _RANKS = "sleep 60 & echo $! > child.pid; echo $$ > engine.pid; wait"
 def test_lammps_ranks_end_with_their_time_limit(tmp_path):
     """A LAMMPS run past its limit: its whole group (the launcher and the ranks it started)
     is ended, not only the first process."""
-    from demcal.virtual.lammps_run import _launch
+    from demcal.virtual.lammps_run import launch
 
-    why = _launch(["sh", "-c", _RANKS], tmp_path, 2.0)
+    why = launch(["sh", "-c", _RANKS], tmp_path, 2.0)
     assert why is not None and "time limit of 2 s" in why
     pids = [int((tmp_path / f).read_text()) for f in PID_FILES]
     assert wait_gone(pids), f"LAMMPS' processes {pids} outlived their time limit"
@@ -98,7 +98,7 @@ def test_lammps_ranks_end_with_their_time_limit(tmp_path):
 def test_lammps_ranks_die_with_a_killed_demcal(tmp_path):
     """kill -9 of the process running LAMMPS: the watchdog ends the ranks."""
     code = ("import sys; from pathlib import Path; from demcal.virtual.lammps_run import "
-            f"_launch; _launch(['sh', '-c', {_RANKS!r}], Path(sys.argv[1]), 600.0)")
+            f"launch; launch(['sh', '-c', {_RANKS!r}], Path(sys.argv[1]), 600.0)")
     worker = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)])
     pids = kill_9_when_started(worker, tmp_path)
     assert wait_gone(pids), f"LAMMPS' processes {pids} outlived demcal"

