@@ -1,6 +1,7 @@
 """``demcal simulate aor``: the JSON contract, the pile picture, and refusals before any run."""
 
 import json
+import re
 
 import pytest
 from typer.testing import CliRunner
@@ -130,9 +131,17 @@ def test_simulate_drum_json(tmp_path):
     out = tmp_path / "drum.json"
     res = CliRunner().invoke(app, ["simulate", "drum", *DRUM_SHORT, "--test", "drum.rpm=0",
                                    "--seeds", "2", "--seed", "5", "--set",
-                                   "pp.static_friction=0.4", "--json", str(out)])
+                                   "pp.static_friction=0.4", "--json", str(out),
+                                   "--vtk", str(tmp_path / "vtk")])
     assert res.exit_code == 0, res.output
     data = json.loads(out.read_text())
+    # a ParaView series per run: settled, spun up, steady, then every averaged frame
+    for seed in (5, 6):
+        pvd = (tmp_path / "vtk" / f"drum_seed{seed}.pvd").read_text()
+        labels = re.findall(r'file="drum_seed\d+_\d{4}_([a-z_]+?)(_walls)?\.vtp"', pvd)
+        beds = [name for name, walls in labels if not walls]
+        assert beds == ["settled", "spun_up", "steady"] + ["frame"] * 4, labels
+        assert len(labels) == 2 * len(beds)  # each with the drum's walls
     for key in ("outcome", "dynamic_aor_deg", "dynamic_aor_seed_std_deg", "com_angle_deg",
                 "surface_fluctuation_deg", "froude", "n_particles", "wall_time_s", "runs"):
         assert key in data, key

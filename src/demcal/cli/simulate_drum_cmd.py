@@ -18,7 +18,14 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from demcal.cli._common import EXIT_FAILURE, check_output_file, cli_errors, console, styled
+from demcal.cli._common import (
+    EXIT_FAILURE,
+    check_output_dir,
+    check_output_file,
+    cli_errors,
+    console,
+    styled,
+)
 from demcal.cli._outputs import refuse_overwrites
 from demcal.cli.simulate_cmd import (
     material_inputs,
@@ -128,6 +135,9 @@ class DrumOptions:
         "docs/lammps.md); default: the material card's.")] = None
     lammps_np: Annotated[int, typer.Option(
         "--lammps-np", help="LAMMPS: MPI ranks per run (mpirun -np N).")] = 1
+    vtk: Annotated[Path | None, typer.Option(
+        help="Write VTK snapshots to this folder (ParaView: drum_seed<S>.pvd per run: the "
+        "bed settled, spun up, steady and at every averaged frame; demcal's engine).")] = None
 
 
 def _with_options(options: type) -> Callable[[Callable[[Any], None]], Callable[..., None]]:
@@ -188,13 +198,16 @@ def _run(o: DrumOptions, engine: str, params: dict[str, float], settings: Any) -
         from demcal.virtual.lammps_drum import run_drum_lammps
         from demcal.virtual.lammps_options import LammpsOptions
 
+        if o.vtk is not None:
+            raise InputError("--vtk is for demcal's engine; LAMMPS writes no VTK here")
         if not 1 <= o.lammps_np <= 100_000:
             raise InputError(f"--lammps-np must be in 1..100000; got {o.lammps_np}")
         return run_drum_lammps([params] * o.seeds, settings=settings, seeds=seeds,
                                options=LammpsOptions(np=o.lammps_np))
-    from demcal.virtual.drum import run_drum
+    from demcal.virtual.drum import DrumReporting, run_drum
 
-    return run_drum([params] * o.seeds, settings=settings, seeds=seeds, backend=o.backend)
+    return run_drum([params] * o.seeds, settings=settings, seeds=seeds, backend=o.backend,
+                    reporting=DrumReporting(vtk_dir=o.vtk))
 
 
 @simulate_app.command("drum")
@@ -209,6 +222,7 @@ def simulate_drum(o: DrumOptions) -> None:
     if not 0 <= o.seed0 <= MAX_SEED - o.seeds + 1:
         raise InputError(f"--seed must be in 0..{MAX_SEED - o.seeds + 1}; got {o.seed0}")
     check_output_file(o.json_out, "--json")
+    check_output_dir(o.vtk, "--vtk")
     refuse_overwrites({"--json": o.json_out},
                       [] if o.material is None else [(o.material, "the material card")])
     params, card_overrides, label, engine = _material(o)

@@ -20,9 +20,11 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
+from demcal.dem.output import VtkSeries
 from demcal.dem.simulation import Simulation
 from demcal.dem.state import ClumpGroup, World
 from demcal.dem.walls import Drum
@@ -48,10 +50,28 @@ from demcal.virtual.factory import SphereGrid, draw_scales, make_template, place
 from demcal.virtual.parameters import PARAMETERS, check_parameters
 from demcal.virtual.settle import settle_state
 
-__all__ = ["RESPONSES", "DrumResult", "run_drum"]
+__all__ = ["RESPONSES", "DrumReporting", "DrumResult", "run_drum"]
 
 #: progress callback: (run index, phase name, simulated time s, wall time s)
 Progress = Callable[[int, str, float, float], None]
+
+
+@dataclass(frozen=True)
+class DrumReporting:
+    """What a caller of :func:`run_drum` gets besides the results (none of it changes a run).
+
+    Attributes
+    ----------
+    progress : callable, optional
+        Called as ``progress(run, phase, sim_time_s, wall_time_s)`` at every frame.
+    vtk_dir : path, optional
+        A folder for VTK snapshots: per run a ParaView series ``drum_seed<seed>.pvd`` with
+        the bed once settled, once spun up, once steady and at every averaged frame (spheres
+        and the drum's walls).
+    """
+
+    progress: Progress | None = None
+    vtk_dir: str | Path | None = None
 
 #: a quarter turn about x: the placement frame's axis (z) onto the drum's (y)
 _Q_FIX = np.array([math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0])
@@ -69,6 +89,12 @@ class _Run:
     t0: float  #: wall clock at the start, s
     phase_times: dict[str, float] = field(default_factory=dict)
     frames: FrameLog = field(default_factory=FrameLog)
+    vtk: VtkSeries | None = None  #: the run's VTK snapshots, if asked for
+
+    def snapshot(self, label: str) -> None:
+        """Write the bed and the walls now, if snapshots are asked for."""
+        if self.vtk is not None:
+            self.vtk.add(self.sim, 0, label=label)
 
     @property
     def t(self) -> float:
@@ -85,7 +111,7 @@ class _Stop(Exception):
 
 def run_drum(parameter_sets: Sequence[Mapping[str, float]], *, settings: DrumSettings,
              seeds: Sequence[int], backend: str = "auto",
-             progress: Progress | None = None) -> list[DrumResult]:
+             reporting: DrumReporting | None = None) -> list[DrumResult]:
     """Run rotating-drum tests, one after the other.
 
     Parameters
@@ -99,8 +125,8 @@ def run_drum(parameter_sets: Sequence[Mapping[str, float]], *, settings: DrumSet
         One seed per run (particle sizes, orientations and positions).
     backend : {"auto", "cpu", "cuda"}
         Engine backend.
-    progress : callable, optional
-        Called as ``progress(run, phase, sim_time_s, wall_time_s)`` at every frame.
+    reporting : DrumReporting, optional
+        Progress calls and VTK snapshots.
 
     Returns
     -------
@@ -120,9 +146,11 @@ def run_drum(parameter_sets: Sequence[Mapping[str, float]], *, settings: DrumSet
     out = []
     for i, (params, seed) in enumerate(zip(checked, seeds, strict=True)):
         def report(phase: str, t: float, wall: float, i=i) -> None:
-            if progress is not None:
-                progress(i, phase, t, wall)
-        out.append(_one_run(params, int(seed), settings, backend, report))
+            if reporting is not None and reporting.progress is not None:
+                reporting.progress(i, phase, t, wall)
+        vtk = None if reporting is None or reporting.vtk_dir is None else \
+            _series(reporting.vtk_dir, f"drum_seed{int(seed)}")
+        out.append(_one_run(params, (int(seed), vtk), settings, backend, report))
     return out
 
 
@@ -139,8 +167,17 @@ def particle_count(settings: DrumSettings) -> int:
     return max(10, round(solid / (make_template(p).volume * mean_s3)))
 
 
-def _one_run(params: dict[str, float], seed: int, s: DrumSettings, backend: str,
-             report: Callable[[str, float, float], None]) -> DrumResult:
+def _series(folder: str | Path, name: str) -> VtkSeries:
+    try:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"vtk_dir {str(folder)!r}: {exc.strerror}") from None
+    return VtkSeries(folder, name)
+
+
+def _one_run(params: dict[str, float], run_of: tuple[int, VtkSeries | None], s: DrumSettings,
+             backend: str, report: Callable[[str, float, float], None]) -> DrumResult:
+    seed, vtk = run_of
     template = make_template(s.particle)
     n = particle_count(s)
     rng = np.random.default_rng(seed)
@@ -156,7 +193,7 @@ def _one_run(params: dict[str, float], seed: int, s: DrumSettings, backend: str,
         check_time_step(float(sim.dt[0]))
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    run = _Run(sim, s, time.perf_counter())
+    run = _Run(sim, s, time.perf_counter(), vtk=vtk)
     try:
         _fill(run, template, scales, rng)
         _settle(run, report)
@@ -232,6 +269,7 @@ def _settle(run: _Run, report) -> None:
                              max_limit=SETTLE_MAX, tolerance=tol)
         if state.settled:
             run.phase_times["settled"] = run.t
+            run.snapshot("settled")
             return
         if run.t - start > s.settle_max_s:
             raise _Stop(DrumOutcome.UNSETTLED,
@@ -250,6 +288,7 @@ def _spin_up(run: _Run, drum: Drum, report) -> None:
             _advance(run, s.spin_up_s / ramp)
     report("spin-up", run.t, time.perf_counter() - run.t0)
     run.phase_times["spun_up"] = run.t
+    run.snapshot("spun_up")
 
 
 def _steady(run: _Run, report) -> None:
@@ -269,6 +308,7 @@ def _steady(run: _Run, report) -> None:
         drift = steady_drift(angles, k)
         if drift is not None and drift < s.steady_tolerance_deg:
             run.phase_times["steady"] = run.t
+            run.snapshot("steady")
             return
         if run.t - start > s.steady_max_s:
             tail = "" if len(angles) < 2 * k else f" (its running mean still drifts by " \
@@ -288,6 +328,7 @@ def _frames(run: _Run, report) -> None:
         centres, radii, _ = sim.spheres(0)
         run.frames.add(FrameState(centres, radii, sim.clump_positions(0),
                                   sim.clump_velocities(0), sim.clump_masses(0)), s)
+        run.snapshot("frame")
     missing = s.frames - len(run.frames.angles)
     if 2 * len(run.frames.angles) < s.frames:
         raise _Stop(DrumOutcome.UNSETTLED, f"no free surface found in {missing} of {s.frames} "
