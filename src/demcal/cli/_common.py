@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import inspect
 import logging
 import os
 import re
 import sqlite3
+import typing
 from collections.abc import Callable, Iterable
+from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -284,3 +287,24 @@ def cli_errors(func: F) -> F:
         return out
 
     return wrapper  # type: ignore[return-value]
+
+
+def with_options(options: type) -> Callable[[Callable[[Any], None]], Callable[..., None]]:
+    """A command taking one ``options`` object, shown to typer as the dataclass' fields (a
+    command's option list is a table, not a function's complexity: it is read as one)."""
+    hints = typing.get_type_hints(options, include_extras=True)
+
+    def wrap(func: Callable[[Any], None]) -> Callable[..., None]:
+        @functools.wraps(func)
+        def command(**kwargs: Any) -> None:
+            func(options(**kwargs))
+
+        command.__signature__ = inspect.Signature([  # type: ignore[attr-defined]
+            inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=(
+                inspect.Parameter.empty if f.default is MISSING else f.default),
+                              annotation=hints[f.name]) for f in fields(options)])
+        del command.__wrapped__  # typer must read the signature above, not func's
+        # resolved here: typer evaluates string annotations in this module's globals
+        command.__annotations__ = {f.name: hints[f.name] for f in fields(options)}
+        return command
+    return wrap

@@ -4,13 +4,9 @@ LAMMPS."""
 from __future__ import annotations
 
 import collections
-import functools
-import inspect
 import json
 import math
-import typing
-from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -25,6 +21,7 @@ from demcal.cli._common import (
     cli_errors,
     console,
     styled,
+    with_options,
 )
 from demcal.cli._outputs import refuse_overwrites
 from demcal.cli.simulate_cmd import (
@@ -140,24 +137,6 @@ class DrumOptions:
         "bed settled, spun up, steady and at every averaged frame; demcal's engine).")] = None
 
 
-def _with_options(options: type) -> Callable[[Callable[[Any], None]], Callable[..., None]]:
-    """A command taking one ``options`` object, shown to typer as the dataclass' fields (a
-    command's option list is a table, not a function's complexity: it is read as one)."""
-    hints = typing.get_type_hints(options, include_extras=True)
-
-    def wrap(func: Callable[[Any], None]) -> Callable[..., None]:
-        @functools.wraps(func)
-        def command(**kwargs: Any) -> None:
-            func(options(**kwargs))
-
-        command.__signature__ = inspect.Signature([  # type: ignore[attr-defined]
-            inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default,
-                              annotation=hints[f.name]) for f in fields(options)])
-        del command.__wrapped__  # typer must read the signature above, not func's
-        return command
-    return wrap
-
-
 def _material(o: DrumOptions) -> tuple[dict[str, float], dict[str, Any], str, str]:
     """The run's parameters, the drum overrides a material card brings (its rolling model
     and particles), the material's label and the engine: from ``--material`` or
@@ -212,7 +191,7 @@ def _run(o: DrumOptions, engine: str, params: dict[str, float], settings: Any) -
 
 @simulate_app.command("drum")
 @cli_errors
-@_with_options(DrumOptions)
+@with_options(DrumOptions)
 def simulate_drum(o: DrumOptions) -> None:
     """Run the rotating-drum test and report its dynamic angle of repose (degrees)."""
     from demcal.virtual.drum_settings import drum_settings

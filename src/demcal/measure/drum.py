@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,6 +30,7 @@ import numpy as np
 from demcal.errors import InputError
 from demcal.measure.boundary import largest_region
 from demcal.measure.image import flatten_illumination, load_gray, threshold_value
+from demcal.measure.video import is_video, video_frames
 
 __all__ = ["DrumCircle", "DrumFrame", "DrumFrames", "drum_frame", "drum_frames",
            "find_circle"]
@@ -206,7 +208,15 @@ def _fit(name: str, bed: np.ndarray, circle: DrumCircle, central_fraction: float
     return DrumFrame(name, -math.degrees(math.atan(slope)), None, circle, len(cols), rms)
 
 
-def drum_frames(frames: Iterable[Any], **options: Any) -> DrumFrames:
+def drum_frames(frames: Iterable[Any], *, every: int = 1, **options: Any) -> DrumFrames:
     """:func:`drum_frame` of every frame (same options), with their mean and standard
-    error."""
-    return DrumFrames([drum_frame(f, **options) for f in frames])
+    error. A path to a video file (:func:`demcal.measure.video.is_video`) stands for its
+    frames, every ``every``-th of them, each named ``VIDEO#K``."""
+    out = []
+    for item in frames:
+        if isinstance(item, str | Path) and is_video(item):
+            out += [replace(drum_frame(gray, **options), source=name)
+                    for name, gray in video_frames(item, every=every)]
+        else:
+            out.append(drum_frame(item, **options))
+    return DrumFrames(out)
