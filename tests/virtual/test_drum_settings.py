@@ -34,6 +34,10 @@ def test_overrides_reach_the_drum_the_particle_and_the_engine():
     ({"rpm": float("nan")}, r"drum.rpm must be a finite number"),
     ({"rpm": "fast"}, r"drum.rpm must be a finite number; got 'fast'"),
     ({"speed": 3}, r"drum.speed is not a drum setting; use one of "),
+    ({"wall_static_friction": -0.1}, r"drum.wall_static_friction must be in \[0, 10\] \(the "
+                                     r"drum's pw.static_friction\); got -0.1"),
+    ({"wall_restitution": 0}, r"drum.wall_restitution must be in \(0, 1\]"),
+    ({"wall_rolling_friction": float("inf")}, r"drum.wall_rolling_friction must be a finite"),
 ])
 def test_bad_settings_are_refused_in_one_line(drum, words):
     with pytest.raises(InputError, match=words) as err:
@@ -52,3 +56,26 @@ def test_other_refusals():
         DrumSettings(rolling_model="B")
     with pytest.raises(InputError, match=r"drum.count must be a whole number in \[10, 100000\]"):
         DrumSettings(count=3)
+
+
+def test_the_drums_own_lining_replaces_the_particle_wall_values_in_the_drum_only():
+    plain = drum_settings("quick")
+    assert plain.wall_overrides() == {}
+    lined = drum_settings("quick", {"drum": {"wall_static_friction": 0.9,
+                                             "wall_rolling_friction": 0.0}})
+    assert lined.wall_overrides() == {"pw.static_friction": 0.9, "pw.rolling_friction": 0.0}
+
+
+def test_an_unset_lining_leaves_a_stored_drum_runs_identity_as_it_was():
+    """Drum runs stored before the lining existed are reused: its unset fields are not part
+    of the identity; a set one is."""
+    from demcal.execute.tasks import TestDef
+
+    plain = TestDef(kind="drum", fidelity="quick", overrides={"drum": {"rpm": 20}})
+    ident = plain.identity()["config"]
+    assert not any(k.startswith("wall_") for k in ident)
+    assert ident["rpm"] == 20
+    lined = TestDef(kind="drum", fidelity="quick",
+                    overrides={"drum": {"rpm": 20, "wall_static_friction": 0.9}})
+    assert lined.identity()["config"]["wall_static_friction"] == 0.9
+    assert lined.identity() != plain.identity()

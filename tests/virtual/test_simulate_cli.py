@@ -132,7 +132,8 @@ def test_simulate_drum_json(tmp_path):
     res = CliRunner().invoke(app, ["simulate", "drum", *DRUM_SHORT, "--test", "drum.rpm=0",
                                    "--seeds", "2", "--seed", "5", "--set",
                                    "pp.static_friction=0.4", "--json", str(out),
-                                   "--vtk", str(tmp_path / "vtk")])
+                                   "--vtk", str(tmp_path / "vtk"),
+                                   "--test", "drum.wall_static_friction=0.8"])
     assert res.exit_code == 0, res.output
     data = json.loads(out.read_text())
     # a ParaView series per run: settled, spun up, steady, then every averaged frame
@@ -149,6 +150,8 @@ def test_simulate_drum_json(tmp_path):
     assert [r["seed"] for r in data["runs"]] == [5, 6]
     assert data["dynamic_aor_seed_std_deg"] >= 0.0 and abs(data["dynamic_aor_deg"]) < 15.0
     assert data["params"]["pp.static_friction"] == 0.4
+    # the drum's own lining is what its walls ran with
+    assert data["params"]["pw.static_friction"] == 0.8
     assert "rotating drum" in res.output and "dynamic angle" in res.output
 
 

@@ -73,12 +73,14 @@ class TestDef:
 
 def _drum_identity(test: TestDef) -> dict[str, Any]:
     """The drum test as resolved (every setting, the particle's included)."""
-    from demcal.virtual.drum_settings import drum_settings
+    from demcal.virtual.drum_settings import WALL_PARAMETERS, drum_settings
 
     settings = drum_settings(test.fidelity, test.overrides)
+    # a lining left unset is not part of the identity: runs stored before it existed reuse
     return {f.name: (v.model_dump(mode="json") if hasattr(v, "model_dump") else v)
             for f in dataclasses.fields(settings)
-            for v in [getattr(settings, f.name)]}
+            for v in [getattr(settings, f.name)]
+            if not (f.name in WALL_PARAMETERS and v is None)}
 
 
 @dataclass(frozen=True)

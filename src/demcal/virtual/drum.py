@@ -178,6 +178,7 @@ def _series(folder: str | Path, name: str) -> VtkSeries:
 def _one_run(params: dict[str, float], run_of: tuple[int, VtkSeries | None], s: DrumSettings,
              backend: str, report: Callable[[str, float, float], None]) -> DrumResult:
     seed, vtk = run_of
+    params = {**params, **s.wall_overrides()}  # the drum's own lining, if set
     template = make_template(s.particle)
     n = particle_count(s)
     rng = np.random.default_rng(seed)

@@ -20,9 +20,15 @@ from pydantic import ValidationError
 from demcal.errors import InputError
 from demcal.virtual.config import ParticleShape
 
-__all__ = ["DRUM_FIDELITIES", "DrumSettings", "G", "critical_rpm", "drum_settings", "froude"]
+__all__ = ["DRUM_FIDELITIES", "WALL_PARAMETERS", "DrumSettings", "G", "critical_rpm",
+           "drum_settings", "froude"]
 
 G = 9.81  #: gravitational acceleration of the test, m/s^2 (along -z)
+
+#: the drum's own lining: setting -> the material parameter it replaces in the drum
+WALL_PARAMETERS = {"wall_static_friction": "pw.static_friction",
+                   "wall_rolling_friction": "pw.rolling_friction",
+                   "wall_restitution": "pw.restitution"}
 
 
 def froude(rpm: float, diameter: float) -> float:
@@ -78,6 +84,12 @@ class DrumSettings:
         Rolling-friction model of the engine.
     particle : ParticleShape
         The particle template and its size distribution (the lift test's).
+    wall_static_friction, wall_rolling_friction, wall_restitution : float or None
+        The drum's own lining (its shell and end walls): these replace the material's
+        ``pw.static_friction``, ``pw.rolling_friction`` and ``pw.restitution`` in the drum
+        only (None: the material's particle-wall values, as the lift test's). A drum is
+        often lined rough so that it carries the bed, while the lift test's cylinder is the
+        material's steel.
     """
 
     diameter: float = 0.06
@@ -98,14 +110,23 @@ class DrumSettings:
     dt_fraction: float = 0.2
     rolling_model: str = "A"
     particle: ParticleShape = field(default_factory=ParticleShape)
+    wall_static_friction: float | None = None
+    wall_rolling_friction: float | None = None
+    wall_restitution: float | None = None
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            if f.name in ("particle", "rolling_model", "count"):
+            if f.name in ("particle", "rolling_model", "count") or (
+                    f.name in WALL_PARAMETERS and getattr(self, f.name) is None):
                 continue
             _finite(f.name, getattr(self, f.name))
         _ranges(self)
         _fits(self)
+
+    def wall_overrides(self) -> dict[str, float]:
+        """The material parameters the drum's lining replaces, by name (``pw.*``)."""
+        return {WALL_PARAMETERS[name]: float(getattr(self, name)) for name in WALL_PARAMETERS
+                if getattr(self, name) is not None}
 
     @property
     def radius(self) -> float:
@@ -162,6 +183,9 @@ _RANGES = (
 
 
 def _ranges(s: DrumSettings) -> None:
+    for name in WALL_PARAMETERS:
+        if getattr(s, name) is not None:
+            _wall_range(name, getattr(s, name))
     for name, lo, hi, lo_in, hi_in in _RANGES:
         v = getattr(s, name)
         ok = (v >= lo if lo_in else v > lo) and (v <= hi if hi_in else v < hi)
@@ -178,6 +202,18 @@ def _ranges(s: DrumSettings) -> None:
         raise InputError(f"drum.count must be a whole number in [10, 100000]; got {s.count!r}")
     if s.rolling_model not in ("A", "C", "none"):
         raise InputError(f"rolling_model must be A, C or none; got {s.rolling_model!r}")
+
+
+def _wall_range(name: str, value: float) -> None:
+    """The lining's value within its material parameter's bounds (the registry's)."""
+    from demcal.parameters import PARAMETERS
+
+    try:
+        PARAMETERS[WALL_PARAMETERS[name]].check(value)
+    except InputError:
+        spec = PARAMETERS[WALL_PARAMETERS[name]]
+        raise InputError(f"drum.{name} must be in {spec.bounds_text()} (the drum's "
+                         f"{WALL_PARAMETERS[name]}); got {value!r}") from None
 
 
 def _fits(s: DrumSettings) -> None:

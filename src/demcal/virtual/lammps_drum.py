@@ -319,6 +319,7 @@ def _run_one(params: dict[str, float], seed: int, settings: DrumSettings,
              options: LammpsOptions, folder: Path) -> DrumResult:
     cmd = lammps_command(options, INPUT)
     t0 = time.perf_counter()
+    params = {**params, **settings.wall_overrides()}  # the drum's own lining, if set
     case = write_drum_case(params, settings, seed, folder)
     watch = _Watch(case, settings)
     failure = launch(cmd, folder, options.timeout_s, watch=watch)
