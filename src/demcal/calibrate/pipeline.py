@@ -53,9 +53,9 @@ def test_def(study: Study, folder: Path | None = None) -> TestDef:
 
 
 def beside_tests(study: Study, test: TestDef) -> dict[str, TestDef]:
-    """The tests run beside the study's (``[tests.drum]``), on the lift test's particles and
-    rolling model where the study's test is the engine's lift test (one material, two
-    tests)."""
+    """The tests run beside the study's (``[tests.drum]``), on the lift test's particles,
+    rolling model and engine where the study's test is the engine's lift test (one
+    material, two tests)."""
     drum = study.tests.drum
     if drum is None:
         return {}
@@ -66,8 +66,9 @@ def beside_tests(study: Study, test: TestDef) -> dict[str, TestDef]:
         config = fidelity_config(test.fidelity, **test.overrides)
         overrides.update(particle=config.particle.model_dump(mode="json"),
                          rolling_model=config.rolling_model)
+    # the drum runs on the lift test's engine: demcal's, or LAMMPS started as the study says
     return {"drum": TestDef(kind="drum", fidelity=drum.fidelity, overrides=overrides,
-                            backend=study.backend)}
+                            backend=study.backend, engine=test.engine, lammps=dict(test.lammps))}
 
 
 def engine_meta(study: Study) -> dict[str, Any]:
@@ -147,7 +148,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     study = load_study(path)
     if external and study.tests.drum is not None:
         raise InputError("--external: the runs are made outside demcal, but [tests.drum] runs "
-                         "on demcal's engine; calibrate without --external, or without the drum")
+                         "inside demcal (its engine or LAMMPS); calibrate without --external, "
+                         "or without the drum")
     if study.executor.engine == "lammps" and study.test.kind == "aor" and not external:
         from demcal.virtual.lammps_run import lammps_command
 

@@ -406,10 +406,9 @@ class Study(_M):
         if self.engine is not None and self.test.kind != "aor":
             raise ValueError(f"engine: an external engine runs the test; test.kind must be "
                              f"'aor' (the default) with it; got {self.test.kind!r}")
-        if self.tests.drum is not None and (self.engine is not None
-                                            or self.executor.engine != "demcal"):
-            raise ValueError("tests.drum: the drum runs on demcal's engine only; remove "
-                             "[engine] or set executor.engine = 'demcal'")
+        if self.tests.drum is not None and self.engine is not None:
+            raise ValueError("tests.drum: the drum runs on demcal's engine or LAMMPS "
+                             "(executor.engine), not on an external [engine]; remove [engine]")
         if self.replicates is None:
             self.replicates = (FIDELITY_REPLICATES[self.test.fidelity]
                                if self.test.kind == "aor" and self.engine is None else 1)

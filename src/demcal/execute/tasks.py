@@ -27,7 +27,7 @@ MEASUREMENT_VERSION = 2
 @dataclass(frozen=True)
 class TestDef:
     """The virtual test: ``kind`` "aor" (fidelity, overrides; on ``engine`` "demcal" or
-    "lammps", started as ``lammps`` says), "drum" (the rotating drum on demcal's engine:
+    "lammps", started as ``lammps`` says), "drum" (the rotating drum on the same engines:
     fidelity and :func:`demcal.virtual.drum_settings.drum_settings`' overrides), "analytic"
     (stand-in) or "template" (an external engine: ``external`` as from
     :func:`demcal.execute.engine_spec.load_engine`, plus ``runs_dir`` and ``symbols``)."""
@@ -49,7 +49,10 @@ class TestDef:
         if self.kind == "analytic":
             return {"kind": "analytic", "analytic": self.analytic}
         if self.kind == "drum":
-            return {"kind": "drum", "config": _drum_identity(self)}
+            drum = {"kind": "drum", "config": _drum_identity(self)}
+            if self.engine != "demcal":  # demcal's drum identity (and stored runs) unchanged
+                drum["engine"] = _engine_identity(self.engine)
+            return drum
         if self.kind == "template":
             from demcal.execute.engine_spec import engine_identity
 
@@ -65,10 +68,16 @@ class TestDef:
         config = fidelity_config(self.fidelity, **self.overrides).model_dump(mode="json")
         out = {"kind": "aor", "config": config, "measurement": MEASUREMENT_VERSION}
         if self.engine != "demcal":  # demcal's identity (and its stored runs) unchanged
-            from demcal.virtual.lammps_laws import LAWS_VERSION
-
-            out["engine"] = {"name": self.engine, "laws": LAWS_VERSION}
+            out["engine"] = _engine_identity(self.engine)
         return out
+
+
+def _engine_identity(engine: str) -> dict[str, Any]:
+    """A LAMMPS run's engine as part of its identity: the name and the law mapping's
+    version."""
+    from demcal.virtual.lammps_laws import LAWS_VERSION
+
+    return {"name": engine, "laws": LAWS_VERSION}
 
 
 def _drum_identity(test: TestDef) -> dict[str, Any]:
@@ -156,9 +165,9 @@ def _aor_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None:
 
 
 def _drum_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None:
-    """The drum runs, one after another (each its own engine, emitted as it ends; an engine
-    that goes unstable is the run's outcome ``unstable``, :func:`demcal.virtual.drum.run_drum`'s
-    own)."""
+    """The drum runs, one after another (each its own engine, demcal's or LAMMPS, emitted as
+    it ends; an engine that goes unstable is the run's outcome ``unstable``, as
+    :func:`demcal.virtual.drum.run_drum` and the LAMMPS drum report it)."""
     from demcal.virtual.drum import run_drum
     from demcal.virtual.drum_settings import drum_settings
 
@@ -167,7 +176,15 @@ def _drum_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None
     for t in tasks:
         scaled = settings if t.dt_scale == 1.0 else dataclasses.replace(
             settings, dt_fraction=settings.dt_fraction * t.dt_scale)
-        (res,) = run_drum([t.params], settings=scaled, seeds=[t.seed], backend=test.backend)
+        if test.engine == "lammps":
+            from demcal.virtual.lammps_drum import run_drum_lammps
+            from demcal.virtual.lammps_options import LammpsOptions
+
+            (res,) = run_drum_lammps([t.params], settings=scaled, seeds=[t.seed],
+                                     options=LammpsOptions(**test.lammps))
+        else:
+            (res,) = run_drum([t.params], settings=scaled, seeds=[t.seed],
+                              backend=test.backend)
         emit(res.run_result(t.key))
 
 
