@@ -28,10 +28,60 @@ def bayes_study(folder: Path, *, responses: bool = True, strategy: str = "") -> 
                        aor_only_extra='\n[strategy]\nkind = "bayes"\nbatch = 6\n' + strategy)
 
 
+def _far_corner() -> dict[str, float]:
+    """Each factor at the end of its range farther from the planted value."""
+    return {n: lo if PLANTED[n] - lo > hi - PLANTED[n] else hi
+            for n, (_s, lo, hi) in FACTORS.items()}
+
+
+def _inline(values: dict[str, float]) -> str:
+    return "{ " + ", ".join(f'"{k}" = {v!r}' for k, v in values.items()) + " }"
+
+
+#: points held against the posterior: the planted one, a far corner of the box, and a
+#: result JSON whose optimum is the planted point
+MARKS = (f'\n[[strategy.marks]]\nlabel = "planted"\nvalues = {_inline(PLANTED)}\n'
+         f'\n[[strategy.marks]]\nlabel = "a far corner"\nvalues = {_inline(_far_corner())}\n'
+         '\n[[strategy.marks]]\nlabel = "a DOE result"\nresult = "doe_result.json"\n')
+
+
 @pytest.fixture(scope="module")
 def three(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
     folder = tmp_path_factory.mktemp("three")
-    return folder, calibrate(bayes_study(folder), workers=1)
+    (folder / "doe_result.json").write_text(json.dumps({"optimum": PLANTED}))
+    return folder, calibrate(bayes_study(folder, strategy=MARKS), workers=1)
+
+
+def test_marked_points_are_held_against_the_posterior(three: tuple[Path, dict]) -> None:
+    """The planted point lies inside the 95 % credible region, a far corner outside it; a
+    result JSON's optimum is read as a mark; the report marks them and tabulates them."""
+    folder, res = three
+    marks = {m["label"]: m for m in res["marks"]}
+    assert list(marks) == ["planted", "a far corner", "a DOE result"]
+    assert marks["planted"]["inside95"] is True and marks["planted"]["credibility"] < 0.95
+    assert marks["a far corner"]["inside95"] is False
+    assert marks["a far corner"]["credibility"] > 0.95
+    assert marks["a DOE result"]["values"] == marks["planted"]["values"]
+    assert marks["a DOE result"]["credibility"] == marks["planted"]["credibility"]
+    out = CliRunner().invoke(app, ["report", str(folder)])
+    assert out.exit_code == 0, out.output
+    doc = json.loads((folder / "report" / "report.json").read_text())
+    rows = doc["tables"]["bayes_marks"]["rows"]
+    assert [r[0] for r in rows] == ["planted", "a far corner", "a DOE result"]
+    assert "figures/bayes_corner.png" in doc["figures"]
+
+
+@pytest.mark.parametrize(("mark", "words"), [
+    ('label = "x"\nvalues = { "pp.static_friction" = 0.5 }\n', "no value for the factor(s)"),
+    ('label = "x"\nresult = "missing.json"\n', "not a demcal result JSON"),
+    ('label = "x"\n', "give values or result"),
+])
+def test_a_bad_mark_is_one_line_and_exit_2(tmp_path: Path, mark: str, words: str) -> None:
+    path = bayes_study(tmp_path, strategy="\n[[strategy.marks]]\n" + mark)
+    out = CliRunner().invoke(app, ["calibrate", str(path), "--no-report"])
+    assert out.exit_code == 2, out.output
+    text = " ".join(out.output.split())
+    assert words in text and "Traceback" not in text, text
 
 
 def test_three_responses_pin_the_planted_point(three: tuple[Path, dict]) -> None:

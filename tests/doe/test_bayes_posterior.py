@@ -134,3 +134,23 @@ def test_a_response_without_surrogate_and_bad_sampler_settings_are_input_errors(
         SamplerSettings(n_steps=100, burn=100)
     with pytest.raises(InputError, match="standard_error must be > 0"):
         Response("y", 1.0, 0.0)
+
+
+def test_credibility_is_the_gaussians_highest_density_mass():
+    """For a Gaussian posterior the smallest highest-density region through a point holds
+    chi2_k(d^2) of the mass, d the point's Mahalanobis distance from the mean."""
+    from scipy import stats
+
+    from demcal.doe.bayes import credibility
+
+    mean, cov = _analytic()
+    surrogates = {f"r{i}": Linear(i) for i in range(3)}
+    post = sample_posterior(surrogates, _lab(), SPACE, SamplerSettings(seed=3))
+    chol = np.linalg.cholesky(cov)
+    direction = np.array([0.6, -0.48, 0.64])  # a unit vector in whitened coordinates
+    masses = np.array([0.3, 0.7, 0.95])
+    radii = np.sqrt(stats.chi2.ppf(masses, 3))
+    points = mean + (chol @ (radii[:, None] * direction).T).T
+    got = credibility(post, surrogates, _lab(), points)
+    assert np.allclose(got, masses, atol=0.04), (got, masses)
+    assert credibility(post, surrogates, _lab(), [[1.5, 0.0, 0.0]])[0] == 1.0  # off the box

@@ -325,6 +325,27 @@ def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequ
     return out
 
 
+def _marks(ctx: st.Context, res: bayes.BayesResult, labs: Sequence[bayes.Response],
+           space: doe.FactorSpace) -> list[dict[str, Any]]:
+    """The study's marked points (``[[strategy.marks]]``) against the posterior: each one's
+    values of the factors and the mass of the smallest highest-density region holding it
+    (inside the 95 % credible region when at most 0.95)."""
+    out = []
+    for mark in ctx.study.strategy.marks:
+        values = mark.values or {}
+        missing = [n for n in space.names if n not in values]
+        if missing:
+            raise InputError(f"strategy.marks {mark.label!r}: no value for the factor(s) "
+                             f"{', '.join(missing)}")
+        actual = np.array([[values[n] for n in space.names]])
+        coded = space.to_coded(actual)
+        mass = float(bayes.credibility(res.posterior, res.surrogates, labs, coded)[0])
+        out.append({"label": mark.label, "values": {n: float(values[n]) for n in space.names},
+                    "in_box": bool(np.all(np.abs(coded) <= 1.0)), "credibility": mass,
+                    "inside95": bool(mass <= 0.95)})
+    return out
+
+
 def run_bayes(ctx: st.Context) -> dict[str, Any]:
     """Calibrate the study by the Bayesian strategy; return the result JSON.
 
@@ -349,6 +370,7 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     n_lab = (ctx.labs[AOR].n if AOR in ctx.labs else None) or 1
     shrink = _shrinkage(res, _candidates(ev, res.x, n_lab, cfg.seed), cfg.seed)
     summary = _summary(res, labs, notes, shrink, cfg)
+    summary["marks"] = _marks(ctx, res, labs, space)
     ctx.store.set_stage(STAGE, "done", {**summary, "samples": _samples(res),
                                             "slices": _slices(res)}, inputs_hash=h)
     ver = _verify(ctx, res, summary["predicted"])

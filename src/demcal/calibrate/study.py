@@ -311,6 +311,25 @@ class Stages(_M):
     verification: VerificationOptions = VerificationOptions()
 
 
+class Mark(_M):
+    """A point to hold against the Bayesian posterior: a DOE optimum, the stated truth of a
+    synthetic target, another tool's calibration. The report marks it on the corner plot and
+    says whether it lies inside the 95 % credible region."""
+
+    label: str = Field(min_length=1, max_length=200, description="the point's name in the "
+                       "report")
+    values: dict[str, float] | None = Field(None, description="the factors' values (their "
+                                            "units), by factor name")
+    result: str | None = Field(None, description="a demcal result JSON (demcal calibrate "
+                               "--json): its optimum's values; relative to the study file")
+
+    @model_validator(mode="after")
+    def _one(self) -> Mark:
+        if (self.values is None) == (self.result is None):
+            raise ValueError(f"mark {self.label!r}: give values or result, not both or neither")
+        return self
+
+
 class Strategy(_M):
     """How the study searches: the DOE stages (the paper's workflow) or the Bayesian strategy.
 
@@ -331,6 +350,8 @@ class Strategy(_M):
                              "surrogates, sampler and acquisition; default: the study's")
     n_start: int | None = Field(None, ge=3, le=2000, description="space-filling start; "
                                 "default 9 per factor")
+    marks: list[Mark] = Field(default_factory=list, max_length=50, description="points held "
+                              "against the posterior (the report's corner plot)")
 
     @model_validator(mode="after")
     def _start(self) -> Strategy:
@@ -554,7 +575,31 @@ def parse_study(data: dict[str, Any], *, base: Path | None = None) -> Study:
                 if why := photo_too_large(p):  # type: ignore[arg-type]
                     raise InputError(f"study: target.photos: {p}: {why}")
         study.engine_data(base)  # the template is read (and checked) now
+    for mark in study.strategy.marks:
+        _read_mark(mark, base)
+        missing = [f.name for f in study.factors if f.name not in (mark.values or {})]
+        if missing:
+            raise InputError(f"study: strategy.marks {mark.label!r}: no value for the "
+                             f"factor(s) {', '.join(missing)}")
     return study
+
+
+def _read_mark(mark: Mark, base: Path | None) -> None:
+    """A mark given by a result JSON takes that result's optimum as its values (every
+    parameter where it has them); its path is taken from ``base``."""
+    import json
+
+    if mark.result is None:
+        return
+    if base is not None:
+        mark.result = str((base / mark.result).resolve())
+    try:
+        data = json.loads(Path(str(mark.result)).read_text())
+        values = data.get("optimum_full") or data["optimum"]
+        mark.values = {str(k): float(v) for k, v in values.items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise InputError(f"study: strategy.marks {mark.label!r}: {mark.result}: not a demcal "
+                         f"result JSON with an optimum ({type(exc).__name__})") from None
 
 
 def study_folder(study_file: str | Path) -> Path:

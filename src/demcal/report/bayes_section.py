@@ -25,8 +25,13 @@ from demcal.report.html import badge
 from demcal.report.tables import Table
 from demcal.store import RunRecord
 
-__all__ = ["BayesView", "ParameterRow", "Slice", "bayes_section", "bayes_tables", "bayes_view",
-           "corner_figure", "slices_figure"]
+#: marker and colour of the marked points on the corner plot, in order
+MARK_STYLES = (("o", "tab:green"), ("s", "tab:orange"), ("D", "tab:purple"),
+               ("^", "tab:brown"), ("v", "tab:pink"), ("P", "tab:olive"), ("*", "tab:cyan"),
+               ("h", "tab:gray"))
+
+__all__ = ["MARK_STYLES", "BayesView", "MarkRow", "ParameterRow", "Slice", "bayes_section",
+           "bayes_tables", "bayes_view", "corner_figure", "slices_figure"]
 
 #: The stage whose summary this section shows.
 STAGE = "bayes"
@@ -56,6 +61,19 @@ class Slice:
 
 
 @dataclass(frozen=True)
+class MarkRow:
+    """A point held against the posterior (``[[strategy.marks]]``): its factors' values
+    (their units), the posterior mass of the smallest highest-density region holding it, and
+    whether that is inside the 95 % credible region."""
+
+    label: str
+    values: dict[str, float]
+    credibility: float
+    inside95: bool
+    in_box: bool
+
+
+@dataclass(frozen=True)
 class BayesView:
     """The stored Bayesian summary as the report reads it.
 
@@ -79,6 +97,7 @@ class BayesView:
     warnings: tuple[str, ...]
     samples: dict[str, tuple[float, ...]]
     slices: dict[str, dict[str, Slice]]
+    marks: tuple[MarkRow, ...] = ()
 
     @property
     def names(self) -> list[str]:
@@ -112,7 +131,10 @@ def bayes_view(summary: Mapping[str, Any]) -> BayesView | None:
         samples={n: tuple(map(float, v)) for n, v in (summary.get("samples") or {}).items()},
         slices={r: {f: Slice(tuple(v["x"]), tuple(v["mean"]), tuple(v["std"]))
                     for f, v in per.items()}
-                for r, per in (summary.get("slices") or {}).items()})
+                for r, per in (summary.get("slices") or {}).items()},
+        marks=tuple(MarkRow(str(m["label"]), {k: float(v) for k, v in m["values"].items()},
+                            float(m["credibility"]), bool(m["inside95"]), bool(m["in_box"]))
+                    for m in summary.get("marks") or ()))
 
 
 def _posterior_table(view: BayesView) -> Table:
@@ -151,9 +173,23 @@ def _shrinkage_table(view: BayesView) -> Table:
                  note="responses the runs report beside the study's; 0: no help, 1: gone")
 
 
+def _marks_table(view: BayesView) -> Table:
+    frame = pd.DataFrame([{"point": m.label, **m.values,
+                           "inside the 95 % region": "yes" if m.inside95 else "no",
+                           "smallest region holding it": m.credibility}
+                          for m in view.marks])
+    return Table("bayes_marks", "Marked points against the posterior", frame,
+                 note="the smallest highest-density region holding a point, as its posterior "
+                      "mass (0: the best point; above 0.95: outside the 95 % region; 1: "
+                      "outside the factor box)")
+
+
 def bayes_tables(view: BayesView) -> list[Table]:
-    """The section's tables: posterior, correlation, responses, shrinkage (if any), rounds."""
+    """The section's tables: posterior, correlation, responses, marked points and
+    shrinkage (if any), rounds."""
     out = [_posterior_table(view), _correlation_table(view), _responses_table(view)]
+    if view.marks:
+        out.append(_marks_table(view))
     if view.shrinkage:
         out.append(_shrinkage_table(view))
     return [*out, _history_table(view)]
@@ -169,6 +205,10 @@ def runs_table(view: BayesView, runs: Sequence[RunRecord]) -> Table:
 
 def _label(p: ParameterRow) -> str:
     return f"{p.name} ({p.unit})" if p.unit.strip("-") else p.name
+
+
+def _style(n: int) -> tuple[str, str]:
+    return MARK_STYLES[n % len(MARK_STYLES)]
 
 
 def corner_figure(view: BayesView) -> Figure:
@@ -189,14 +229,24 @@ def corner_figure(view: BayesView) -> Figure:
                 for v in (a.ci95_low, a.ci95_high):
                     ax.axvline(v, color="k", ls="--", lw=0.8)
                 ax.axvline(a.optimum, color="tab:red", lw=1.2)
+                for n, m in enumerate(view.marks):
+                    ax.axvline(m.values[a.name], color=_style(n)[1], lw=1.0, ls=":")
             else:
                 ax.scatter(view.samples[b.name], view.samples[a.name], s=2, alpha=0.3)
                 ax.plot(b.optimum, a.optimum, "x", color="tab:red", ms=8, mew=2)
+                for n, m in enumerate(view.marks):
+                    marker, color = _style(n)
+                    ax.plot(m.values[b.name], m.values[a.name], marker, color=color, ms=7,
+                            mfc="none", mew=1.5, label=m.label)
                 ax.set_ylabel(_label(a) if j == 0 else "", fontsize=7)
             ax.set_xlabel(_label(b) if i == k - 1 else "", fontsize=7)
             ax.tick_params(labelsize=6)
     fig.suptitle(f"Posterior ({len(view.samples[names[0]])} samples); x: best point",
                  fontsize=9)
+    if view.marks and k > 1:
+        handles, labels = axes[1, 0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="upper right", fontsize=7, title="marked points",
+                   title_fontsize=7)
     return fig
 
 

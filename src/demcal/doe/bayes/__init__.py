@@ -31,6 +31,7 @@ from demcal.doe.bayes.posterior import (
     ParameterSummary,
     Posterior,
     SamplerSettings,
+    credibility,
     log_posterior,
     sample_posterior,
 )
@@ -55,6 +56,7 @@ __all__ = [
     "Surrogate",
     "acquire_batch",
     "calibrate_bayes",
+    "credibility",
     "fit_surrogate",
     "identify",
     "log_posterior",

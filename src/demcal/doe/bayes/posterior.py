@@ -31,6 +31,7 @@ __all__ = [
     "ParameterSummary",
     "Posterior",
     "SamplerSettings",
+    "credibility",
     "log_posterior",
     "sample_posterior",
 ]
@@ -228,6 +229,33 @@ def log_posterior(x: Any, surrogates: Mapping[str, Predictor],
         total -= 0.5 * ((np.asarray(m, dtype=float) - r.mean) ** 2 / var + np.log(2 * np.pi * var))
     out[inside] = total
     return out
+
+
+def credibility(posterior: Posterior, surrogates: Mapping[str, Predictor],
+                responses: Sequence[Response], points: Any) -> np.ndarray:
+    """The posterior mass of the smallest highest-density region that holds each point.
+
+    A point lies inside the 95 % credible region (the highest-density one) when this is at
+    most 0.95: it is the share of the posterior's samples denser than the point. 0 at the
+    mode; 1 outside the factor box.
+
+    Parameters
+    ----------
+    posterior : Posterior
+        Sampled with ``surrogates`` and ``responses`` (its ``log_prob`` is compared).
+    surrogates : mapping of str to Predictor
+        A surrogate per response name.
+    responses : sequence of Response
+        The lab's values.
+    points : (n, k) array_like of float
+        Coded settings.
+
+    Returns
+    -------
+    (n,) ndarray of float64, in [0, 1]
+    """
+    logp = log_posterior(points, surrogates, responses)
+    return np.array([float(np.mean(posterior.log_prob > lp)) for lp in logp])
 
 
 def _start(logp: Any, k: int, n_walkers: int, seed: int) -> np.ndarray:
