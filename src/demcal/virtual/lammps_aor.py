@@ -29,13 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.dem.contact import rayleigh_time_step
 from demcal.errors import InputError
-from demcal.limits import check_time_step
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.factory import draw_scales, make_template, pack_cylinder
-from demcal.virtual.lammps_clumps import Box, ClumpSet, settle_block, write_clumps
-from demcal.virtual.lammps_laws import ContactLaw, contact_laws, model_string
+from demcal.virtual.lammps_clumps import Box, ClumpSet, settle_block, step_and_laws, write_clumps
+from demcal.virtual.lammps_laws import ContactLaw, model_string
 
 __all__ = ["LammpsCase", "write_case"]
 
@@ -89,10 +87,8 @@ def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
     written = write_clumps(ClumpSet(template, scales_all[idx], pos, quat, rho),
                            Box((-half, -half, zlo), (half, half, zhi)), folder / DATA,
                            folder / BODIES, title="demcal AoR test")
-    dt = check_time_step(config.dt_fraction * rayleigh_time_step(
-        written.r_min, rho, params["particle.shear_modulus"], params["particle.poisson"]))
-    laws = contact_laws(params, sphere_radius=written.r_mean, clump_mass=written.mass_mean,
-                        rolling=config.rolling_model != "none")
+    dt, laws = step_and_laws(params, written, dt_fraction=config.dt_fraction,
+                             rolling=config.rolling_model != "none")
     (folder / INPUT).write_text(_script(config, dt, laws, written.reach, written.r_min))
     return LammpsCase(folder, written.n_clumps, written.n_spheres, float(dt), int(seed),
                       dict(params))

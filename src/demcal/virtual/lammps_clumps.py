@@ -15,16 +15,20 @@ write their particles the same way:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from demcal.dem.contact import rayleigh_time_step
 from demcal.dem.shapes import ClumpTemplate
 from demcal.dem.state import rotate
+from demcal.limits import check_time_step
+from demcal.virtual.lammps_laws import ContactLaw, contact_laws
 
-__all__ = ["Box", "ClumpSet", "LammpsClumps", "settle_block", "write_clumps"]
+__all__ = ["Box", "ClumpSet", "LammpsClumps", "settle_block", "step_and_laws", "write_clumps"]
 
 
 @dataclass(frozen=True)
@@ -166,3 +170,16 @@ variable vmax equal "sqrt(v_pile*c_mx[1] + (1 - v_pile)*c_mx[2])"
 variable top equal "c_mx[3]"
 variable still equal "v_rms < {float(rms_limit)!r} && v_vmax < {float(max_limit)!r}"
 """
+
+
+def step_and_laws(params: Mapping[str, float], written: LammpsClumps, *, dt_fraction: float,
+                  rolling: bool) -> tuple[float, dict[str, ContactLaw]]:
+    """The time step (``dt_fraction`` of the smallest sphere's Rayleigh time step, s) and the
+    contact laws at the written clumps' typical contact (:mod:`demcal.virtual.lammps_laws`),
+    as demcal's engine takes them for the same test."""
+    dt = check_time_step(dt_fraction * rayleigh_time_step(
+        written.r_min, params["particle.density"], params["particle.shear_modulus"],
+        params["particle.poisson"]))
+    laws = contact_laws(params, sphere_radius=written.r_mean, clump_mass=written.mass_mean,
+                        rolling=rolling)
+    return float(dt), dict(laws)

@@ -40,9 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.dem.contact import rayleigh_time_step
 from demcal.errors import InputError
-from demcal.limits import check_time_step
 from demcal.virtual.drum import Progress, particle_count, to_world
 from demcal.virtual.drum_frames import (
     SETTLE_MAX,
@@ -58,8 +56,14 @@ from demcal.virtual.drum_frames import (
 from demcal.virtual.drum_settings import DrumSettings
 from demcal.virtual.drum_surface import DrumOutcome, classify_frames
 from demcal.virtual.factory import SphereGrid, draw_scales, make_template, place_in_cylinder
-from demcal.virtual.lammps_clumps import Box, ClumpSet, settle_block, write_clumps
-from demcal.virtual.lammps_laws import contact_laws, model_string
+from demcal.virtual.lammps_clumps import (
+    Box,
+    ClumpSet,
+    settle_block,
+    step_and_laws,
+    write_clumps,
+)
+from demcal.virtual.lammps_laws import model_string
 from demcal.virtual.lammps_options import LammpsOptions
 from demcal.virtual.lammps_run import lammps_command, launch, log_events, read_dump
 from demcal.virtual.parameters import check_parameters
@@ -126,10 +130,8 @@ def write_drum_case(params: Mapping[str, float], settings: DrumSettings, seed: i
     lim, half = settings.radius + 0.05, 0.5 * settings.width + 0.05
     written = write_clumps(clumps, Box((-lim, -half, -lim), (lim, half, lim)), folder / DATA,
                            folder / BODIES, title="demcal rotating-drum test")
-    dt = check_time_step(settings.dt_fraction * rayleigh_time_step(
-        written.r_min, rho, params["particle.shear_modulus"], params["particle.poisson"]))
-    laws = contact_laws(params, sphere_radius=written.r_mean, clump_mass=written.mass_mean,
-                        rolling=settings.rolling_model != "none")
+    dt, laws = step_and_laws(params, written, dt_fraction=settings.dt_fraction,
+                             rolling=settings.rolling_model != "none")
     n_frame = max(1, round(settings.frame_interval_s / dt))
     body = _script(settings, dt, (model_string(laws["pp"]), model_string(laws["pw"])), n_frame)
     head = (f"comm_modify vel yes cutoff {2.0 * written.reach + 0.5 * written.r_min!r}\n"
