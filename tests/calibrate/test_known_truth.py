@@ -72,6 +72,11 @@ def test_study_recovers_the_planted_target(result):
         rsm = store.stage("rsm").summary
         assert rsm["adequate"] and rsm["lack_of_fit_p"] is not None
         opt = store.stage("optimize").summary
+        # the keys the angle's optimum always stored (demcal.summaries.Optimum writes them)
+        assert list(opt) == ["target_aor_deg", "candidates", "chosen", "predicted_aor_deg",
+                             "classifier", "opts"]
+        assert list(opt["candidates"][0]) == ["params", "predicted_aor_deg", "pi_low_deg",
+                                              "pi_high_deg", "p_pile", "desirability"]
         for c in opt["candidates"]:  # never a point predicted outside the pile region
             assert c["p_pile"] >= 0.5 and c["params"]["pp.surface_energy"] < BOUNDARY
         assert store.meta("result")["optimum"] == res["optimum"]

@@ -27,7 +27,7 @@ from demcal.execute.local import GPU_CHUNK, default_chunk, default_workers
 from demcal.execute.tasks import TestDef
 from demcal.store import STAGES as STAGE_TITLES
 from demcal.store import RunStore
-from demcal.summaries import Verification
+from demcal.summaries import Optimum, Verification
 
 __all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def"]
 
@@ -225,8 +225,9 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
                          "responses": s["steps"], "best_step": s["best_step"],
                          "levels": s["levels"],
                          **{k: s[k] for k in ("anchor", "followed", "climb") if k in s}}
-        elif name == "optimize":
-            out[name] = {"candidates": s["candidates"]}
+        elif name == "optimize":  # typed (demcal.summaries.Optimum), no fidelity of its own
+            out[name] = {"candidates": [c.to_summary() for c in s.candidates]}
+            continue
         elif name == "verification":
             out[name] = {"aor_deg": s["aor_deg"], "outcomes": s["outcomes"]}
         if name in out and "fidelity" in s:  # the stage ran at its own fidelity
@@ -279,15 +280,16 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         getattr(st, name)(ctx)
     st.rsm(ctx)
     refine.run_rounds(ctx)
-    opt, ver_summary = ctx.results["optimize"], ctx.results["verification"]
+    opt: Optimum = ctx.results["optimize"]
+    ver_summary = ctx.results["verification"]
     ver = Verification.from_summary(ver_summary)
     rounds = [refine.round_row(o, v) for o, v in zip(
-        [*opt.get("rounds", []), opt], [*ver.rounds, ver], strict=True)]
+        [*opt.rounds, opt], [*ver.rounds, ver], strict=True)]
     result = {
         "study": ctx.study.name,
-        "optimum": opt["chosen"],
+        "optimum": opt.chosen,
         "optimum_full": ver.params,
-        "predicted_aor_deg": opt["predicted_aor_deg"],
+        "predicted_aor_deg": opt.predicted_aor_deg,
         "target_aor_deg": ctx.target,
         "verification": {k: getattr(ver, k) for k in (
             "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg",
@@ -308,10 +310,10 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         "rsm_removed_terms": ctx.results["rsm"].get("removed_terms", []),
         "stages": _stage_json(ctx),
     }
-    if ctx.several:  # every response against its lab value, and the desirability
+    if ctx.several and opt.responses is not None:  # every response against its lab value
         result["responses"] = {
-            "goals": opt["responses"]["goals"], "desirability": opt["responses"]["desirability"],
-            "predicted": opt["candidates"][0]["predicted"],
+            "goals": [g.to_summary() for g in opt.responses.goals],
+            "desirability": opt.responses.desirability, "predicted": opt.best.predicted,
             "verification": ver_summary["responses"]}
     ctx.store.set_meta("result", result)
     return result

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -20,6 +20,7 @@ from demcal.calibrate import anchor, several
 from demcal.calibrate.classifier import PileClassifier
 from demcal.calibrate.responses import LabValue, ResponseSpec
 from demcal.calibrate.rounds import (
+    Offset,
     Rounds,
     stored_rounds,
     with_rounds,
@@ -36,7 +37,7 @@ from demcal.calibrate.verify import (
 )
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord, RunStore, params_hash
-from demcal.summaries import ResponseVerification, Verification
+from demcal.summaries import Candidate, Optimum, ResponseVerification, Verification
 from demcal.virtual import PARAMETERS
 
 __all__ = ["Context", "adequacy", "choose_model", "optimize", "rangefind", "rsm", "screening",
@@ -905,7 +906,7 @@ def _other_responses(ctx: Context, design: doe.Design, recs: Sequence[RunRecord]
 
 
 # ------------------------------------------------------------------------------ optimize
-def optimize(ctx: Context) -> dict[str, Any]:
+def optimize(ctx: Context) -> Optimum:
     """Settings whose predicted AoR equals the target, ranked; only inside the pile region.
 
     In a refinement round (``ctx.rounds.number`` > 1, :mod:`demcal.calibrate.refine`) the
@@ -933,18 +934,13 @@ def optimize(ctx: Context) -> dict[str, Any]:
         return clf.p_pile_grid(ctx.fixed, names, x) >= opts.min_p_pile
 
     if ctx.several:
-        summary = several.optimize_summary(ctx, clf, constraint, offset,
-                                           ctx.rounds.stored.get(k))
-        if k > 1:
-            summary.update(round=k, surface_offset_deg=offset,
-                           offset_from_rounds=measured.rounds,
-                           measured_offset_deg=measured.deg, offset_weight=measured.weight)
-        return _store_optimum(ctx, summary, h)
+        found = several.optimize_summary(ctx, clf, constraint, offset, ctx.rounds.stored.get(k))
+        return _store_optimum(ctx, _in_round(found, k, measured), h)
     kept = _stored_optimum(ctx.rounds.stored.get(k), (ctx.target, aim), model, constraint,
                            opts_json)
     if kept is not None:  # a resume (on this or another machine): the decision stands
         return _store_optimum(ctx, kept, h)
-    prev = ctx.rounds.optimize[-1]["chosen"] if ctx.rounds.optimize else None
+    prev = ctx.rounds.optimize[-1].chosen if ctx.rounds.optimize else None
     near = prev or {n: ctx.results["steepest"]["levels"][n][1] for n in names}
     try:
         res = doe.optimize_target(model, aim, constraint=constraint, near=near,
@@ -961,24 +957,31 @@ def optimize(ctx: Context) -> dict[str, Any]:
     cands = []
     for s in res.solutions:
         full = ctx.full(s.actual or {})
-        cands.append({"params": {n: float(s.actual[n]) for n in names},  # type: ignore[index]
-                      "predicted_aor_deg": float(s.predicted) + offset,
-                      "pi_low_deg": float(s.pi[0]) + offset if math.isfinite(s.pi[0]) else None,
-                      "pi_high_deg": float(s.pi[1]) + offset if math.isfinite(s.pi[1]) else None,
-                      "p_pile": float(clf.p_pile([full])[0]),
-                      "desirability": float(s.desirability)})
-    summary = {"target_aor_deg": ctx.target, "candidates": cands,
-               "chosen": cands[0]["params"], "predicted_aor_deg": cands[0]["predicted_aor_deg"],
-               "classifier": clf.describe(), "opts": opts_json}
-    if k > 1:
-        summary.update(round=k, surface_offset_deg=offset, offset_from_rounds=measured.rounds,
-                       measured_offset_deg=measured.deg, offset_weight=measured.weight)
-    return _store_optimum(ctx, summary, h)
+        cands.append(Candidate(
+            params={n: float(s.actual[n]) for n in names},  # type: ignore[index]
+            predicted_aor_deg=float(s.predicted) + offset,
+            pi_low_deg=float(s.pi[0]) + offset if math.isfinite(s.pi[0]) else None,
+            pi_high_deg=float(s.pi[1]) + offset if math.isfinite(s.pi[1]) else None,
+            p_pile=float(clf.p_pile([full])[0]), desirability=float(s.desirability)))
+    found = Optimum(target_aor_deg=ctx.target, candidates=cands, chosen=cands[0].params,
+                    predicted_aor_deg=cands[0].predicted_aor_deg, classifier=clf.describe(),
+                    opts=opts_json)
+    return _store_optimum(ctx, _in_round(found, k, measured), h)
 
 
-def _store_optimum(ctx: Context, summary: dict[str, Any], h: str) -> dict[str, Any]:
-    stored = with_rounds(summary, ctx.rounds.optimize)
-    ctx.store.set_stage("optimize", "done", stored, inputs_hash=h)
+def _in_round(found: Optimum, k: int, measured: Offset) -> Optimum:
+    """``found`` as the optimum of round ``k``: a refinement round's also says which offset
+    it was aimed by (round 1 stores what it always did)."""
+    if k == 1:
+        return found
+    return replace(found, round=k, surface_offset_deg=measured.applied,
+                   offset_from_rounds=measured.rounds, measured_offset_deg=measured.deg,
+                   offset_weight=measured.weight)
+
+
+def _store_optimum(ctx: Context, found: Optimum, h: str) -> Optimum:
+    stored = found.in_round(ctx.rounds.optimize)
+    ctx.store.set_stage("optimize", "done", stored.to_summary(), inputs_hash=h)
     ctx.results["optimize"] = stored
     return stored
 
@@ -987,10 +990,10 @@ def _store_optimum(ctx: Context, summary: dict[str, Any], h: str) -> dict[str, A
 KEEP_OPTIMUM_TOL_DEG = 1e-6
 
 
-def _stored_optimum(prior: dict[str, Any] | None, target: tuple[float, float], model: Any,
-                    constraint: Any, opts: dict[str, Any]) -> dict[str, Any] | None:
-    """The stored optimize summary of this round (``prior``, or None) if its optimum still
-    solves the current problem.
+def _stored_optimum(prior: Optimum | None, target: tuple[float, float], model: Any,
+                    constraint: Any, opts: dict[str, Any]) -> Optimum | None:
+    """The stored optimum of this round (``prior``, or None) if it still solves the current
+    problem.
 
     The optimizer is numerical: the same runs refitted on another machine (other BLAS, other
     numpy) move its answer in the 8th digit, and the verification's stored runs, keyed by
@@ -1004,12 +1007,11 @@ def _stored_optimum(prior: dict[str, Any] | None, target: tuple[float, float], m
     """
     if prior is None:
         return None
-    chosen = prior.get("chosen") or {}
-    if (prior.get("target_aor_deg") != target[0] or prior.get("opts", opts) != opts
-            or set(chosen) != set(model.names) or "responses" in prior):
-        # ("responses": the optimum of a study that aimed at several: not this one's)
+    if (prior.target_aor_deg != target[0] or (prior.opts is not None and prior.opts != opts)
+            or set(prior.chosen) != set(model.names) or prior.responses is not None):
+        # (responses: the optimum of a study that aimed at several: not this one's)
         return None
-    x = np.array([[float(chosen[n]) for n in model.names]])
+    x = np.array([[float(prior.chosen[n]) for n in model.names]])
     if abs(float(model.predict(x, units="actual")[0]) - target[1]) > KEEP_OPTIMUM_TOL_DEG:
         return None
     return prior if bool(np.all(constraint(x))) else None
@@ -1025,7 +1027,7 @@ def verification(ctx: Context) -> dict[str, Any]:
     ``max_n`` (:func:`verification_size`).
     """
     opts = ctx.study.stages.verification
-    params = ctx.full(ctx.results["optimize"]["chosen"])
+    params = ctx.full(ctx.results["optimize"].chosen)
     sigma, sigma_df = pure_error_std(ctx.results.get("_rsm_model"))
     k = ctx.rounds.number
     h = ctx.begin("verification", {"params": params, "n": opts.n,
@@ -1060,7 +1062,7 @@ def verification(ctx: Context) -> dict[str, Any]:
         **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n),
         tolerance_percent=tol,
         within_tolerance=None if tol is None or rel is None else bool(rel <= tol),
-        **confirmation(model, ctx.results["optimize"]["chosen"], vals,
+        **confirmation(model, ctx.results["optimize"].chosen, vals,
                        offset=ctx.rounds.offset(model)),
         responses=None if checks is None else {
             name: ResponseVerification.from_summary(c.to_dict()) for name, c in checks.items()},

@@ -138,16 +138,15 @@ def _overview(b: _Builder) -> str:
     d = b.data
     study = d.meta.get("study") or {}
     name = study.get("name") or d.study_dir.name
-    opt, ver = d.stage("optimize").summary, d.verification
+    opt, ver = d.optimum, d.verification
     t = d.target or {}
     cards = [("Measured AoR", _fmt(t.get("aor_deg"), ".2f", "°")
               + (f" ± {_fmt(t.get('std_deg'), '.2f')}°" if t.get("std_deg") is not None else "")),
-             ("Predicted at optimum", _fmt(opt.get("predicted_aor_deg"), ".2f", "°")),
+             ("Predicted at optimum", _fmt(opt.predicted_aor_deg, ".2f", "°")),
              ("Verified AoR", _fmt(ver.aor_mean_deg, ".2f", "°")
               + (f" ± {_fmt(ver.aor_std_deg, '.2f')}°" if ver.aor_std_deg is not None else "")),
              ("Relative error", _fmt(ver.relative_error_percent, ".2f", " %"))]
-    chosen = opt.get("chosen") or {}
-    cards += [(f"{d.symbol(k)} ({k})", _fmt(v, ".4g")) for k, v in chosen.items()]
+    cards += [(f"{d.symbol(k)} ({k})", _fmt(v, ".4g")) for k, v in opt.chosen.items()]
     grid = "".join(f'<div class="card"><div class="k">{escape(k)}</div>'
                    f'<div class="v">{escape(v)}</div></div>' for k, v in cards)
     when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
@@ -469,7 +468,7 @@ def _rsm(b: _Builder) -> str:
             if s.get(key):
                 parts.append(f'<h3>{label}</h3><div class="eq">'
                              f"{escape(_equation(s[key], d.symbols))}</div>")
-        hold = d.stage("optimize").summary.get("chosen") or None
+        hold = d.optimum.chosen or None
         if s.get("runs") and s.get("coefficients_coded"):
             parts.append(_diagnostics(b, "rsm", s, hold)[0])
             adequate = s.get("adequate")
@@ -514,27 +513,25 @@ def _optimize(b: _Builder) -> str:
     d, view = b.data, b.data.stage("optimize")
 
     def render() -> str:
-        s = view.summary
-        chosen = ", ".join(f"{d.symbol(k)} = {_fmt(v, '.4g')}"
-                           for k, v in (s.get("chosen") or {}).items())
-        return (f"<p>Target {_fmt(s.get('target_aor_deg'))}°. <b>Chosen:</b> "
+        opt = d.optimum
+        chosen = ", ".join(f"{d.symbol(k)} = {_fmt(v, '.4g')}" for k, v in opt.chosen.items())
+        return (f"<p>Target {_fmt(opt.target_aor_deg)}°. <b>Chosen:</b> "
                 f"{escape(chosen or '—')}, predicted AoR "
-                f"{_fmt(s.get('predicted_aor_deg'))}°.</p>"
-                + b.table(T.candidates_table(s, d.symbols)))
+                f"{_fmt(opt.predicted_aor_deg)}°.</p>"
+                + b.table(T.candidates_table(opt, d.symbols)))
 
     return _section("optimize", "Optimum and alternatives", view.status, _guard(b, view, render))
 
 
 def _several_responses(b: _Builder) -> str:
     """Each response's goal, model, prediction and verification (several-response studies)."""
-    view = RS.responses_view(b.data.stage("rsm").summary, b.data.stage("optimize").summary,
-                             b.data.verification)
+    view = RS.responses_view(b.data.stage("rsm").summary, b.data.optimum, b.data.verification)
     if view is None:
         return ""
     goals, verified = RS.responses_tables(view)
     equations = "".join(f"<p><b>{escape(r.name)}</b> = {escape(r.equation)}</p>"
                         for r in view.rows if r.equation and r.name != "aor_deg")
-    rsm, opt = b.data.stage("rsm").summary, b.data.stage("optimize").summary
+    rsm, opt = b.data.stage("rsm").summary, b.data.optimum
     names = [f["name"] for f in rsm.get("factors") or []]
     figures = "".join(
         b.figure(f"overlay_{p}_{q}", f"Overlay on {b.data.symbol(p)} x {b.data.symbol(q)}, the "
@@ -553,7 +550,7 @@ def _verification(b: _Builder) -> str:
         t = d.target or {}
         parts = ['<div class="row">' + b.table(T.verification_summary_table(s, d.target_aor_deg))
                  + b.table(T.verification_table(s)) + "</div>"]
-        rounds = T.verification_rounds_table(d.stage("optimize").summary, s, d.symbols)
+        rounds = T.verification_rounds_table(d.optimum, s, d.symbols)
         if rounds is not None:
             parts.append(b.table(rounds))
         parts += [
