@@ -2,7 +2,8 @@
 card and the result JSON read back.
 
 A stage's summary lives in the run store as JSON. ``from_summary``
-(:meth:`Verification.from_summary`, :meth:`Optimum.from_summary`) reads one written by any
+(:meth:`Verification.from_summary`, :meth:`Optimum.from_summary`,
+:meth:`Surface.from_summary`) reads one written by any
 release (a key it lacks takes its default, as older stores lack the newer keys; keys it does
 not know are left out), and ``to_summary`` writes this release's keys in a fixed order.
 Readers use the attributes, so renaming a field breaks the code that reads it and its tests,
@@ -17,8 +18,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-__all__ = ["Candidate", "Goal", "Optimum", "ResponseVerification", "ResponsesOptimum",
-           "Verification"]
+__all__ = ["Candidate", "Goal", "Optimum", "ResponseModel", "ResponseVerification",
+           "ResponsesOptimum", "Surface", "Verification"]
 
 _T = TypeVar("_T")
 
@@ -210,10 +211,12 @@ def _written(obj: Any, always: tuple[str, ...]) -> dict[str, Any]:
 
 
 def _plain(value: Any) -> Any:
-    """``value`` as JSON: a typed summary by its ``to_summary``, lists item by item, anything
-    else copied (the stored form shares nothing with the object)."""
+    """``value`` as JSON: a typed summary by its ``to_summary``, lists and dicts item by item,
+    anything else copied (the stored form shares nothing with the object)."""
     if isinstance(value, list):
         return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
     if hasattr(value, "to_summary"):
         return value.to_summary()
     return copy.deepcopy(value)
@@ -457,3 +460,149 @@ class Optimum:
                 out[f.name] = _plain(value)
         first = self.POSTERIOR_FIRST if self.source is not None else ()
         return {k: out[k] for k in [*first, *(k for k in out if k not in first)]}
+
+
+@dataclass(frozen=True)
+class ResponseModel:
+    """One response's model beside the angle at the response-surface stage (a
+    several-response study; :class:`demcal.calibrate.several.ResponseFit` writes it).
+
+    Attributes
+    ----------
+    model : str or None
+        ``"quadratic"``, ``"reduced"`` or ``"constant"`` (the response did not vary).
+    adequate : bool or None
+        Design-Expert's adequacy rules.
+    adequacy : dict
+        p of the model and of the lack of fit, R^2, adjusted and predicted R^2, Adeq Precision.
+    warnings : list of str
+    excluded_points : list of int
+        Design points without this response.
+    anova : list of dict
+        The ANOVA table's rows.
+    coefficients_coded : dict str -> float
+        The model's coefficients in coded units, by term.
+    equation_actual : str or None
+        The model in the factors' units.
+    """
+
+    model: str | None = None
+    adequate: bool | None = None
+    adequacy: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    excluded_points: list[int] = field(default_factory=list)
+    anova: list[dict[str, Any]] = field(default_factory=list)
+    coefficients_coded: dict[str, float] = field(default_factory=dict)
+    equation_actual: str | None = None
+
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any]) -> ResponseModel:
+        """Read a stored ``rsm.responses[name]``."""
+        return cls(**_known(cls, summary))
+
+    def to_summary(self) -> dict[str, Any]:
+        """The stored form: every field."""
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class Surface:
+    """The response-surface stage: the design, its runs, the angle's quadratic (or reduced)
+    model, its ANOVA and Design-Expert's adequacy, and in a several-response study every other
+    response's model.
+
+    The nested rows (``factors``, ``runs``, ``anova``, ``rounds``) keep the stored form; the
+    report's model helpers read them alike from the screening stage's summary.
+
+    Attributes
+    ----------
+    design : str or None
+        ``"box_behnken"`` or ``"ccd"``.
+    factors : list of dict
+        ``{"name", "symbol", "low", "high", "unit"}``: the ranges the design spans.
+    runs : list of dict
+        Per design point: ``point``, ``coded``, ``actual``, ``aor_deg`` (the replicates'
+        mean), ``outcome``, ``aor_runs_deg``, ``aor_std_deg``.
+    excluded_points : list of int
+        Design points without a pile (not in the fit).
+    replicates : int or None
+        Replicates per design point used (more are added while the model is not adequate).
+    responses : dict str -> ResponseModel or None
+        Every response beside the angle; None with the angle alone.
+    anova : list of dict
+        The ANOVA of the model the optimum is read from (every replicate a row).
+    fit : dict
+        Its fit statistics.
+    lack_of_fit_p : float or None
+    adequacy : dict or None
+        The design-point means' statistics Design-Expert's rules judge.
+    rounds : list of dict or None
+        One row per replicate round: replicates, runs, model, adequacy.
+    model : str or None
+        ``"quadratic"`` or ``"reduced"`` (None: a store written before the reduction, a
+        quadratic).
+    removed_terms : list of str or None
+    anova_full, adequacy_full : list of dict, dict or None
+        The full quadratic model's ANOVA and adequacy.
+    coefficients_coded, coefficients_actual : dict str -> float
+        The model's coefficients by term, in coded and in actual units.
+    equation_coded, equation_actual : str or None
+    adequate : bool or None
+    warnings : list of str
+    """
+
+    design: str | None = None
+    factors: list[dict[str, Any]] = field(default_factory=list)
+    runs: list[dict[str, Any]] = field(default_factory=list)
+    excluded_points: list[int] = field(default_factory=list)
+    replicates: int | None = None
+    responses: dict[str, ResponseModel] | None = None
+    anova: list[dict[str, Any]] = field(default_factory=list)
+    fit: dict[str, Any] = field(default_factory=dict)
+    lack_of_fit_p: float | None = None
+    adequacy: dict[str, Any] | None = None
+    rounds: list[dict[str, Any]] | None = None
+    model: str | None = None
+    removed_terms: list[str] | None = None
+    anova_full: list[dict[str, Any]] | None = None
+    adequacy_full: dict[str, Any] | None = None
+    coefficients_coded: dict[str, float] = field(default_factory=dict)
+    coefficients_actual: dict[str, float] = field(default_factory=dict)
+    equation_coded: str | None = None
+    equation_actual: str | None = None
+    adequate: bool | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    #: written even when None (no lack-of-fit test); the other fields: when not None
+    ALWAYS = ("lack_of_fit_p",)
+
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any] | None) -> Surface:
+        """Read a stored rsm summary (any release's; empty: not run; a failed stage's: its
+        design and runs)."""
+        items = _known(cls, summary or {})
+        if items.get("responses") is not None:
+            items["responses"] = {name: ResponseModel.from_summary(r)
+                                  for name, r in items["responses"].items()}
+        for name in ("factors", "runs", "excluded_points", "anova", "warnings"):
+            items[name] = items.get(name) or []
+        for name in ("fit", "coefficients_coded", "coefficients_actual"):
+            items[name] = items.get(name) or {}
+        return cls(**items)
+
+    @property
+    def names(self) -> list[str]:
+        """The factors' names, in the design's order."""
+        return [str(f["name"]) for f in self.factors]
+
+    @property
+    def model_kind(self) -> str:
+        """The model the optimum is read from (``"quadratic"`` where a store predates the
+        reduction)."""
+        return self.model or "quadratic"
+
+    def to_summary(self) -> dict[str, Any]:
+        """The stored form: the fields in order, each where it is not None (``responses``
+        only in a several-response study), ``lack_of_fit_p`` always."""
+        return {f.name: _plain(v) for f in dataclasses.fields(self)
+                if (v := getattr(self, f.name)) is not None or f.name in self.ALWAYS}

@@ -138,6 +138,13 @@ def test_result_json_names_every_response(tmp_path: Path) -> None:
     assert np.isfinite(doc["responses"]["verification"]["drum_deg"]["mean"])
     with RunStore(study.parent) as store:  # the keys the desirability optimum always stored
         opt = store.stage("optimize").summary
+        rsm = store.stage("rsm").summary
+    # ... and the response surface: every other response's model after the replicates
+    assert list(rsm)[:6] == ["design", "factors", "runs", "excluded_points", "replicates",
+                             "responses"]
+    assert list(rsm["responses"]["drum_deg"]) == [
+        "model", "adequate", "adequacy", "warnings", "excluded_points", "anova",
+        "coefficients_coded", "equation_actual"]
     assert list(opt) == ["target_aor_deg", "candidates", "chosen", "predicted_aor_deg",
                          "classifier", "opts", "responses"]
     assert list(opt["candidates"][0]) == ["params", "predicted_aor_deg", "pi_low_deg",

@@ -27,7 +27,7 @@ from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
 from demcal.calibrate.verify import compare_to_target
 from demcal.errors import StudyError
 from demcal.store import RunRecord
-from demcal.summaries import Candidate, Goal, Optimum, ResponsesOptimum
+from demcal.summaries import Candidate, Goal, Optimum, ResponseModel, ResponsesOptimum
 
 __all__ = [
     "PathClimb",
@@ -72,14 +72,14 @@ class ResponseFit:
     excluded_points: tuple[int, ...]
     anova: tuple[dict[str, Any], ...]
 
-    def summary(self) -> dict[str, Any]:
-        """The JSON the store and the report keep (the rsm stage's ``responses[name]``)."""
-        return {"model": self.model_kind, "adequate": self.adequate,
-                "adequacy": self.statistics, "warnings": list(self.warnings),
-                "excluded_points": list(self.excluded_points), "anova": list(self.anova),
-                "coefficients_coded": {k: float(v)
-                                       for k, v in self.model.coefficients_coded.items()},
-                "equation_actual": self.model.equation(units="actual")}
+    def summary(self) -> ResponseModel:
+        """What the store and the report keep (the rsm stage's ``responses[name]``)."""
+        return ResponseModel(
+            model=self.model_kind, adequate=self.adequate, adequacy=self.statistics,
+            warnings=list(self.warnings), excluded_points=list(self.excluded_points),
+            anova=list(self.anova),
+            coefficients_coded={k: float(v) for k, v in self.model.coefficients_coded.items()},
+            equation_actual=self.model.equation(units="actual"))
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,14 @@ from demcal.calibrate.verify import (
 )
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord, RunStore, params_hash
-from demcal.summaries import Candidate, Optimum, ResponseVerification, Verification
+from demcal.summaries import (
+    Candidate,
+    Optimum,
+    ResponseModel,
+    ResponseVerification,
+    Surface,
+    Verification,
+)
 from demcal.virtual import PARAMETERS
 
 __all__ = ["Context", "adequacy", "choose_model", "optimize", "rangefind", "rsm", "screening",
@@ -802,7 +809,7 @@ def choose_model(kind: str, alpha_out: float, rows: Any, means: Any) -> dict[str
             "full": full, "notes": [note]}
 
 
-def rsm(ctx: Context) -> dict[str, Any]:
+def rsm(ctx: Context) -> Surface:
     """Box-Behnken (or face-centred CCD) around the centre, quadratic model, full ANOVA.
 
     Every replicate is a row of the fit and the ANOVA (pure error from the replicates, lack
@@ -828,6 +835,7 @@ def rsm(ctx: Context) -> dict[str, Any]:
                                            randomize=False)
     except InputError as exc:
         raise InputError(f"stages.rsm.design: {exc}") from None
+    design_name = "box_behnken" if opts.design == "bbd" else "ccd"
     n_reps = ctx.reps("rsm")
     budget = opts.max_runs if opts.max_runs is not None else design.n_runs * n_reps
     rounds: list[dict[str, Any]] = []
@@ -835,9 +843,9 @@ def rsm(ctx: Context) -> dict[str, Any]:
         recs = ctx.run("rsm", _design_points(ctx, design, range(n_reps)))
         y, outcomes, runs = _point_runs(recs, design.n_runs)
         excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
-        base = {"design": "box_behnken" if opts.design == "bbd" else "ccd",
-                "factors": factors, "runs": _run_rows(design, y, outcomes, runs),
-                "excluded_points": excluded, "replicates": n_reps}
+        run_rows = _run_rows(design, y, outcomes, runs)
+        base = {"design": design_name, "factors": factors, "runs": run_rows,
+                "excluded_points": excluded, "replicates": n_reps}  # what a failure stores
         rep_design, y_rows = _replicated(design, runs, n_reps)
         try:
             model, block_notes = _fit_rows(rep_design, y_rows, n_reps, ctx.study.common_seeds)
@@ -874,35 +882,37 @@ def rsm(ctx: Context) -> dict[str, Any]:
             "within the noise; raise the budget or the fidelity, or narrow the ranges")
     warnings += choice["notes"]
     warnings += block_notes
-    warnings += _other_responses(ctx, design, recs, n_reps, base)
-    summary = {**base, "anova": table.to_records(), "fit": table.fit.to_dict(),
-               "lack_of_fit_p": lof_p, "adequacy": stats_, "rounds": rounds,
-               "model": choice["model"], "removed_terms": choice["removed_terms"],
-               "anova_full": choice["full"]["table"].to_records(),
-               "adequacy_full": choice["full"]["adequacy"],
-               "coefficients_coded": {k: float(v) for k, v in model.coefficients_coded.items()},
-               "coefficients_actual": {k: float(v) for k, v in
-                                       model.coefficients_actual.items()},
-               "equation_coded": model.equation(units="coded"),
-               "equation_actual": model.equation(units="actual"),
-               "adequate": bool(adequate), "warnings": warnings}
-    ctx.store.set_stage("rsm", "done", summary, inputs_hash=h)
-    ctx.results["rsm"] = summary
+    responses, response_warnings = _other_responses(ctx, design, recs, n_reps)
+    warnings += response_warnings
+    surface = Surface(
+        design=design_name, factors=factors, runs=run_rows, excluded_points=excluded,
+        replicates=n_reps, responses=responses, anova=table.to_records(),
+        fit=table.fit.to_dict(), lack_of_fit_p=lof_p, adequacy=stats_, rounds=rounds,
+        model=choice["model"], removed_terms=choice["removed_terms"],
+        anova_full=choice["full"]["table"].to_records(),
+        adequacy_full=choice["full"]["adequacy"],
+        coefficients_coded={k: float(v) for k, v in model.coefficients_coded.items()},
+        coefficients_actual={k: float(v) for k, v in model.coefficients_actual.items()},
+        equation_coded=model.equation(units="coded"),
+        equation_actual=model.equation(units="actual"), adequate=bool(adequate),
+        warnings=warnings)
+    ctx.store.set_stage("rsm", "done", surface.to_summary(), inputs_hash=h)
+    ctx.results["rsm"] = surface
     ctx.results["_rsm_model"] = model
-    return summary
+    return surface
 
 
-def _other_responses(ctx: Context, design: doe.Design, recs: Sequence[RunRecord], n_reps: int,
-                     base: dict[str, Any]) -> list[str]:
+def _other_responses(ctx: Context, design: doe.Design, recs: Sequence[RunRecord], n_reps: int
+                     ) -> tuple[dict[str, ResponseModel] | None, list[str]]:
     """Fit every response beside the angle (a several-response study): the models go to
-    ``ctx.results["_response_fits"]``, their summaries to ``base["responses"]``; returns
-    their warnings (none, and nothing done, for the angle alone)."""
+    ``ctx.results["_response_fits"]``; returns their stored form and their warnings (None
+    and none, and nothing done, for the angle alone)."""
     if not ctx.several:
-        return []
+        return None, []
     fits = several.fit_responses(ctx, design, recs, n_reps)
     ctx.results["_response_fits"] = fits
-    base["responses"] = {name: f.summary() for name, f in fits.items()}
-    return [w for f in fits.values() for w in f.warnings]
+    return ({name: f.summary() for name, f in fits.items()},
+            [w for f in fits.values() for w in f.warnings])
 
 
 # ------------------------------------------------------------------------------ optimize
@@ -924,7 +934,7 @@ def optimize(ctx: Context) -> Optimum:
     opts_json = opts.model_dump(mode="json")
     if ctx.rounds.stored is None:  # before begin() marks the stage running
         ctx.rounds.stored = stored_rounds(ctx.store.stage("optimize"))
-    h = ctx.begin("optimize", {"rsm": ctx.results["rsm"]["coefficients_coded"],
+    h = ctx.begin("optimize", {"rsm": ctx.results["rsm"].coefficients_coded,
                                "opts": opts_json, "target": ctx.target,
                                **({"round": k, "offset": offset} if k > 1 else {})})
     clf = PileClassifier.fit(ctx.records, [(f.name, f.low, f.high) for f in ctx.study.factors])

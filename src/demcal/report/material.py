@@ -119,7 +119,7 @@ def _verification_block(ver: Verification, opt: Optimum,
         verification["target_aor_deg"] = data.target_aor_deg
     if opt.predicted_aor_deg is not None:
         verification["predicted_aor_deg"] = opt.predicted_aor_deg
-    several = RS.responses_view(data.stage("rsm").summary, opt, ver)
+    several = RS.responses_view(data.surface, opt, ver)
     if several is not None:  # every response at the optimum and verified
         verification["desirability"] = several.desirability
         verification["responses"] = {r.name: {k: v for k, v in (

@@ -18,7 +18,7 @@ import pandas as pd
 from demcal.display import readable
 from demcal.doe.anova import significance
 from demcal.report.data import ReportData, StageView
-from demcal.summaries import Optimum, Verification
+from demcal.summaries import Optimum, Surface, Verification
 
 __all__ = [
     "Table",
@@ -224,14 +224,14 @@ def rangefind_points_table(summary: Mapping[str, Any], symbols: Mapping[str, str
 
 
 # ------------------------------------------------------------------------------------ screening
-def _factor_symbols(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> list[tuple]:
-    return [(f["name"], f.get("symbol") or symbols.get(f["name"], f["name"]))
-            for f in summary.get("factors") or []]
+def _factor_symbols(factors: Sequence[Mapping[str, Any]], symbols: Mapping[str, str]
+                   ) -> list[tuple]:
+    return [(f["name"], f.get("symbol") or symbols.get(f["name"], f["name"])) for f in factors]
 
 
 def screening_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
     """The screening design in coded units and its responses (the paper's Table 4)."""
-    facs = _factor_symbols(summary, symbols)
+    facs = _factor_symbols(summary.get("factors") or [], symbols)
     runs = summary.get("runs") or []
     dummies = [d for d in summary.get("dummies") or []  # shown only when their levels are
                if any(d in (r.get("coded") or {}) for r in runs)]  # stored
@@ -352,11 +352,11 @@ def steepest_levels_table(summary: Mapping[str, Any], symbols: Mapping[str, str]
 
 
 # ------------------------------------------------------------------------------------------ rsm
-def rsm_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def rsm_design_table(surface: Surface, symbols: Mapping[str, str]) -> Table:
     """The response-surface design, coded and actual, with its responses (cf. Table 7); with
     replicates, the AoR is their mean and each replicate and their spread are shown."""
-    facs = _factor_symbols(summary, symbols)
-    runs = summary.get("runs") or []
+    facs = _factor_symbols(surface.factors, symbols)
+    runs = surface.runs
     replicated = any(len(r.get("aor_runs_deg") or []) > 1 for r in runs)
     rows = []
     for r in runs:
@@ -378,19 +378,23 @@ def rsm_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> 
     for _, s in facs:
         frame[s] = [None if v is None else int(v) if float(v).is_integer() else v
                     for v in frame[s]]
-    return Table("rsm_design", f"{_design_name(summary)} design and results (cf. Table 7)",
-                 frame)
+    return Table("rsm_design", f"{_design_name(surface.design)} design and results "
+                 "(cf. Table 7)", frame)
 
 
-def _design_name(summary: Mapping[str, Any]) -> str:
-    return {"box_behnken": "Box-Behnken", "ccd": "Central composite"}.get(
-        str(summary.get("design", "")), str(summary.get("design", "Response-surface")))
+def _design_name(design: str | None) -> str:
+    """The design's name as the paper writes it (a stored summary without one:
+    "Response-surface")."""
+    if design is None:
+        return "Response-surface"
+    return {"box_behnken": "Box-Behnken", "ccd": "Central composite"}.get(str(design),
+                                                                          str(design))
 
 
-def rsm_coefficients_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def rsm_coefficients_table(surface: Surface, symbols: Mapping[str, str]) -> Table:
     """Coefficients of the fitted polynomial in coded and in actual units."""
-    coded = summary.get("coefficients_coded") or {}
-    actual = summary.get("coefficients_actual") or {}
+    coded = surface.coefficients_coded
+    actual = surface.coefficients_actual
     terms = list(coded) + [t for t in actual if t not in coded]
     rows = [{"term": term_label(t, symbols), "coded": _num(coded.get(t)),
              "actual": _num(actual.get(t))} for t in terms]
