@@ -132,6 +132,12 @@ def test_the_stage_and_the_runs_are_stored(three: tuple[Path, dict]) -> None:
     assert stages["bayes"].status == "done" and stages["verification"].status == "done"
     summary = stages["bayes"].summary
     assert summary["posterior"] == res["posterior"]
+    # the optimum the strategy stores for the report and the card, in the order it always did
+    opt = stages["optimize"].summary
+    assert list(opt) == ["target_aor_deg", "chosen", "predicted_aor_deg", "candidates", "opts",
+                         "source"]
+    assert opt["opts"] == "bayes" and list(opt["candidates"][0]) == [
+        "params", "predicted_aor_deg", "pi_low_deg", "pi_high_deg", "p_pile"]
     assert len(summary["samples"][next(iter(FACTORS))]) >= 100
     assert len(runs) == res["n_runs_strategy"]
     assert sorted(r.point for r in runs) == list(range(len(runs)))  # a stable index per run

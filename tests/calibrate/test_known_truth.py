@@ -71,7 +71,18 @@ def test_study_recovers_the_planted_target(result):
     with RunStore(path.parent) as store:
         rsm = store.stage("rsm").summary
         assert rsm["adequate"] and rsm["lack_of_fit_p"] is not None
+        # the keys the response surface always stored (demcal.summaries.Surface writes them)
+        assert list(rsm) == ["design", "factors", "runs", "excluded_points", "replicates",
+                             "anova", "fit", "lack_of_fit_p", "adequacy", "rounds", "model",
+                             "removed_terms", "anova_full", "adequacy_full",
+                             "coefficients_coded", "coefficients_actual", "equation_coded",
+                             "equation_actual", "adequate", "warnings"]
         opt = store.stage("optimize").summary
+        # the keys the angle's optimum always stored (demcal.summaries.Optimum writes them)
+        assert list(opt) == ["target_aor_deg", "candidates", "chosen", "predicted_aor_deg",
+                             "classifier", "opts"]
+        assert list(opt["candidates"][0]) == ["params", "predicted_aor_deg", "pi_low_deg",
+                                              "pi_high_deg", "p_pile", "desirability"]
         for c in opt["candidates"]:  # never a point predicted outside the pile region
             assert c["p_pile"] >= 0.5 and c["params"]["pp.surface_energy"] < BOUNDARY
         assert store.meta("result")["optimum"] == res["optimum"]

@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 from demcal.calibrate import calibrate
 from demcal.cli import app
 from demcal.execute.analytic import AnalyticOptions, true_aor, true_responses
+from demcal.store import RunStore
 
 FACTORS = {  # name: (symbol, low, high)
     "pp.static_friction": ("x3", 0.2, 1.0),
@@ -135,6 +136,22 @@ def test_result_json_names_every_response(tmp_path: Path) -> None:
     doc = json.loads((tmp_path / "r.json").read_text())
     assert set(doc["responses"]["predicted"]) == {"aor_deg", "drum_deg", "bulk_density_kg_m3"}
     assert np.isfinite(doc["responses"]["verification"]["drum_deg"]["mean"])
+    with RunStore(study.parent) as store:  # the keys the desirability optimum always stored
+        opt = store.stage("optimize").summary
+        rsm = store.stage("rsm").summary
+    # ... and the response surface: every other response's model after the replicates
+    assert list(rsm)[:6] == ["design", "factors", "runs", "excluded_points", "replicates",
+                             "responses"]
+    assert list(rsm["responses"]["drum_deg"]) == [
+        "model", "adequate", "adequacy", "warnings", "excluded_points", "anova",
+        "coefficients_coded", "equation_actual"]
+    assert list(opt) == ["target_aor_deg", "candidates", "chosen", "predicted_aor_deg",
+                         "classifier", "opts", "responses"]
+    assert list(opt["candidates"][0]) == ["params", "predicted_aor_deg", "pi_low_deg",
+                                          "pi_high_deg", "p_pile", "desirability", "predicted",
+                                          "individual"]
+    assert list(opt["responses"]) == ["goals", "desirability", "reachable", "unmet"]
+    assert doc["responses"]["goals"] == opt["responses"]["goals"]
 
 
 @pytest.mark.parametrize(("extra", "message"), [

@@ -123,9 +123,10 @@ def _two_rounds(rs, pts, *, first_confirmed):
     """Rounds 1 and 2 at ``pts[0]``, ``pts[1]`` (12 and 4 piles) whose means read 2 and 1
     deg below the surface; round 2 confirmed."""
     from demcal.calibrate.rounds import Rounds
+    from demcal.summaries import Optimum
 
     pred = rs.predict({k: [p[k] for p in pts[:2]] for k in "abc"}, units="actual")
-    return Rounds(optimize=[{"chosen": p} for p in pts],
+    return Rounds(optimize=[Optimum(chosen=p) for p in pts],
                   verification=[{"aor_mean_deg": float(pred[0]) - 2.0, "n_piles": 12,
                                  "confirmed": first_confirmed, "round": 1},
                                 {"aor_mean_deg": float(pred[1]) - 1.0, "n_piles": 4,

@@ -136,12 +136,13 @@ def test_figures_draw_and_the_target_contour_is_only_drawn_when_reached():
 
 def test_the_rsm_table_shows_each_points_replicates_and_their_spread():
     from demcal.report.tables import rsm_design_table
+    from demcal.summaries import Surface
 
     s = {"design": "box_behnken", "factors": [{"name": "a", "symbol": "x1"}],
          "runs": [{"point": 0, "coded": {"a": -1.0}, "actual": {"a": 0.1}, "aor_deg": 41.0,
                    "aor_runs_deg": [40.0, 42.0], "aor_std_deg": 1.4142, "outcome": "pile"}]}
-    frame = rsm_design_table(s, {}).frame
+    frame = rsm_design_table(Surface.from_summary(s), {}).frame
     assert list(frame["replicates (deg)"]) == ["40.00, 42.00"]
     assert abs(frame["std (deg)"][0] - 1.4142) < 1e-9
     s["runs"][0].update(aor_runs_deg=[41.0], aor_std_deg=None)
-    assert "std (deg)" not in rsm_design_table(s, {}).frame
+    assert "std (deg)" not in rsm_design_table(Surface.from_summary(s), {}).frame

@@ -59,7 +59,8 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       {"goals", "coefficients_coded": {response: {"intercept", name: float}}, "gradient":
       {name: float}, "centre_climb": float, "alone": {response: {name: +1|-1}}}, and per
       step "responses": {response: float|None}, "desirability": float|None}
-- "rsm": {"design": "box_behnken"|"ccd", "factors": [{"name","symbol","low","high","unit"}],
+- "rsm" (typed: demcal.summaries.Surface): {"design": "box_behnken"|"ccd",
+      "factors": [{"name","symbol","low","high","unit"}],
       "runs": [{"point","coded","actual","aor_deg" (mean of the replicates),"outcome",
                 "aor_runs_deg": [float] (each replicate), "aor_std_deg": float|None}],
       "anova": [records], "fit": FitStatistics.to_dict(), "lack_of_fit_p": float|None,
@@ -72,12 +73,19 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       "adequate", "failed", ...}], "model": "quadratic"|"reduced" (the one anova,
       coefficients and the optimum are of; stages.rsm.model), "removed_terms": [str],
       "anova_full": [records], "adequacy_full": {...} (the full quadratic model's),
-      "warnings": [str], "excluded_points": [int]}
-- "optimize": {"target_aor_deg": float,
+      "warnings": [str], "excluded_points": [int], with several responses also "responses":
+      {response: {"model", "adequate", "adequacy", "warnings", "excluded_points", "anova",
+      "coefficients_coded", "equation_actual"}} (each other response's model over the same
+      design)}
+- "optimize" (typed: demcal.summaries.Optimum writes and reads it): {"target_aor_deg": float,
       "candidates": [{"params": {name: value}, "predicted_aor_deg": float,
                       "pi_low_deg": float|None, "pi_high_deg": float|None,
                       "p_pile": float|None}],  (ranked, best first)
       "chosen": {name: value}, "predicted_aor_deg": float,
+      with several responses also "responses": {"goals": [{"name", "goal", "low", "high",
+      "target", "weight", "importance"}], "desirability", "reachable", "unmet": [str]},
+      "warnings" (only when a limit is out of reach) and per candidate "predicted" and
+      "individual" ({response: float}),
       in a refinement round (demcal.calibrate.refine): "round": int (2, 3, ...),
       "surface_offset_deg": float (the correction applied: the surface was aimed at the
       target less it), "measured_offset_deg": float (earlier rounds' piles' means less the
@@ -112,7 +120,7 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       "samples": {name: [float]} (thinned posterior), "slices": {response: {name: {"x",
       "mean", "std"}}} (each surrogate along each factor through the best point)}; the
       strategy also writes "optimize" ({"chosen", "predicted_aor_deg", one candidate,
-      "opts": "bayes"}) and "verification" as above (no surface: "confirmed" None)
+      "opts": "bayes", "source"}) and "verification" as above (no surface: "confirmed" None)
 
 ## runs (RunStore.record_run / runs(stage=...))
 Each RunRecord: stage, point (design row index), replicate, params (full set), seed,

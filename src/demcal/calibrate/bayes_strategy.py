@@ -37,7 +37,7 @@ from demcal.calibrate.runner import Point
 from demcal.doe import bayes
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord
-from demcal.summaries import Verification
+from demcal.summaries import Candidate, Optimum, Verification
 
 __all__ = ["DEFAULT_RELATIVE_STD", "PILE", "STAGE", "can_fail", "lab_responses", "run_bayes",
            "settings"]
@@ -288,14 +288,16 @@ def _verify(ctx: st.Context, res: bayes.BayesResult,
     aor = predicted.get(AOR, {}).get("mean")
     pile = predicted.get(PILE, {}).get("mean")
     best = res.best_point_actual
-    summary = {"target_aor_deg": ctx.target, "chosen": best, "predicted_aor_deg": aor,
-               "candidates": [{"params": best, "predicted_aor_deg": aor, "pi_low_deg": None,
-                               "pi_high_deg": None,
-                               "p_pile": None if pile is None else min(1.0, max(0.0, pile))}],
-               # never taken for a DOE optimum if the study goes back to kind "doe"
-               "opts": STAGE, "source": "the posterior's best sample (strategy bayes)"}
-    ctx.store.set_stage("optimize", "done", summary)  # the report's overview and card
-    ctx.results["optimize"] = summary
+    optimum = Optimum(
+        target_aor_deg=ctx.target, chosen=best, predicted_aor_deg=aor,
+        candidates=[Candidate(params=best, predicted_aor_deg=aor, pi_low_deg=None,
+                              pi_high_deg=None,
+                              p_pile=None if pile is None else min(1.0, max(0.0, pile)))],
+        # never taken for a DOE optimum if the study goes back to kind "doe"
+        opts=STAGE, source="the posterior's best sample (strategy bayes)")
+    # the report's overview and card
+    ctx.store.set_stage("optimize", "done", optimum.to_summary())
+    ctx.results["optimize"] = optimum
     return st.verification(ctx)
 
 
@@ -378,7 +380,7 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
 
 
 def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> dict[str, Any]:
-    opt = ctx.results["optimize"]
+    opt: Optimum = ctx.results["optimize"]
     typed = Verification.from_summary(ver)
     aor = summary["predicted"].get(AOR, {}).get("mean")
     result = {

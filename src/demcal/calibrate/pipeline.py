@@ -27,7 +27,7 @@ from demcal.execute.local import GPU_CHUNK, default_chunk, default_workers
 from demcal.execute.tasks import TestDef
 from demcal.store import STAGES as STAGE_TITLES
 from demcal.store import RunStore
-from demcal.summaries import Verification
+from demcal.summaries import Optimum, Surface, Verification
 
 __all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def"]
 
@@ -198,6 +198,15 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
                       target_n=target.get("n"), responses=specs, labs=labs)
 
 
+def _design_json(design: str | None, factors: list[dict[str, Any]], runs: list[dict[str, Any]],
+                 excluded: list[int]) -> dict[str, Any]:
+    """A designed stage's part of the result: its design, factors and each point's angle."""
+    return {"design": design, "factors": [f["name"] for f in factors],
+            "responses": [{"point": r["point"], "actual": r["actual"], "aor_deg": r["aor_deg"],
+                           "outcome": r["outcome"]} for r in runs],
+            "excluded_points": excluded}
+
+
 def _stage_json(ctx: st.Context) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name in STAGES:
@@ -209,26 +218,23 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
                          "responses": [p for f in s["factors"] for p in f["points"]],
                          "ranges": {f["name"]: [f["new_low"], f["new_high"]]
                                     for f in s["factors"]}, "message": s["message"]}
-        elif name in ("screening", "rsm") and "runs" in s:  # a skipped screening: no runs
-            out[name] = {"design": s["design"], "factors": [f["name"] for f in s["factors"]],
-                         "responses": [{"point": r["point"], "actual": r["actual"],
-                                        "aor_deg": r["aor_deg"], "outcome": r["outcome"]}
-                                       for r in s["runs"]],
-                         "excluded_points": s["excluded_points"]}
-            if name == "screening":
-                out[name]["selected"] = s["selected"]
-            else:
-                out[name].update(adequate=s["adequate"], warnings=s["warnings"],
-                                 equation_actual=s["equation_actual"],
-                                 adequacy=s.get("adequacy"), replicates=s.get("replicates"),
-                                 rounds=s.get("rounds"))
+        elif name == "screening" and "runs" in s:  # a skipped screening: no runs
+            out[name] = {**_design_json(s["design"], s["factors"], s["runs"],
+                                        s["excluded_points"]), "selected": s["selected"]}
+        elif name == "rsm":  # typed (demcal.summaries.Surface), no fidelity of its own
+            out[name] = {**_design_json(s.design, s.factors, s.runs, s.excluded_points),
+                         "adequate": s.adequate, "warnings": s.warnings,
+                         "equation_actual": s.equation_actual, "adequacy": s.adequacy,
+                         "replicates": s.replicates, "rounds": s.rounds}
+            continue
         elif name == "steepest" and "steps" in s:  # a disabled stage keeps only its levels
             out[name] = {"design": "steepest path", "factors": s["factors"],
                          "responses": s["steps"], "best_step": s["best_step"],
                          "levels": s["levels"],
                          **{k: s[k] for k in ("anchor", "followed", "climb") if k in s}}
-        elif name == "optimize":
-            out[name] = {"candidates": s["candidates"]}
+        elif name == "optimize":  # typed (demcal.summaries.Optimum), no fidelity of its own
+            out[name] = {"candidates": [c.to_summary() for c in s.candidates]}
+            continue
         elif name == "verification":
             out[name] = {"aor_deg": s["aor_deg"], "outcomes": s["outcomes"]}
         if name in out and "fidelity" in s:  # the stage ran at its own fidelity
@@ -281,15 +287,17 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         getattr(st, name)(ctx)
     st.rsm(ctx)
     refine.run_rounds(ctx)
-    opt, ver_summary = ctx.results["optimize"], ctx.results["verification"]
+    opt: Optimum = ctx.results["optimize"]
+    surface: Surface = ctx.results["rsm"]
+    ver_summary = ctx.results["verification"]
     ver = Verification.from_summary(ver_summary)
     rounds = [refine.round_row(o, v) for o, v in zip(
-        [*opt.get("rounds", []), opt], [*ver.rounds, ver], strict=True)]
+        [*opt.rounds, opt], [*ver.rounds, ver], strict=True)]
     result = {
         "study": ctx.study.name,
-        "optimum": opt["chosen"],
+        "optimum": opt.chosen,
         "optimum_full": ver.params,
-        "predicted_aor_deg": opt["predicted_aor_deg"],
+        "predicted_aor_deg": opt.predicted_aor_deg,
         "target_aor_deg": ctx.target,
         "verification": {k: getattr(ver, k) for k in (
             "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg",
@@ -304,16 +312,16 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         "n_runs_used": len({r.key for r in ctx.records} | ctx.runner.beside_keys),
         "n_runs_executed": ctx.runner.executed,
         "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
-        "rsm_adequate": ctx.results["rsm"]["adequate"],
-        "rsm_adequacy": ctx.results["rsm"].get("adequacy"),
-        "rsm_model": ctx.results["rsm"].get("model", "quadratic"),
-        "rsm_removed_terms": ctx.results["rsm"].get("removed_terms", []),
+        "rsm_adequate": surface.adequate,
+        "rsm_adequacy": surface.adequacy,
+        "rsm_model": surface.model_kind,
+        "rsm_removed_terms": [] if surface.removed_terms is None else surface.removed_terms,
         "stages": _stage_json(ctx),
     }
-    if ctx.several:  # every response against its lab value, and the desirability
+    if ctx.several and opt.responses is not None:  # every response against its lab value
         result["responses"] = {
-            "goals": opt["responses"]["goals"], "desirability": opt["responses"]["desirability"],
-            "predicted": opt["candidates"][0]["predicted"],
+            "goals": [g.to_summary() for g in opt.responses.goals],
+            "desirability": opt.responses.desirability, "predicted": opt.best.predicted,
             "verification": ver_summary["responses"]}
     ctx.store.set_meta("result", result)
     return result

@@ -24,7 +24,7 @@ from __future__ import annotations
 from typing import Any
 
 from demcal.calibrate import stages as st
-from demcal.summaries import Verification
+from demcal.summaries import Optimum, Verification
 
 __all__ = ["needs_another_round", "round_row", "run_rounds"]
 
@@ -46,7 +46,7 @@ def needs_another_round(verification: Verification,
     return missed or verification.confirmed is False or verification.target_in_interval is False
 
 
-def round_row(optimum: dict[str, Any], verification: Verification) -> dict[str, Any]:
+def round_row(optimum: Optimum, verification: Verification) -> dict[str, Any]:
     """One round in a few numbers: its optimum, prediction, the offset it was aimed by (a
     refinement round) and verification (deg)."""
     keys = ("n_piles", "aor_mean_deg", "aor_std_deg", "relative_error_percent",
@@ -54,9 +54,9 @@ def round_row(optimum: dict[str, Any], verification: Verification) -> dict[str, 
             "confirm_pi_high_deg", "confirmed", "target_in_interval", "within_tolerance",
             "p_value")
     aimed = ("surface_offset_deg", "measured_offset_deg", "offset_weight")
-    return {"round": verification.round_number, "optimum": optimum["chosen"],
-            "predicted_aor_deg": optimum["predicted_aor_deg"],
-            **{k: optimum[k] for k in aimed if k in optimum},
+    return {"round": verification.round_number, "optimum": optimum.chosen,
+            "predicted_aor_deg": optimum.predicted_aor_deg,
+            **{k: getattr(optimum, k) for k in aimed if getattr(optimum, k) is not None},
             **{k: getattr(verification, k) for k in keys}}
 
 

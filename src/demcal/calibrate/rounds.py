@@ -4,12 +4,13 @@ round applies (:mod:`demcal.calibrate.refine` runs the rounds; the stages read t
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from demcal import doe
+from demcal.summaries import Optimum
 
 __all__ = ["Offset", "Rounds", "model_rows", "offset_weight", "pile_mean_row",
            "stored_rounds", "with_rounds"]
@@ -20,15 +21,15 @@ class Rounds:
     """The verification rounds of one study (:mod:`demcal.calibrate.refine`).
 
     ``number``: the round now running (1: the response surface's own optimum);
-    ``optimize``/``verification``: the summaries of the rounds already finished, in order;
-    ``stored``: the optimize summaries the store held when the study started, by round (read
-    once, before round 1 overwrites them; None until then).
+    ``optimize``/``verification``: the optima and verification summaries of the rounds
+    already finished, in order; ``stored``: the optima the store held when the study started,
+    by round (read once, before round 1 overwrites them; None until then).
     """
 
     number: int = 1
-    optimize: list[dict[str, Any]] = field(default_factory=list)
+    optimize: list[Optimum] = field(default_factory=list)
     verification: list[dict[str, Any]] = field(default_factory=list)
-    stored: dict[int, dict[str, Any]] | None = None
+    stored: dict[int, Optimum] | None = None
 
     def offset(self, model: Any) -> Offset:
         """The surface's offset measured by the finished rounds (:class:`Offset`).
@@ -54,7 +55,7 @@ class Rounds:
             pool.insert(0, j)
             if self.verification[j].get("confirmed") is not True:
                 break
-        at = [(dict(self.optimize[j]["chosen"]), int(self.verification[j]["n_piles"]))
+        at = [(dict(self.optimize[j].chosen), int(self.verification[j]["n_piles"]))
               for j in pool]
         if not at:
             return Offset()
@@ -126,16 +127,17 @@ def offset_weight(model: Any, at: Sequence[tuple[Mapping[str, float], int]]) -> 
     return n * h / (n * h + 1.0)
 
 
-def stored_rounds(record: Any) -> dict[int, dict[str, Any]]:
-    """The summaries of a finished stage record by round (``{}`` for none or an unfinished one).
+def stored_rounds(record: Any) -> dict[int, Optimum]:
+    """The optima of a finished optimize stage record by round (``{}`` for none or an
+    unfinished one).
 
     The record holds the last round's summary, with the earlier rounds' under ``"rounds"``;
     a summary without ``"round"`` (written before refinement rounds existed) is round 1.
     """
     if record is None or record.status != "done":
         return {}
-    last = record.summary
-    return {int(s.get("round", 1)): s for s in [*last.get("rounds", []), last]}
+    last = Optimum.from_summary(record.summary)
+    return {o.round_number: replace(o, rounds=[]) for o in [*last.rounds, last]}
 
 
 def with_rounds(summary: dict[str, Any], earlier: list[dict[str, Any]]) -> dict[str, Any]:

@@ -27,6 +27,7 @@ from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
 from demcal.calibrate.verify import compare_to_target
 from demcal.errors import StudyError
 from demcal.store import RunRecord
+from demcal.summaries import Candidate, Goal, Optimum, ResponseModel, ResponsesOptimum
 
 __all__ = [
     "PathClimb",
@@ -71,14 +72,14 @@ class ResponseFit:
     excluded_points: tuple[int, ...]
     anova: tuple[dict[str, Any], ...]
 
-    def summary(self) -> dict[str, Any]:
-        """The JSON the store and the report keep (the rsm stage's ``responses[name]``)."""
-        return {"model": self.model_kind, "adequate": self.adequate,
-                "adequacy": self.statistics, "warnings": list(self.warnings),
-                "excluded_points": list(self.excluded_points), "anova": list(self.anova),
-                "coefficients_coded": {k: float(v)
-                                       for k, v in self.model.coefficients_coded.items()},
-                "equation_actual": self.model.equation(units="actual")}
+    def summary(self) -> ResponseModel:
+        """What the store and the report keep (the rsm stage's ``responses[name]``)."""
+        return ResponseModel(
+            model=self.model_kind, adequate=self.adequate, adequacy=self.statistics,
+            warnings=list(self.warnings), excluded_points=list(self.excluded_points),
+            anova=list(self.anova),
+            coefficients_coded={k: float(v) for k, v in self.model.coefficients_coded.items()},
+            equation_actual=self.model.equation(units="actual"))
 
 
 @dataclass(frozen=True)
@@ -373,16 +374,16 @@ def goals_json(goals: Sequence[doe.ResponseGoal]) -> list[dict[str, Any]]:
 
 
 def optimize_summary(ctx: Any, clf: Any, constraint: Callable[[np.ndarray], np.ndarray],
-                     offset: float, prior: dict[str, Any] | None) -> dict[str, Any]:
-    """The optimize stage's summary when the study has several responses: the desirability
+                     offset: float, prior: Optimum | None) -> Optimum:
+    """The optimize stage's optimum when the study has several responses: the desirability
     optimum of the angle's surface (``ctx.results["_rsm_model"]``, corrected by ``offset``)
     and the other responses' inside the pile region (``constraint`` on actual settings, the
-    classifier ``clf``); ``prior`` (this round's stored summary) is kept when it still is the
+    classifier ``clf``); ``prior`` (this round's stored optimum) is kept when it still is the
     optimum, so a resume runs nothing again.
 
-    Same keys as the angle's own optimum (``candidates``, ``chosen``, ``predicted_aor_deg``,
-    ``classifier``), plus ``responses``: the goals, and per candidate the overall
-    desirability, each response's prediction (``predicted``) and desirability
+    Same fields as the angle's own optimum (``candidates``, ``chosen``,
+    ``predicted_aor_deg``, ``classifier``), plus ``responses``: the goals, and per candidate
+    the overall desirability, each response's prediction (``predicted``) and desirability
     (``individual``).
     """
     opts = ctx.study.stages.optimize
@@ -390,13 +391,8 @@ def optimize_summary(ctx: Any, clf: Any, constraint: Callable[[np.ndarray], np.n
     goals = _goals(ctx, np.asarray(model.response, dtype=float))
     ctx.results["_goals"] = goals
     predictors = _predictors(model, ctx.results["_response_fits"], offset)
-    space = model.factors.subset(model.names)
-    if prior is not None and prior.get("responses", {}).get("goals") == goals_json(goals) \
-            and set(prior.get("chosen") or {}) == set(model.names):
-        x = space.to_coded(np.array([[prior["chosen"][n] for n in model.names]]))
-        big_d = float(doe.desirability_at(predictors, goals, x)[0])
-        if abs(big_d - prior["candidates"][0]["desirability"]) <= 1e-6:
-            return prior
+    if prior is not None and _still_best(prior, goals, predictors, model):
+        return prior
     try:
         res = _search(ctx, model, predictors, goals, constraint)
     except doe.InputError as exc:
@@ -406,19 +402,37 @@ def optimize_summary(ctx: Any, clf: Any, constraint: Callable[[np.ndarray], np.n
         actual = s.actual or {}
         at = {n: [actual[n]] for n in model.names}
         iv = model.predict_interval(at, units="actual")
-        cands.append({"params": {n: float(actual[n]) for n in model.names},
-                      "predicted_aor_deg": float(s.predicted[AOR]),
-                      "pi_low_deg": float(iv["pi_low"].iloc[0]) + offset,
-                      "pi_high_deg": float(iv["pi_high"].iloc[0]) + offset,
-                      "p_pile": float(clf.p_pile([ctx.full(actual)])[0]),
-                      "desirability": float(s.desirability),
-                      "predicted": dict(s.predicted), "individual": dict(s.individual)})
+        cands.append(Candidate(
+            params={n: float(actual[n]) for n in model.names},
+            predicted_aor_deg=float(s.predicted[AOR]),
+            pi_low_deg=float(iv["pi_low"].iloc[0]) + offset,
+            pi_high_deg=float(iv["pi_high"].iloc[0]) + offset,
+            p_pile=float(clf.p_pile([ctx.full(actual)])[0]),
+            desirability=float(s.desirability),
+            predicted=dict(s.predicted), individual=dict(s.individual)))
     unmet = res.unmet()
-    return {"target_aor_deg": ctx.target, "candidates": cands, "chosen": cands[0]["params"],
-            "predicted_aor_deg": cands[0]["predicted_aor_deg"],
-            "classifier": clf.describe(), "opts": opts.model_dump(mode="json"),
-            "responses": {"goals": goals_json(goals), "desirability": res.best.desirability,
-                          "reachable": res.reachable, "unmet": list(unmet)},
-            **({"warnings": [f"no setting meets the limits of {', '.join(unmet)} at once "
-                             "with the others: the overall desirability is 0"]}
-               if unmet else {})}
+    return Optimum(
+        target_aor_deg=ctx.target, candidates=cands, chosen=cands[0].params,
+        predicted_aor_deg=cands[0].predicted_aor_deg, classifier=clf.describe(),
+        opts=opts.model_dump(mode="json"),
+        responses=ResponsesOptimum(
+            goals=[Goal.from_summary(g) for g in goals_json(goals)],
+            desirability=res.best.desirability, reachable=res.reachable, unmet=list(unmet)),
+        warnings=[f"no setting meets the limits of {', '.join(unmet)} at once with the "
+                  "others: the overall desirability is 0"] if unmet else [])
+
+
+def _still_best(prior: Optimum, goals: Sequence[doe.ResponseGoal],
+                predictors: Mapping[str, Any], model: doe.ResponseSurface) -> bool:
+    """Whether this round's stored optimum ``prior`` was found for the same goals and
+    factors and the current models give it the overall desirability it was stored with
+    (within 1e-6): then it stands, and a resume reruns nothing."""
+    if prior.responses is None or not prior.candidates \
+            or [g.to_summary() for g in prior.responses.goals] != goals_json(goals) \
+            or set(prior.chosen) != set(model.names):
+        return False
+    space = model.factors.subset(model.names)
+    x = space.to_coded(np.array([[prior.chosen[n] for n in model.names]]))
+    big_d = float(doe.desirability_at(predictors, goals, x)[0])
+    stored = prior.best.desirability
+    return stored is not None and abs(big_d - stored) <= 1e-6

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -20,6 +20,7 @@ from demcal.calibrate import anchor, several
 from demcal.calibrate.classifier import PileClassifier
 from demcal.calibrate.responses import LabValue, ResponseSpec
 from demcal.calibrate.rounds import (
+    Offset,
     Rounds,
     stored_rounds,
     with_rounds,
@@ -36,7 +37,14 @@ from demcal.calibrate.verify import (
 )
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord, RunStore, params_hash
-from demcal.summaries import ResponseVerification, Verification
+from demcal.summaries import (
+    Candidate,
+    Optimum,
+    ResponseModel,
+    ResponseVerification,
+    Surface,
+    Verification,
+)
 from demcal.virtual import PARAMETERS
 
 __all__ = ["Context", "adequacy", "choose_model", "optimize", "rangefind", "rsm", "screening",
@@ -801,7 +809,7 @@ def choose_model(kind: str, alpha_out: float, rows: Any, means: Any) -> dict[str
             "full": full, "notes": [note]}
 
 
-def rsm(ctx: Context) -> dict[str, Any]:
+def rsm(ctx: Context) -> Surface:
     """Box-Behnken (or face-centred CCD) around the centre, quadratic model, full ANOVA.
 
     Every replicate is a row of the fit and the ANOVA (pure error from the replicates, lack
@@ -827,6 +835,7 @@ def rsm(ctx: Context) -> dict[str, Any]:
                                            randomize=False)
     except InputError as exc:
         raise InputError(f"stages.rsm.design: {exc}") from None
+    design_name = "box_behnken" if opts.design == "bbd" else "ccd"
     n_reps = ctx.reps("rsm")
     budget = opts.max_runs if opts.max_runs is not None else design.n_runs * n_reps
     rounds: list[dict[str, Any]] = []
@@ -834,9 +843,9 @@ def rsm(ctx: Context) -> dict[str, Any]:
         recs = ctx.run("rsm", _design_points(ctx, design, range(n_reps)))
         y, outcomes, runs = _point_runs(recs, design.n_runs)
         excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
-        base = {"design": "box_behnken" if opts.design == "bbd" else "ccd",
-                "factors": factors, "runs": _run_rows(design, y, outcomes, runs),
-                "excluded_points": excluded, "replicates": n_reps}
+        run_rows = _run_rows(design, y, outcomes, runs)
+        base = {"design": design_name, "factors": factors, "runs": run_rows,
+                "excluded_points": excluded, "replicates": n_reps}  # what a failure stores
         rep_design, y_rows = _replicated(design, runs, n_reps)
         try:
             model, block_notes = _fit_rows(rep_design, y_rows, n_reps, ctx.study.common_seeds)
@@ -873,39 +882,41 @@ def rsm(ctx: Context) -> dict[str, Any]:
             "within the noise; raise the budget or the fidelity, or narrow the ranges")
     warnings += choice["notes"]
     warnings += block_notes
-    warnings += _other_responses(ctx, design, recs, n_reps, base)
-    summary = {**base, "anova": table.to_records(), "fit": table.fit.to_dict(),
-               "lack_of_fit_p": lof_p, "adequacy": stats_, "rounds": rounds,
-               "model": choice["model"], "removed_terms": choice["removed_terms"],
-               "anova_full": choice["full"]["table"].to_records(),
-               "adequacy_full": choice["full"]["adequacy"],
-               "coefficients_coded": {k: float(v) for k, v in model.coefficients_coded.items()},
-               "coefficients_actual": {k: float(v) for k, v in
-                                       model.coefficients_actual.items()},
-               "equation_coded": model.equation(units="coded"),
-               "equation_actual": model.equation(units="actual"),
-               "adequate": bool(adequate), "warnings": warnings}
-    ctx.store.set_stage("rsm", "done", summary, inputs_hash=h)
-    ctx.results["rsm"] = summary
+    responses, response_warnings = _other_responses(ctx, design, recs, n_reps)
+    warnings += response_warnings
+    surface = Surface(
+        design=design_name, factors=factors, runs=run_rows, excluded_points=excluded,
+        replicates=n_reps, responses=responses, anova=table.to_records(),
+        fit=table.fit.to_dict(), lack_of_fit_p=lof_p, adequacy=stats_, rounds=rounds,
+        model=choice["model"], removed_terms=choice["removed_terms"],
+        anova_full=choice["full"]["table"].to_records(),
+        adequacy_full=choice["full"]["adequacy"],
+        coefficients_coded={k: float(v) for k, v in model.coefficients_coded.items()},
+        coefficients_actual={k: float(v) for k, v in model.coefficients_actual.items()},
+        equation_coded=model.equation(units="coded"),
+        equation_actual=model.equation(units="actual"), adequate=bool(adequate),
+        warnings=warnings)
+    ctx.store.set_stage("rsm", "done", surface.to_summary(), inputs_hash=h)
+    ctx.results["rsm"] = surface
     ctx.results["_rsm_model"] = model
-    return summary
+    return surface
 
 
-def _other_responses(ctx: Context, design: doe.Design, recs: Sequence[RunRecord], n_reps: int,
-                     base: dict[str, Any]) -> list[str]:
+def _other_responses(ctx: Context, design: doe.Design, recs: Sequence[RunRecord], n_reps: int
+                     ) -> tuple[dict[str, ResponseModel] | None, list[str]]:
     """Fit every response beside the angle (a several-response study): the models go to
-    ``ctx.results["_response_fits"]``, their summaries to ``base["responses"]``; returns
-    their warnings (none, and nothing done, for the angle alone)."""
+    ``ctx.results["_response_fits"]``; returns their stored form and their warnings (None
+    and none, and nothing done, for the angle alone)."""
     if not ctx.several:
-        return []
+        return None, []
     fits = several.fit_responses(ctx, design, recs, n_reps)
     ctx.results["_response_fits"] = fits
-    base["responses"] = {name: f.summary() for name, f in fits.items()}
-    return [w for f in fits.values() for w in f.warnings]
+    return ({name: f.summary() for name, f in fits.items()},
+            [w for f in fits.values() for w in f.warnings])
 
 
 # ------------------------------------------------------------------------------ optimize
-def optimize(ctx: Context) -> dict[str, Any]:
+def optimize(ctx: Context) -> Optimum:
     """Settings whose predicted AoR equals the target, ranked; only inside the pile region.
 
     In a refinement round (``ctx.rounds.number`` > 1, :mod:`demcal.calibrate.refine`) the
@@ -923,7 +934,7 @@ def optimize(ctx: Context) -> dict[str, Any]:
     opts_json = opts.model_dump(mode="json")
     if ctx.rounds.stored is None:  # before begin() marks the stage running
         ctx.rounds.stored = stored_rounds(ctx.store.stage("optimize"))
-    h = ctx.begin("optimize", {"rsm": ctx.results["rsm"]["coefficients_coded"],
+    h = ctx.begin("optimize", {"rsm": ctx.results["rsm"].coefficients_coded,
                                "opts": opts_json, "target": ctx.target,
                                **({"round": k, "offset": offset} if k > 1 else {})})
     clf = PileClassifier.fit(ctx.records, [(f.name, f.low, f.high) for f in ctx.study.factors])
@@ -933,18 +944,13 @@ def optimize(ctx: Context) -> dict[str, Any]:
         return clf.p_pile_grid(ctx.fixed, names, x) >= opts.min_p_pile
 
     if ctx.several:
-        summary = several.optimize_summary(ctx, clf, constraint, offset,
-                                           ctx.rounds.stored.get(k))
-        if k > 1:
-            summary.update(round=k, surface_offset_deg=offset,
-                           offset_from_rounds=measured.rounds,
-                           measured_offset_deg=measured.deg, offset_weight=measured.weight)
-        return _store_optimum(ctx, summary, h)
+        found = several.optimize_summary(ctx, clf, constraint, offset, ctx.rounds.stored.get(k))
+        return _store_optimum(ctx, _in_round(found, k, measured), h)
     kept = _stored_optimum(ctx.rounds.stored.get(k), (ctx.target, aim), model, constraint,
                            opts_json)
     if kept is not None:  # a resume (on this or another machine): the decision stands
         return _store_optimum(ctx, kept, h)
-    prev = ctx.rounds.optimize[-1]["chosen"] if ctx.rounds.optimize else None
+    prev = ctx.rounds.optimize[-1].chosen if ctx.rounds.optimize else None
     near = prev or {n: ctx.results["steepest"]["levels"][n][1] for n in names}
     try:
         res = doe.optimize_target(model, aim, constraint=constraint, near=near,
@@ -961,24 +967,31 @@ def optimize(ctx: Context) -> dict[str, Any]:
     cands = []
     for s in res.solutions:
         full = ctx.full(s.actual or {})
-        cands.append({"params": {n: float(s.actual[n]) for n in names},  # type: ignore[index]
-                      "predicted_aor_deg": float(s.predicted) + offset,
-                      "pi_low_deg": float(s.pi[0]) + offset if math.isfinite(s.pi[0]) else None,
-                      "pi_high_deg": float(s.pi[1]) + offset if math.isfinite(s.pi[1]) else None,
-                      "p_pile": float(clf.p_pile([full])[0]),
-                      "desirability": float(s.desirability)})
-    summary = {"target_aor_deg": ctx.target, "candidates": cands,
-               "chosen": cands[0]["params"], "predicted_aor_deg": cands[0]["predicted_aor_deg"],
-               "classifier": clf.describe(), "opts": opts_json}
-    if k > 1:
-        summary.update(round=k, surface_offset_deg=offset, offset_from_rounds=measured.rounds,
-                       measured_offset_deg=measured.deg, offset_weight=measured.weight)
-    return _store_optimum(ctx, summary, h)
+        cands.append(Candidate(
+            params={n: float(s.actual[n]) for n in names},  # type: ignore[index]
+            predicted_aor_deg=float(s.predicted) + offset,
+            pi_low_deg=float(s.pi[0]) + offset if math.isfinite(s.pi[0]) else None,
+            pi_high_deg=float(s.pi[1]) + offset if math.isfinite(s.pi[1]) else None,
+            p_pile=float(clf.p_pile([full])[0]), desirability=float(s.desirability)))
+    found = Optimum(target_aor_deg=ctx.target, candidates=cands, chosen=cands[0].params,
+                    predicted_aor_deg=cands[0].predicted_aor_deg, classifier=clf.describe(),
+                    opts=opts_json)
+    return _store_optimum(ctx, _in_round(found, k, measured), h)
 
 
-def _store_optimum(ctx: Context, summary: dict[str, Any], h: str) -> dict[str, Any]:
-    stored = with_rounds(summary, ctx.rounds.optimize)
-    ctx.store.set_stage("optimize", "done", stored, inputs_hash=h)
+def _in_round(found: Optimum, k: int, measured: Offset) -> Optimum:
+    """``found`` as the optimum of round ``k``: a refinement round's also says which offset
+    it was aimed by (round 1 stores what it always did)."""
+    if k == 1:
+        return found
+    return replace(found, round=k, surface_offset_deg=measured.applied,
+                   offset_from_rounds=measured.rounds, measured_offset_deg=measured.deg,
+                   offset_weight=measured.weight)
+
+
+def _store_optimum(ctx: Context, found: Optimum, h: str) -> Optimum:
+    stored = found.in_round(ctx.rounds.optimize)
+    ctx.store.set_stage("optimize", "done", stored.to_summary(), inputs_hash=h)
     ctx.results["optimize"] = stored
     return stored
 
@@ -987,10 +1000,10 @@ def _store_optimum(ctx: Context, summary: dict[str, Any], h: str) -> dict[str, A
 KEEP_OPTIMUM_TOL_DEG = 1e-6
 
 
-def _stored_optimum(prior: dict[str, Any] | None, target: tuple[float, float], model: Any,
-                    constraint: Any, opts: dict[str, Any]) -> dict[str, Any] | None:
-    """The stored optimize summary of this round (``prior``, or None) if its optimum still
-    solves the current problem.
+def _stored_optimum(prior: Optimum | None, target: tuple[float, float], model: Any,
+                    constraint: Any, opts: dict[str, Any]) -> Optimum | None:
+    """The stored optimum of this round (``prior``, or None) if it still solves the current
+    problem.
 
     The optimizer is numerical: the same runs refitted on another machine (other BLAS, other
     numpy) move its answer in the 8th digit, and the verification's stored runs, keyed by
@@ -1004,12 +1017,11 @@ def _stored_optimum(prior: dict[str, Any] | None, target: tuple[float, float], m
     """
     if prior is None:
         return None
-    chosen = prior.get("chosen") or {}
-    if (prior.get("target_aor_deg") != target[0] or prior.get("opts", opts) != opts
-            or set(chosen) != set(model.names) or "responses" in prior):
-        # ("responses": the optimum of a study that aimed at several: not this one's)
+    if (prior.target_aor_deg != target[0] or (prior.opts is not None and prior.opts != opts)
+            or set(prior.chosen) != set(model.names) or prior.responses is not None):
+        # (responses: the optimum of a study that aimed at several: not this one's)
         return None
-    x = np.array([[float(chosen[n]) for n in model.names]])
+    x = np.array([[float(prior.chosen[n]) for n in model.names]])
     if abs(float(model.predict(x, units="actual")[0]) - target[1]) > KEEP_OPTIMUM_TOL_DEG:
         return None
     return prior if bool(np.all(constraint(x))) else None
@@ -1025,7 +1037,7 @@ def verification(ctx: Context) -> dict[str, Any]:
     ``max_n`` (:func:`verification_size`).
     """
     opts = ctx.study.stages.verification
-    params = ctx.full(ctx.results["optimize"]["chosen"])
+    params = ctx.full(ctx.results["optimize"].chosen)
     sigma, sigma_df = pure_error_std(ctx.results.get("_rsm_model"))
     k = ctx.rounds.number
     h = ctx.begin("verification", {"params": params, "n": opts.n,
@@ -1060,7 +1072,7 @@ def verification(ctx: Context) -> dict[str, Any]:
         **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n),
         tolerance_percent=tol,
         within_tolerance=None if tol is None or rel is None else bool(rel <= tol),
-        **confirmation(model, ctx.results["optimize"]["chosen"], vals,
+        **confirmation(model, ctx.results["optimize"].chosen, vals,
                        offset=ctx.rounds.offset(model)),
         responses=None if checks is None else {
             name: ResponseVerification.from_summary(c.to_dict()) for name, c in checks.items()},

@@ -32,6 +32,7 @@ from demcal.report.data import ReportData, StageView, load_report_data
 from demcal.report.html import badge, banner, figure_html, page, table_html
 from demcal.report.surface import significant_pairs
 from demcal.safety import csv_safe, safe_filename, study_image
+from demcal.summaries import Surface
 from demcal.virtual.material_card import CONTACT_LAWS, ROLLING_LAWS, MaterialCard
 
 __all__ = ["build_report"]
@@ -138,16 +139,15 @@ def _overview(b: _Builder) -> str:
     d = b.data
     study = d.meta.get("study") or {}
     name = study.get("name") or d.study_dir.name
-    opt, ver = d.stage("optimize").summary, d.verification
+    opt, ver = d.optimum, d.verification
     t = d.target or {}
     cards = [("Measured AoR", _fmt(t.get("aor_deg"), ".2f", "°")
               + (f" ± {_fmt(t.get('std_deg'), '.2f')}°" if t.get("std_deg") is not None else "")),
-             ("Predicted at optimum", _fmt(opt.get("predicted_aor_deg"), ".2f", "°")),
+             ("Predicted at optimum", _fmt(opt.predicted_aor_deg, ".2f", "°")),
              ("Verified AoR", _fmt(ver.aor_mean_deg, ".2f", "°")
               + (f" ± {_fmt(ver.aor_std_deg, '.2f')}°" if ver.aor_std_deg is not None else "")),
              ("Relative error", _fmt(ver.relative_error_percent, ".2f", " %"))]
-    chosen = opt.get("chosen") or {}
-    cards += [(f"{d.symbol(k)} ({k})", _fmt(v, ".4g")) for k, v in chosen.items()]
+    cards += [(f"{d.symbol(k)} ({k})", _fmt(v, ".4g")) for k, v in opt.chosen.items()]
     grid = "".join(f'<div class="card"><div class="k">{escape(k)}</div>'
                    f'<div class="v">{escape(v)}</div></div>' for k, v in cards)
     when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
@@ -426,29 +426,28 @@ def _steepest(b: _Builder) -> str:
     return _section("steepest", "Path of steepest ascent", view.status, _guard(b, view, render))
 
 
-def _rsm_anova_tables(b: _Builder, s: dict) -> list[str]:
+def _rsm_anova_tables(b: _Builder, s: Surface) -> list[str]:
     """The response surface's ANOVA and fit statistics; with a reduced model, the full
     quadratic model's ANOVA (the paper's Table 8) below them."""
     d = b.data
-    reduced = s.get("model") == "reduced"
+    reduced = s.model == "reduced"
     row = []
-    if s.get("anova"):
+    if s.anova:
         title = ("ANOVA of the reduced response surface (backward elimination; the "
                  "optimum is read from it)" if reduced else
                  "ANOVA of the response surface with lack of fit (cf. Table 8)")
         row.append(b.table(T.Table(
-            "rsm_anova", title, T.anova_frame(s["anova"], d.symbols),
+            "rsm_anova", title, T.anova_frame(s.anova, d.symbols),
             note="Partial sum of squares (Type III). ** p < 0.01, * p < 0.05.")))
-    if s.get("fit"):
-        row.append(b.table(T.fit_table("rsm_fit", "Fit statistics", s["fit"],
-                                       s.get("lack_of_fit_p"))))
+    if s.fit:
+        row.append(b.table(T.fit_table("rsm_fit", "Fit statistics", s.fit, s.lack_of_fit_p)))
     parts = [f'<div class="row">{"".join(row)}</div>']
-    if reduced and s.get("anova_full"):
+    if reduced and s.anova_full:
         parts.append(b.table(T.Table(
             "rsm_anova_full", "ANOVA of the full quadratic model (cf. Table 8)",
-            T.anova_frame(s["anova_full"], d.symbols),
+            T.anova_frame(s.anova_full, d.symbols),
             note="Not adequate by Design-Expert's rules or not chosen (stages.rsm.model); "
-                 "removed from it: " + (", ".join(s.get("removed_terms") or []) or "none")
+                 "removed from it: " + (", ".join(s.removed_terms or []) or "none")
                  + ".")))
     return parts
 
@@ -457,85 +456,92 @@ def _rsm(b: _Builder) -> str:
     d, view = b.data, b.data.stage("rsm")
 
     def render() -> str:
-        s = view.summary
+        # the typed summary; the model helpers shared with screening read the stored one
+        s, stored = d.surface, view.summary
         parts = [b.table(T.rsm_design_table(s, d.symbols))]
         parts += _rsm_anova_tables(b, s)
-        for w in s.get("warnings") or []:
+        for w in s.warnings:
             parts.append(f'<p class="warn">Warning: {escape(str(w))}</p>')
-        if s.get("coefficients_coded"):
+        if s.coefficients_coded:
             parts.append(b.table(T.rsm_coefficients_table(s, d.symbols)))
-        for key, label in (("coefficients_coded", "Coded equation (factors from -1 to +1)"),
-                           ("coefficients_actual", "Actual equation (factors in their units)")):
-            if s.get(key):
+        for coefs, label in ((s.coefficients_coded, "Coded equation (factors from -1 to +1)"),
+                             (s.coefficients_actual,
+                              "Actual equation (factors in their units)")):
+            if coefs:
                 parts.append(f'<h3>{label}</h3><div class="eq">'
-                             f"{escape(_equation(s[key], d.symbols))}</div>")
-        hold = d.stage("optimize").summary.get("chosen") or None
-        if s.get("runs") and s.get("coefficients_coded"):
-            parts.append(_diagnostics(b, "rsm", s, hold)[0])
-            adequate = s.get("adequate")
-            if adequate is not None:
+                             f"{escape(_equation(coefs, d.symbols))}</div>")
+        hold = d.optimum.chosen or None
+        if s.runs and s.coefficients_coded:
+            parts.append(_diagnostics(b, "rsm", stored, hold)[0])
+            if s.adequate is not None:
                 parts.append(f"<p><b>Model adequate (stored by the stage):</b> "
-                             f"{'yes' if adequate else 'no'}.</p>")
-        if s.get("coefficients_coded") and len(s.get("factors") or []) >= 2:
-            p_of = {str(r.get("term")): r.get("p") for r in s.get("anova") or []}
-            sig = set(significant_pairs(s))
-            names = [str(f["name"]) for f in s.get("factors") or []]
-            parts.append("<h3>Response surface and contour of each factor pair</h3>")
-            goal = d.target_aor_deg
-            for a, c in itertools.combinations(names, 2):
-                key = f"surface_{d.symbol(a)}_{d.symbol(c)}".replace(".", "_")
-                p = p_of.get(f"{a}*{c}", p_of.get(f"{d.symbol(a)}*{d.symbol(c)}"))
-                why = (f"interaction p = {_fmt(p, '.4f')}" if p is not None else
-                       "interaction not in the model")
-                if (a, c) in sig:
-                    why += ", significant" if p is not None and p < 0.05 else \
-                        ", strongest main effects"
-                reached = MF.target_reached(s, (a, c), hold, goal)
-                parts.append(b.figure(
-                    key, f"Response surface and contour of AoR over {d.symbol(a)} and "
-                    f"{d.symbol(c)} ({why}; other factors at "
-                    f"{'the optimum (star)' if hold else 'their centres (star)'}; "
-                    + ("no target stored" if goal is None else
-                       f"red = the target {goal:.2f}° contour" if reached else
-                       f"the target {goal:.2f}° is not reached over this pair")
-                    + "; dots = design points).",
-                    lambda a=a, c=c: MF.pair_surface_figure(s, (a, c), hold, goal)))
-            parts.append(b.figure("predicted_actual", "Predicted (stored model) vs actual AoR "
-                                  "of the design runs.", lambda: F.predicted_actual_figure(s)))
-        if s.get("excluded_points"):
+                             f"{'yes' if s.adequate else 'no'}.</p>")
+        if s.coefficients_coded and len(s.factors) >= 2:
+            parts += _rsm_pair_figures(b, s, stored, hold)
+        if s.excluded_points:
             parts.append(f"<p>Excluded design points (no pile): "
-                         f"{escape(', '.join(map(str, s['excluded_points'])))}.</p>")
+                         f"{escape(', '.join(map(str, s.excluded_points)))}.</p>")
         return "".join(parts)
 
     return _section("rsm", "Response surface", view.status, _guard(b, view, render))
+
+
+def _rsm_pair_figures(b: _Builder, s: Surface, stored: dict[str, Any],
+                      hold: dict[str, float] | None) -> list[str]:
+    """The response surface over each factor pair (interactions first) and predicted vs
+    actual; the figures read the stored summary (their helpers are screening's too)."""
+    d = b.data
+    p_of = {str(r.get("term")): r.get("p") for r in s.anova}
+    sig = set(significant_pairs(stored))
+    parts = ["<h3>Response surface and contour of each factor pair</h3>"]
+    goal = d.target_aor_deg
+    for a, c in itertools.combinations(s.names, 2):
+        key = f"surface_{d.symbol(a)}_{d.symbol(c)}".replace(".", "_")
+        p = p_of.get(f"{a}*{c}", p_of.get(f"{d.symbol(a)}*{d.symbol(c)}"))
+        why = (f"interaction p = {_fmt(p, '.4f')}" if p is not None else
+               "interaction not in the model")
+        if (a, c) in sig:
+            why += ", significant" if p is not None and p < 0.05 else \
+                ", strongest main effects"
+        reached = MF.target_reached(stored, (a, c), hold, goal)
+        parts.append(b.figure(
+            key, f"Response surface and contour of AoR over {d.symbol(a)} and "
+            f"{d.symbol(c)} ({why}; other factors at "
+            f"{'the optimum (star)' if hold else 'their centres (star)'}; "
+            + ("no target stored" if goal is None else
+               f"red = the target {goal:.2f}° contour" if reached else
+               f"the target {goal:.2f}° is not reached over this pair")
+            + "; dots = design points).",
+            lambda a=a, c=c: MF.pair_surface_figure(stored, (a, c), hold, goal)))
+    parts.append(b.figure("predicted_actual", "Predicted (stored model) vs actual AoR "
+                          "of the design runs.", lambda: F.predicted_actual_figure(stored)))
+    return parts
 
 
 def _optimize(b: _Builder) -> str:
     d, view = b.data, b.data.stage("optimize")
 
     def render() -> str:
-        s = view.summary
-        chosen = ", ".join(f"{d.symbol(k)} = {_fmt(v, '.4g')}"
-                           for k, v in (s.get("chosen") or {}).items())
-        return (f"<p>Target {_fmt(s.get('target_aor_deg'))}°. <b>Chosen:</b> "
+        opt = d.optimum
+        chosen = ", ".join(f"{d.symbol(k)} = {_fmt(v, '.4g')}" for k, v in opt.chosen.items())
+        return (f"<p>Target {_fmt(opt.target_aor_deg)}°. <b>Chosen:</b> "
                 f"{escape(chosen or '—')}, predicted AoR "
-                f"{_fmt(s.get('predicted_aor_deg'))}°.</p>"
-                + b.table(T.candidates_table(s, d.symbols)))
+                f"{_fmt(opt.predicted_aor_deg)}°.</p>"
+                + b.table(T.candidates_table(opt, d.symbols)))
 
     return _section("optimize", "Optimum and alternatives", view.status, _guard(b, view, render))
 
 
 def _several_responses(b: _Builder) -> str:
     """Each response's goal, model, prediction and verification (several-response studies)."""
-    view = RS.responses_view(b.data.stage("rsm").summary, b.data.stage("optimize").summary,
-                             b.data.verification)
+    view = RS.responses_view(b.data.surface, b.data.optimum, b.data.verification)
     if view is None:
         return ""
     goals, verified = RS.responses_tables(view)
     equations = "".join(f"<p><b>{escape(r.name)}</b> = {escape(r.equation)}</p>"
                         for r in view.rows if r.equation and r.name != "aor_deg")
-    rsm, opt = b.data.stage("rsm").summary, b.data.stage("optimize").summary
-    names = [f["name"] for f in rsm.get("factors") or []]
+    rsm, opt = b.data.surface, b.data.optimum
+    names = rsm.names
     figures = "".join(
         b.figure(f"overlay_{p}_{q}", f"Overlay on {b.data.symbol(p)} x {b.data.symbol(q)}, the "
                  "other factors at the optimum (red star)",
@@ -553,7 +559,7 @@ def _verification(b: _Builder) -> str:
         t = d.target or {}
         parts = ['<div class="row">' + b.table(T.verification_summary_table(s, d.target_aor_deg))
                  + b.table(T.verification_table(s)) + "</div>"]
-        rounds = T.verification_rounds_table(d.stage("optimize").summary, s, d.symbols)
+        rounds = T.verification_rounds_table(d.optimum, s, d.symbols)
         if rounds is not None:
             parts.append(b.table(rounds))
         parts += [

@@ -14,7 +14,7 @@ from typing import Any
 
 from demcal.errors import InputError, StoreError
 from demcal.store import STAGES, STORE_NAME, RunRecord, RunStore
-from demcal.summaries import Verification
+from demcal.summaries import Optimum, Surface, Verification
 
 __all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
 
@@ -111,6 +111,16 @@ class ReportData:
     def verification(self) -> Verification:
         """The verification stage's summary, typed (empty when the stage has not run)."""
         return Verification.from_summary(self.stage("verification").summary)
+
+    @property
+    def surface(self) -> Surface:
+        """The response-surface stage's summary, typed (empty when the stage has not run)."""
+        return Surface.from_summary(self.stage("rsm").summary)
+
+    @property
+    def optimum(self) -> Optimum:
+        """The optimize stage's summary, typed (empty when the stage has not run or failed)."""
+        return Optimum.from_summary(self.stage("optimize").summary)
 
     @property
     def target(self) -> dict[str, Any] | None:

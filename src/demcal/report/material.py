@@ -22,7 +22,7 @@ from demcal.display import readable
 from demcal.report import responses as RS
 from demcal.report.data import ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
-from demcal.summaries import Verification
+from demcal.summaries import Optimum, Verification
 from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
@@ -106,7 +106,7 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
     return engine, test_out, shape
 
 
-def _verification_block(ver: Verification, opt: Mapping[str, Any],
+def _verification_block(ver: Verification, opt: Optimum,
                         data: ReportData) -> dict[str, Any]:
     """The card's [verification]: its line, the numbers behind it, the round it is from."""
     verification = {"line": verification_line(ver, data.target)}
@@ -117,9 +117,9 @@ def _verification_block(ver: Verification, opt: Mapping[str, Any],
             verification[key] = getattr(ver, key)
     if data.target_aor_deg is not None:
         verification["target_aor_deg"] = data.target_aor_deg
-    if opt.get("predicted_aor_deg") is not None:
-        verification["predicted_aor_deg"] = opt["predicted_aor_deg"]
-    several = RS.responses_view(data.stage("rsm").summary, opt, ver)
+    if opt.predicted_aor_deg is not None:
+        verification["predicted_aor_deg"] = opt.predicted_aor_deg
+    several = RS.responses_view(data.surface, opt, ver)
     if several is not None:  # every response at the optimum and verified
         verification["desirability"] = several.desirability
         verification["responses"] = {r.name: {k: v for k, v in (
@@ -130,8 +130,8 @@ def _verification_block(ver: Verification, opt: Mapping[str, Any],
     if ver.round_number > 1:  # a refinement round's (demcal.calibrate.refine)
         verification["round"] = ver.round_number
         for key in ("surface_offset_deg", "measured_offset_deg", "offset_weight"):
-            if opt.get(key) is not None:
-                verification[key] = opt[key]
+            if getattr(opt, key) is not None:
+                verification[key] = getattr(opt, key)
     return verification
 
 
@@ -144,9 +144,9 @@ def material_card(data: ReportData) -> MaterialCard | None:
     fixed values; a parameter still missing comes from the study's material preset.
     """
     ver = data.verification
-    opt = data.stage("optimize").summary
+    opt = data.optimum
     result = data.meta.get("result") or {}
-    chosen = opt.get("chosen") or result.get("optimum") or {}
+    chosen = opt.chosen or result.get("optimum") or {}
     params = ver.params or result.get("optimum_full")
     if not params:
         if not chosen:

@@ -7,7 +7,6 @@ key breaks :func:`responses_view` and its test, not the page.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -15,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from demcal.report.tables import Table
-from demcal.summaries import ResponseVerification, Verification
+from demcal.summaries import Optimum, ResponseModel, ResponseVerification, Surface, Verification
 
 __all__ = ["ResponseRow", "ResponsesView", "overlay_figure", "responses_tables", "responses_view"]
 
@@ -55,44 +54,43 @@ class ResponsesView:
     unmet: tuple[str, ...]
 
 
-def responses_view(rsm: Mapping[str, Any], optimize: Mapping[str, Any],
+def responses_view(rsm: Surface, optimum: Optimum,
                    verification: Verification) -> ResponsesView | None:
     """The typed view of the stored summaries; None for a study with the angle alone."""
-    own = optimize.get("responses")
-    if not own:
+    own = optimum.responses
+    if own is None:
         return None
-    fits = rsm.get("responses") or {}
-    best = (optimize.get("candidates") or [{}])[0]
+    fits = rsm.responses or {}
+    best = optimum.best
     checks = verification.responses or {}
     rows = []
-    for g in own["goals"]:
-        name = g["name"]
-        fit = fits.get(name) or {}
-        adequacy = fit.get("adequacy") or {}
+    for g in own.goals:
+        name = g.name
+        fit = fits.get(name) or ResponseModel()
         check = checks.get(name) or ResponseVerification()
         lab = check.lab or {}
         if name == "aor_deg":  # the angle: its own model and verification
-            fit = {"model": rsm.get("model"), "adequate": rsm.get("adequate"),
-                   "equation_actual": rsm.get("equation_actual")}
-            adequacy = rsm.get("adequacy") or {}
+            fit = ResponseModel(model=rsm.model, adequate=rsm.adequate,
+                                adequacy=rsm.adequacy or {},
+                                equation_actual=rsm.equation_actual)
             check = ResponseVerification(
                 mean=verification.aor_mean_deg, std=verification.aor_std_deg,
                 n=verification.n_piles,
                 relative_error_percent=verification.relative_error_percent,
                 p_value=verification.p_value, consistent=verification.consistent)
-            lab = {"mean": g.get("target")}
+            lab = {"mean": g.target}
         rows.append(ResponseRow(
-            name=name, goal=g["goal"], low=g["low"], high=g["high"], target=g.get("target"),
-            importance=g["importance"], model=fit.get("model"), adequate=fit.get("adequate"),
-            adj_r2=adequacy.get("adj_r2"), pred_r2=adequacy.get("pred_r2"),
-            equation=fit.get("equation_actual"),
-            predicted=(best.get("predicted") or {}).get(name),
-            individual=(best.get("individual") or {}).get(name),
+            name=name, goal=g.goal, low=g.low, high=g.high, target=g.target,
+            importance=g.importance, model=fit.model, adequate=fit.adequate,
+            adj_r2=fit.adequacy.get("adj_r2"), pred_r2=fit.adequacy.get("pred_r2"),
+            equation=fit.equation_actual,
+            predicted=(best.predicted or {}).get(name),
+            individual=(best.individual or {}).get(name),
             verified_mean=check.mean, verified_std=check.std,
             verified_n=check.n, lab_mean=lab.get("mean"),
             relative_error_percent=check.relative_error_percent,
             p_value=check.p_value, consistent=check.consistent))
-    return ResponsesView(tuple(rows), own.get("desirability"), tuple(own.get("unmet") or ()))
+    return ResponsesView(tuple(rows), own.desirability, tuple(own.unmet))
 
 
 def responses_tables(view: ResponsesView) -> tuple[Table, Table]:
@@ -116,18 +114,17 @@ def responses_tables(view: ResponsesView) -> tuple[Table, Table]:
                   note=note))
 
 
-def _surfaces(rsm: Mapping[str, Any]) -> dict[str, Any]:
+def _surfaces(rsm: Surface) -> dict[str, Any]:
     """Every response's stored surface (the angle's and the others'), by name."""
     from demcal.report.surface import StoredSurface
 
-    out = {"aor_deg": StoredSurface.from_summary(rsm)}
-    for name, fit in (rsm.get("responses") or {}).items():
-        out[name] = StoredSurface.from_summary({"factors": rsm["factors"],
-                                                "coefficients_coded": fit["coefficients_coded"]})
+    out = {"aor_deg": StoredSurface.from_model(rsm.factors, rsm.coefficients_coded)}
+    for name, fit in (rsm.responses or {}).items():
+        out[name] = StoredSurface.from_model(rsm.factors, fit.coefficients_coded)
     return out
 
 
-def overlay_figure(rsm: Mapping[str, Any], optimize: Mapping[str, Any],
+def overlay_figure(rsm: Surface, optimum: Optimum,
                    pair: tuple[str, str], n_grid: int = 60) -> Any:
     """Design-Expert's overlay plot on one factor pair, the other factors at the optimum: the
     region where every response lies within its desirability limits (unshaded), each
@@ -143,10 +140,10 @@ def overlay_figure(rsm: Mapping[str, Any], optimize: Mapping[str, Any],
 
     surfaces = _surfaces(rsm)
     aor = surfaces["aor_deg"]
-    goals = [ResponseGoal(g["name"], g["goal"], g["low"], g["high"], target=g.get("target"),
-                          weight=g["weight"], importance=g["importance"])
-             for g in optimize["responses"]["goals"]]
-    chosen = optimize["chosen"]
+    own = optimum.responses
+    goals = [ResponseGoal(g.name, g.goal, g.low, g.high, target=g.target, weight=g.weight,
+                          importance=g.importance) for g in (own.goals if own else [])]
+    chosen = optimum.chosen
     i, j = aor.index(pair[0]), aor.index(pair[1])
     base = np.array([float(chosen[n]) for n in aor.names])
     gi = np.linspace(aor.low[i], aor.high[i], n_grid)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,8 +48,14 @@ class StoredSurface:
     @classmethod
     def from_summary(cls, summary: Mapping[str, Any]) -> StoredSurface:
         """Build from the ``rsm`` summary; InputError if its coefficients cannot be read."""
-        factors = summary.get("factors") or []
-        coefs = summary.get("coefficients_coded") or {}
+        return cls.from_model(summary.get("factors") or [], summary.get("coefficients_coded")
+                              or {})
+
+    @classmethod
+    def from_model(cls, factors: Sequence[Mapping[str, Any]], coefs: Mapping[str, Any]
+                   ) -> StoredSurface:
+        """Build from the factors (``name``, ``symbol``, ``low``, ``high``) and the coded
+        coefficients by term; InputError if the coefficients cannot be read."""
         if not factors or not coefs:
             raise InputError("rsm summary: factors and coefficients_coded are needed")
         names = tuple(str(f["name"]) for f in factors)

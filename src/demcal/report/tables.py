@@ -18,7 +18,7 @@ import pandas as pd
 from demcal.display import readable
 from demcal.doe.anova import significance
 from demcal.report.data import ReportData, StageView
-from demcal.summaries import Verification
+from demcal.summaries import Optimum, Surface, Verification
 
 __all__ = [
     "Table",
@@ -224,14 +224,14 @@ def rangefind_points_table(summary: Mapping[str, Any], symbols: Mapping[str, str
 
 
 # ------------------------------------------------------------------------------------ screening
-def _factor_symbols(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> list[tuple]:
-    return [(f["name"], f.get("symbol") or symbols.get(f["name"], f["name"]))
-            for f in summary.get("factors") or []]
+def _factor_symbols(factors: Sequence[Mapping[str, Any]], symbols: Mapping[str, str]
+                   ) -> list[tuple]:
+    return [(f["name"], f.get("symbol") or symbols.get(f["name"], f["name"])) for f in factors]
 
 
 def screening_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
     """The screening design in coded units and its responses (the paper's Table 4)."""
-    facs = _factor_symbols(summary, symbols)
+    facs = _factor_symbols(summary.get("factors") or [], symbols)
     runs = summary.get("runs") or []
     dummies = [d for d in summary.get("dummies") or []  # shown only when their levels are
                if any(d in (r.get("coded") or {}) for r in runs)]  # stored
@@ -352,11 +352,11 @@ def steepest_levels_table(summary: Mapping[str, Any], symbols: Mapping[str, str]
 
 
 # ------------------------------------------------------------------------------------------ rsm
-def rsm_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def rsm_design_table(surface: Surface, symbols: Mapping[str, str]) -> Table:
     """The response-surface design, coded and actual, with its responses (cf. Table 7); with
     replicates, the AoR is their mean and each replicate and their spread are shown."""
-    facs = _factor_symbols(summary, symbols)
-    runs = summary.get("runs") or []
+    facs = _factor_symbols(surface.factors, symbols)
+    runs = surface.runs
     replicated = any(len(r.get("aor_runs_deg") or []) > 1 for r in runs)
     rows = []
     for r in runs:
@@ -378,19 +378,23 @@ def rsm_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> 
     for _, s in facs:
         frame[s] = [None if v is None else int(v) if float(v).is_integer() else v
                     for v in frame[s]]
-    return Table("rsm_design", f"{_design_name(summary)} design and results (cf. Table 7)",
-                 frame)
+    return Table("rsm_design", f"{_design_name(surface.design)} design and results "
+                 "(cf. Table 7)", frame)
 
 
-def _design_name(summary: Mapping[str, Any]) -> str:
-    return {"box_behnken": "Box-Behnken", "ccd": "Central composite"}.get(
-        str(summary.get("design", "")), str(summary.get("design", "Response-surface")))
+def _design_name(design: str | None) -> str:
+    """The design's name as the paper writes it (a stored summary without one:
+    "Response-surface")."""
+    if design is None:
+        return "Response-surface"
+    return {"box_behnken": "Box-Behnken", "ccd": "Central composite"}.get(str(design),
+                                                                          str(design))
 
 
-def rsm_coefficients_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def rsm_coefficients_table(surface: Surface, symbols: Mapping[str, str]) -> Table:
     """Coefficients of the fitted polynomial in coded and in actual units."""
-    coded = summary.get("coefficients_coded") or {}
-    actual = summary.get("coefficients_actual") or {}
+    coded = surface.coefficients_coded
+    actual = surface.coefficients_actual
     terms = list(coded) + [t for t in actual if t not in coded]
     rows = [{"term": term_label(t, symbols), "coded": _num(coded.get(t)),
              "actual": _num(actual.get(t))} for t in terms]
@@ -399,21 +403,20 @@ def rsm_coefficients_table(summary: Mapping[str, Any], symbols: Mapping[str, str
 
 
 # ------------------------------------------------------------------------- optimum and checks
-def candidates_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def candidates_table(optimum: Optimum, symbols: Mapping[str, str]) -> Table:
     """Ranked candidate settings with their predicted AoR and 95 % prediction interval."""
-    cands = summary.get("candidates") or []
     names: list[str] = []
-    for c in cands:
-        names += [n for n in (c.get("params") or {}) if n not in names]
+    for c in optimum.candidates:
+        names += [n for n in c.params if n not in names]
     rows = []
-    for i, c in enumerate(cands):
+    for i, c in enumerate(optimum.candidates):
         row: dict[str, Any] = {"rank": i + 1}
         for n in names:
-            row[symbols.get(n, n)] = _num((c.get("params") or {}).get(n))
-        row["predicted AoR (deg)"] = _num(c.get("predicted_aor_deg"))
-        row["PI low (deg)"] = _num(c.get("pi_low_deg"))
-        row["PI high (deg)"] = _num(c.get("pi_high_deg"))
-        row["P(pile)"] = _num(c.get("p_pile"))
+            row[symbols.get(n, n)] = _num(c.params.get(n))
+        row["predicted AoR (deg)"] = _num(c.predicted_aor_deg)
+        row["PI low (deg)"] = _num(c.pi_low_deg)
+        row["PI high (deg)"] = _num(c.pi_high_deg)
+        row["P(pile)"] = _num(c.p_pile)
         rows.append(row)
     cols = ["rank", *(symbols.get(n, n) for n in names), "predicted AoR (deg)", "PI low (deg)",
             "PI high (deg)", "P(pile)"]
@@ -458,26 +461,28 @@ def verification_summary_table(ver: Verification, target: float | None) -> Table
                                "surface's 95 % PI for the mean (deg)", "confirmation"]))
 
 
-def verification_rounds_table(optimize: Mapping[str, Any], verification: Verification,
+def verification_rounds_table(optimum: Optimum, verification: Verification,
                               symbols: Mapping[str, str]) -> Table | None:
     """One row per verification round (demcal.calibrate.refine), None for a single round:
     the round's optimum, the offset the earlier rounds measured, the share of it applied
     and the surface offset it aimed by (deg), the piles' mean and std (deg),
     the relative error to the target and Design-Expert's confirmation."""
-    opts = [*optimize.get("rounds", []), optimize]
+    opts = [*optimum.rounds, optimum]
     vers = [*verification.rounds, verification]
     if len(vers) < 2 or len(opts) != len(vers):
         return None
-    names = list(opts[-1].get("chosen") or {})
+    names = list(optimum.chosen)
     rows = []
     for o, v in zip(opts, vers, strict=True):
         conf = v.confirmed
+        # round 1 was aimed by no offset: 0, all of it applied
+        surface = 0.0 if o.surface_offset_deg is None else o.surface_offset_deg
         rows.append({"round": v.round_number,
-                     **{symbols.get(n, n): _num((o.get("chosen") or {}).get(n)) for n in names},
-                     "measured offset (deg)": _num(o.get("measured_offset_deg",
-                                                         o.get("surface_offset_deg", 0.0))),
-                     "share applied": _num(o.get("offset_weight", 1.0)),
-                     "surface offset (deg)": _num(o.get("surface_offset_deg", 0.0)),
+                     **{symbols.get(n, n): _num(o.chosen.get(n)) for n in names},
+                     "measured offset (deg)": _num(surface if o.measured_offset_deg is None
+                                                   else o.measured_offset_deg),
+                     "share applied": _num(1.0 if o.offset_weight is None else o.offset_weight),
+                     "surface offset (deg)": _num(surface),
                      "piles": v.n_piles, "mean AoR (deg)": _num(v.aor_mean_deg),
                      "std (deg)": _num(v.aor_std_deg),
                      "relative error %": _num(v.relative_error_percent),
