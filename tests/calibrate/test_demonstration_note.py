@@ -16,7 +16,9 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "corn_stalk"
 @pytest.mark.parametrize(("name", "quick"), [("study.toml", True),
                                              ("study_small.toml", False),
                                              ("study_standard.toml", False),
-                                             ("study_standard_lean.toml", False)])
+                                             ("study_standard_lean.toml", False),
+                                             ("study_lammps.toml", True),
+                                             ("study_lammps_small.toml", False)])
 def test_only_the_quick_study_is_a_demonstration(name, quick):
     assert _is_quick_demonstration(load_study(EXAMPLE / name)) is quick
 

@@ -159,3 +159,38 @@ def test_before_the_verification_the_card_holds_the_optimum(tmp_path):
     others = {k: v for k, v in held.items() if k not in chosen}
     assert others and all(card.parameters[k] == v for k, v in others.items())
     assert card.verification["line"] == "not verified"
+
+
+def test_a_lammps_card_names_the_lammps_version_the_runs_used(tmp_path):
+    """engine.version stays demcal's; engine.lammps_version is the LAMMPS the study ran."""
+    study = build_paper_store(tmp_path / "study")
+    with RunStore(study) as store:
+        store.set_meta("versions", {**store.meta("versions"), "engine": "lammps",
+                                    "lammps": "22 Jul 2025 - Update 4"})
+        store.set_meta("engine", {"kind": "lammps", "name": "lammps", "backend": "auto"})
+    path = build_report(study)
+    card = read_material_card(path.parent / "material.toml")
+    assert card.engine["lammps_version"] == "22 Jul 2025 - Update 4"
+    assert card.engine["version"] == "0.test"
+    from demcal.virtual.lammps_card import lammps_lines
+
+    assert "# calibrated with LAMMPS 22 Jul 2025 - Update 4" in lammps_lines(card).text
+
+
+def test_the_lammps_version_is_read_from_the_lmp_banner():
+    from demcal.virtual.lammps_run import parse_lammps_version
+
+    banner = ("\nLarge-scale Atomic/Molecular Massively Parallel Simulator - 22 Jul 2025 - "
+              "Update 4\nGit info (HEAD / stable_22Jul2025_update4)\n")
+    assert parse_lammps_version(banner) == "22 Jul 2025 - Update 4"
+    assert parse_lammps_version("not LAMMPS") is None
+
+
+def test_the_installed_lammps_names_its_version():
+    import pytest
+
+    from demcal.virtual.lammps_run import _find, lammps_version
+
+    if _find("lmp") is None:
+        pytest.skip("LAMMPS is not installed (the lammps extra)")
+    assert lammps_version()

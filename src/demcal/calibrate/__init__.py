@@ -30,7 +30,8 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
   (e.g. {"density_kg_m3":..., "shear_modulus_pa":..., "poisson":..., "friction": {...}})
 - "fixed_params": {name: value}  (every parameter not a factor)
 - "factors": [{"name", "symbol", "low", "high", "unit"}]  (ranges as given in the study)
-- "versions": {"demcal", "python", "numpy", "engine_backend"}
+- "versions": {"demcal", "python", "numpy", "engine_backend", "engine"; with the LAMMPS
+  engine "lammps": the version `lmp -h` names, or None}
 - "engine": which engine made the runs: {"kind": "demcal", "name": "demcal", "backend"}, or
   an external one {"kind": "template", "name": "template: <command>", "command": [str],
   "template": str (path), "template_sha256": str, "result": {reader settings}}

@@ -173,9 +173,13 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
         dv = version("demcal")
     except PackageNotFoundError:  # pragma: no cover
         dv = "unknown"
-    store.set_meta("versions", {"demcal": dv, "python": platform.python_version(),
-                                "numpy": np.__version__, "engine_backend": study.backend,
-                                "engine": study.executor.engine})
+    versions = {"demcal": dv, "python": platform.python_version(), "numpy": np.__version__,
+                "engine_backend": study.backend, "engine": study.executor.engine}
+    if study.executor.engine == "lammps":  # the LAMMPS the runs use (the material card says)
+        from demcal.virtual.lammps_run import lammps_version
+
+        versions["lammps"] = lammps_version(study.executor.lammps)
+    store.set_meta("versions", versions)
     ex = study.executor
     batched = study.test.kind == "aor" and study.engine is None  # worlds of demcal's engine
     chunk = ex.chunk or (default_chunk(study.backend, study.replicates) if batched else 1)

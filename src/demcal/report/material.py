@@ -78,6 +78,8 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
     name = versions.get("engine") or (study.get("executor") or {}).get("engine") or "demcal"
     if name != "demcal":  # the parameters are that engine's (docs/lammps.md)
         engine["name"] = str(name)
+    if name == "lammps" and versions.get("lammps"):  # `version` stays demcal's
+        engine["lammps_version"] = str(versions["lammps"])
     shape: dict[str, Any] = {}
     try:
         from demcal.virtual.config import fidelity_config

@@ -101,6 +101,8 @@ def lammps_lines(card: MaterialCard) -> LammpsLines:
         "laws as LAMMPS granular coefficients (SI units)",
         "# (LAMMPS 2Aug2023 or newer; demcal's mapping and its measured agreement: "
         "docs/lammps.md)",
+        *([f"# calibrated with LAMMPS {card.engine['lammps_version']}"]
+          if card.engine.get("lammps_version") else []),
         f"# typical contact for the rolling spring and the cohesive damping: a sphere of "
         f"radius {radius!r} m on a clump of {mass!r} kg under its weight",
         *([f"# WARNING: {warning}"] if warning else []),

@@ -47,7 +47,8 @@ from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 
 __all__ = ["MISSING", "LammpsMissing", "LammpsOptions", "RunReporting", "lammps_command",
-           "launch", "log_events", "read_dump", "run_aor_lammps"]
+           "lammps_version", "launch", "log_events", "parse_lammps_version", "read_dump",
+           "run_aor_lammps"]
 
 log = logging.getLogger("demcal.virtual")
 
@@ -94,6 +95,31 @@ def lammps_command(options: LammpsOptions, script: str = INPUT) -> list[str]:
     if options.hostfile:
         head += ["-f", options.hostfile]
     return head + tail
+
+
+_VERSION = re.compile(r"Large-scale Atomic/Molecular Massively Parallel Simulator - (.+?)\s*$",
+                      re.MULTILINE)
+
+
+def parse_lammps_version(help_text: str) -> str | None:
+    """The version in ``lmp -h``'s banner (e.g. ``"22 Jul 2025 - Update 4"``), or None."""
+    m = _VERSION.search(help_text)
+    return m.group(1) if m else None
+
+
+def lammps_version(options: LammpsOptions | None = None) -> str | None:
+    """The version of the LAMMPS a study runs (``lmp -h`` of ``options.lmp``, else the ``lmp``
+    next to demcal's Python or on the PATH), or None when it is not found or says none."""
+    options = options or LammpsOptions()
+    lmp = options.lmp or _find("lmp")
+    if lmp is None:
+        return None
+    try:
+        out = subprocess.run([lmp, "-h"], capture_output=True, text=True, timeout=60,
+                             check=False).stdout
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return parse_lammps_version(out)
 
 
 def read_dump(path: str | Path) -> dict[str, np.ndarray]:
