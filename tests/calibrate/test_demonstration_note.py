@@ -18,9 +18,24 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "corn_stalk"
                                              ("study_standard.toml", False),
                                              ("study_standard_lean.toml", False),
                                              ("study_lammps.toml", True),
-                                             ("study_lammps_small.toml", False)])
+                                             ("study_lammps_small.toml", False),
+                                             ("study_bayes_standard.toml", False)])
 def test_only_the_quick_study_is_a_demonstration(name, quick):
     assert _is_quick_demonstration(load_study(EXAMPLE / name)) is quick
+
+
+def test_the_bayesian_study_marks_every_committed_doe_optimum():
+    """study_bayes_standard.toml reads each committed result's optimum as a marked point, with
+    a value for each of its three factors."""
+    study = load_study(EXAMPLE / "study_bayes_standard.toml")
+    marks = study.strategy.marks
+    assert len(marks) == 6 and all(m.values for m in marks)
+    assert {m.result.rsplit("/", 1)[-1] for m in marks} == {
+        "result_standard.json", "result_standard_h100.json", "result_standard_lean.json",
+        "result_standard_lean_seed2.json", "result_standard_lean_seed3.json",
+        "result_small.json"}
+    first = marks[0].values
+    assert 0.35 <= first["pp.static_friction"] <= 0.75 and first["pp.surface_energy"] < 5e-4
 
 
 def _printed(result: dict) -> str:
