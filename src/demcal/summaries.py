@@ -16,7 +16,7 @@ import copy
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import Any, Self, TypeVar
 
 __all__ = ["Candidate", "Goal", "Optimum", "ResponseModel", "ResponseVerification",
            "ResponsesOptimum", "Surface", "Verification"]
@@ -30,8 +30,22 @@ def _known(cls: type[_T], summary: Mapping[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in summary.items() if k in names}
 
 
+class _Flat:
+    """A summary stored as its own fields: read from any release's (a key it lacks takes its
+    default, a key it does not know is left out), written as every field in order."""
+
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any]) -> Self:
+        """Read the stored form."""
+        return cls(**_known(cls, summary))
+
+    def to_summary(self) -> dict[str, Any]:
+        """The stored form: every field."""
+        return dataclasses.asdict(self)  # type: ignore[call-overload]
+
+
 @dataclass(frozen=True)
-class ResponseVerification:
+class ResponseVerification(_Flat):
     """One response of a several-response study at the verification (its lab comparison).
 
     Attributes
@@ -71,15 +85,6 @@ class ResponseVerification:
     test: str | None = None
     consistent: bool | None = None
     desirability: float | None = None
-
-    @classmethod
-    def from_summary(cls, summary: Mapping[str, Any]) -> ResponseVerification:
-        """Read a stored ``verification.responses[name]``."""
-        return cls(**_known(cls, summary))
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form."""
-        return dataclasses.asdict(self)
 
 
 @dataclass(frozen=True)
@@ -223,7 +228,7 @@ def _plain(value: Any) -> Any:
 
 
 @dataclass(frozen=True)
-class Candidate:
+class Candidate(_Flat):
     """One setting the optimize stage proposes, ranked best first.
 
     Attributes
@@ -256,11 +261,6 @@ class Candidate:
     #: the keys every producer writes, None or not
     ALWAYS = ("params", "predicted_aor_deg", "pi_low_deg", "pi_high_deg", "p_pile")
 
-    @classmethod
-    def from_summary(cls, summary: Mapping[str, Any]) -> Candidate:
-        """Read one stored ``optimize.candidates[i]``."""
-        return cls(**_known(cls, summary))
-
     def to_summary(self) -> dict[str, Any]:
         """The stored form (``desirability``, ``predicted`` and ``individual`` only where
         set)."""
@@ -268,7 +268,7 @@ class Candidate:
 
 
 @dataclass(frozen=True)
-class Goal:
+class Goal(_Flat):
     """One response's goal in a several-response optimum (what a resume compares).
 
     Attributes
@@ -292,15 +292,6 @@ class Goal:
     target: float | None = None
     weight: float = 1.0
     importance: int = 3
-
-    @classmethod
-    def from_summary(cls, summary: Mapping[str, Any]) -> Goal:
-        """Read one stored ``optimize.responses.goals[i]``."""
-        return cls(**_known(cls, summary))
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form: every field."""
-        return dataclasses.asdict(self)
 
 
 @dataclass(frozen=True)
@@ -463,7 +454,7 @@ class Optimum:
 
 
 @dataclass(frozen=True)
-class ResponseModel:
+class ResponseModel(_Flat):
     """One response's model beside the angle at the response-surface stage (a
     several-response study; :class:`demcal.calibrate.several.ResponseFit` writes it).
 
@@ -494,15 +485,6 @@ class ResponseModel:
     anova: list[dict[str, Any]] = field(default_factory=list)
     coefficients_coded: dict[str, float] = field(default_factory=dict)
     equation_actual: str | None = None
-
-    @classmethod
-    def from_summary(cls, summary: Mapping[str, Any]) -> ResponseModel:
-        """Read a stored ``rsm.responses[name]``."""
-        return cls(**_known(cls, summary))
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form: every field."""
-        return dataclasses.asdict(self)
 
 
 @dataclass(frozen=True)
