@@ -62,3 +62,20 @@ def test_a_bed_on_a_slippery_wall_slides_instead_of_turning():
     assert r.outcome == "slipping" and "slides on the wall" in r.reason
     assert r.dynamic_aor_deg is None and r.responses() == {}
     assert r.carried_fraction < 0.2
+
+
+def test_every_engine_checks_its_parameter_sets_alike():
+    """One check for the lift test and the drum on either engine: a seed per set, every
+    parameter named, each within its bounds."""
+    from demcal.errors import InputError
+    from demcal.virtual.parameters import check_parameter_sets
+
+    full = preset_parameters("corn_stalk_dry")
+    assert check_parameter_sets([full], [1]) == [full]
+    partial = {k: v for k, v in full.items() if k != "pw.restitution"}
+    with pytest.raises(InputError, match=r"parameter set 1 lacks pw\.restitution"):
+        check_parameter_sets([full, partial], [1, 2])
+    with pytest.raises(InputError, match="need one seed per parameter set; got 1 seeds for 2"):
+        check_parameter_sets([full, full], [1])
+    with pytest.raises(InputError, match=r"pp\.static_friction must be in"):
+        check_parameter_sets([{**full, "pp.static_friction": -1.0}], [1])

@@ -48,7 +48,7 @@ from demcal.virtual.outcome import (
     mass_in_tube,
     mass_outside,
 )
-from demcal.virtual.parameters import check_parameters
+from demcal.virtual.parameters import check_parameter_sets
 from demcal.virtual.pile import measure_pile
 from demcal.virtual.settle import settle_state
 
@@ -215,9 +215,7 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
     list of AoRResult
         One per run, in order.
     """
-    if len(parameter_sets) != len(seeds):
-        raise InputError(f"need one seed per parameter set; got {len(seeds)} seeds for "
-                         f"{len(parameter_sets)} sets")
+    checked = check_parameter_sets(parameter_sets, seeds)
     if not parameter_sets:
         return []
     if plot_paths is not None and len(plot_paths) != len(parameter_sets):
@@ -234,11 +232,7 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
     z_top = g.cylinder_height + (config.phases.lift_height or g.cylinder_height) + 0.1
     runs: list[_Run] = []
     worlds: list[World] = []
-    for i, (pset, seed) in enumerate(zip(parameter_sets, seeds, strict=True)):
-        params = check_parameters(dict(pset))
-        missing = set(_required()) - set(params)
-        if missing:
-            raise InputError(f"parameter set {i} lacks {', '.join(sorted(missing))}")
+    for i, (params, seed) in enumerate(zip(checked, seeds, strict=True)):
         rng = np.random.default_rng(int(seed))
         scales = draw_scales(cap, config.particle, rng)
         runs.append(_Run(i, params, int(seed), rng, scales, cap,
@@ -311,12 +305,6 @@ def _advance_to_next_check(sim: Simulation, live: list[_Run], n_template: int) -
     for run in live:
         run.steps += n
         run.sphere_steps += n * sim.n_active(run.index) * n_template
-
-
-def _required() -> list[str]:
-    from demcal.virtual.parameters import PARAMETERS
-
-    return list(PARAMETERS)
 
 
 def _start_fill(sim: Simulation, run: _Run, config: AoRTestConfig, template) -> None:

@@ -47,7 +47,7 @@ from demcal.virtual.drum_frames import (
 from demcal.virtual.drum_settings import DrumSettings
 from demcal.virtual.drum_surface import DrumOutcome, classify_frames
 from demcal.virtual.factory import SphereGrid, draw_scales, make_template, place_in_cylinder
-from demcal.virtual.parameters import PARAMETERS, check_parameters
+from demcal.virtual.parameters import check_parameter_sets
 from demcal.virtual.settle import settle_state
 
 __all__ = ["RESPONSES", "DrumReporting", "DrumResult", "run_drum"]
@@ -133,16 +133,7 @@ def run_drum(parameter_sets: Sequence[Mapping[str, float]], *, settings: DrumSet
     list of DrumResult
         One per run, in order.
     """
-    if len(parameter_sets) != len(seeds):
-        raise InputError(f"need one seed per parameter set; got {len(seeds)} seeds for "
-                         f"{len(parameter_sets)} sets")
-    checked = []
-    for i, pset in enumerate(parameter_sets):
-        params = check_parameters(dict(pset))
-        missing = set(PARAMETERS) - set(params)
-        if missing:
-            raise InputError(f"parameter set {i} lacks {', '.join(sorted(missing))}")
-        checked.append(params)
+    checked = check_parameter_sets(parameter_sets, seeds)
     out = []
     for i, (params, seed) in enumerate(zip(checked, seeds, strict=True)):
         def report(phase: str, t: float, wall: float, i=i) -> None:

@@ -66,7 +66,7 @@ from demcal.virtual.lammps_clumps import (
 from demcal.virtual.lammps_laws import model_string
 from demcal.virtual.lammps_options import LammpsOptions
 from demcal.virtual.lammps_run import lammps_command, launch, log_events, read_dump
-from demcal.virtual.parameters import check_parameters
+from demcal.virtual.parameters import check_parameter_sets
 
 __all__ = ["DrumCase", "read_frame", "run_drum_lammps", "write_drum_case"]
 
@@ -365,12 +365,9 @@ def run_drum_lammps(parameter_sets: Sequence[Mapping[str, float]], *, settings: 
         One per run, in order, with ``engine = "lammps"``; ``unstable`` when LAMMPS failed
         (with its log's tail).
     """
-    if len(parameter_sets) != len(seeds):
-        raise InputError(f"need one seed per parameter set; got {len(seeds)} seeds for "
-                         f"{len(parameter_sets)} sets")
+    checked = check_parameter_sets(parameter_sets, seeds)
     options = options or LammpsOptions()
     lammps_command(options, INPUT)  # fail before any work when LAMMPS is missing
-    checked = [check_parameters(dict(p)) for p in parameter_sets]
     out = []
     for i, (params, seed) in enumerate(zip(checked, seeds, strict=True)):
         if progress is not None:
