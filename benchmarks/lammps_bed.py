@@ -33,6 +33,8 @@ from pathlib import Path
 import bed
 import numpy as np
 
+from demcal.virtual.lammps_clumps import Box, DataSpheres, write_data
+
 #: rolling spring of the sds model, N/m, and its damping, N s/m (not in demcal's type A model)
 K_ROLL = 1000.0
 GAMMA_ROLL = 1e-4
@@ -56,21 +58,6 @@ def find_lammps(prefix: str | None = None) -> Path | None:
     return None
 
 
-def _write_data(path: Path, pos: np.ndarray, radius: np.ndarray, density: np.ndarray,
-                mol: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
-    n = len(pos)
-    ids = np.arange(1, n + 1)
-    with path.open("w") as fh:
-        fh.write(f"demcal bed\n\n{n} atoms\n1 atom types\n\n")
-        for k, ax in enumerate("xyz"):
-            fh.write(f"{float(lo[k])!r} {float(hi[k])!r} {ax}lo {ax}hi\n")
-        fh.write("\nAtoms # sphere\n\n")
-        np.savetxt(fh, np.column_stack([ids, np.ones(n), 2 * radius, density, pos]),
-                   fmt=["%d", "%d", "%.17g", "%.17g", "%.17g", "%.17g", "%.17g"])
-        fh.write("\nMolecules\n\n")
-        np.savetxt(fh, np.column_stack([ids, mol + 1]), fmt="%d")
-
-
 def bed_input(sim, folder: Path, n_steps: int, repeat: int, warm_steps: int = 100) -> Path:
     """Write ``bed.data`` and ``in.bed`` for world 0 of a settled benchmark bed."""
     pos, radius, clump = sim.spheres(0)
@@ -79,7 +66,8 @@ def bed_input(sim, folder: Path, n_steps: int, repeat: int, warm_steps: int = 10
     n_per = np.bincount(clump)[clump]
     density = mass / (n_per * 4.0 / 3.0 * np.pi * radius**3)
     lo, hi = a["world_lo"][0], a["world_hi"][0]
-    _write_data(folder / "bed.data", pos, radius, density, clump, lo, hi)
+    write_data(folder / "bed.data", Box(tuple(lo), tuple(hi)), "demcal bed",
+               DataSpheres(pos, radius, density, clump + 1))
     walls = sim.worlds[0].walls
     half = float(abs(walls[1].origin[0]))
     p = bed.PARTICLE

@@ -28,7 +28,8 @@ from demcal.dem.state import rotate
 from demcal.limits import check_time_step
 from demcal.virtual.lammps_laws import ContactLaw, contact_laws
 
-__all__ = ["Box", "ClumpSet", "LammpsClumps", "settle_block", "step_and_laws", "write_clumps"]
+__all__ = ["Box", "ClumpSet", "DataSpheres", "LammpsClumps", "settle_block", "step_and_laws",
+           "write_clumps", "write_data"]
 
 
 @dataclass(frozen=True)
@@ -105,7 +106,7 @@ def write_clumps(clumps: ClumpSet, box: Box, data_path: Path, bodies_path: Path,
     # LAMMPS checks the given centre of mass against its own (sphere-mass weighted)
     w = radii**3
     com = np.sum(centres * w[..., None], axis=1) / np.sum(w, axis=1)[:, None]
-    _write_data(data_path, box, title, DataSpheres(
+    write_data(data_path, box, title, DataSpheres(
         centres.reshape(-1, 3), radii.reshape(-1), np.repeat(atom_density, ns),
         np.repeat(np.arange(1, n + 1), ns)))
     _write_bodies(bodies_path, mass, com, tensor)
@@ -114,14 +115,15 @@ def write_clumps(clumps: ClumpSet, box: Box, data_path: Path, bodies_path: Path,
                         reach=float(t.bounding_radius * scales.max()))
 
 
-def _write_data(path: Path, box: Box, title: str, spheres: DataSpheres) -> None:
-    """The spheres as a data file (``atom_style sphere``, clumps as molecules)."""
+def write_data(path: Path, box: Box, title: str, spheres: DataSpheres) -> None:
+    """The spheres as a LAMMPS data file (``atom_style sphere``, clumps as molecules), with
+    ``title`` as its first line and ``box`` (m) as its bounds."""
     n = len(spheres.radii)
     ids = np.arange(1, n + 1)
     with path.open("w") as fh:
         fh.write(f"{title}\n\n{n} atoms\n1 atom types\n\n")
         for k, axis in enumerate("xyz"):
-            fh.write(f"{box.lo[k]!r} {box.hi[k]!r} {axis}lo {axis}hi\n")
+            fh.write(f"{float(box.lo[k])!r} {float(box.hi[k])!r} {axis}lo {axis}hi\n")
         fh.write("\nAtoms # sphere\n\n")
         np.savetxt(fh, np.column_stack([ids, np.ones(n), 2 * spheres.radii, spheres.density,
                                         spheres.centres]),
