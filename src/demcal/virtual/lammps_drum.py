@@ -65,7 +65,13 @@ from demcal.virtual.lammps_clumps import (
 )
 from demcal.virtual.lammps_laws import model_string
 from demcal.virtual.lammps_options import LammpsOptions
-from demcal.virtual.lammps_run import lammps_command, launch, log_events, read_dump
+from demcal.virtual.lammps_run import (
+    clump_means,
+    lammps_command,
+    launch,
+    log_events,
+    read_dump_step,
+)
 from demcal.virtual.parameters import check_parameter_sets
 
 __all__ = ["DrumCase", "read_frame", "run_drum_lammps", "write_drum_case"]
@@ -226,21 +232,10 @@ print "DEMCAL end $(time)"
 def read_frame(path: str | Path) -> tuple[int, FrameState]:
     """One dumped frame: its time step and the bed (sphere centres and radii, the clumps'
     centres of mass, velocities and masses)."""
-    path = Path(path)
-    lines = path.read_text().splitlines()
-    step = int(lines[lines.index("ITEM: TIMESTEP") + 1])
-    dump = read_dump(path)
+    step, dump = read_dump_step(path)
     centres = np.column_stack([dump["x"], dump["y"], dump["z"]])
-    vel = np.column_stack([dump["vx"], dump["vy"], dump["vz"]])
-    _, inv = np.unique(dump["mol"].astype(np.int64), return_inverse=True)
-    m = dump["mass"]
-    mass = np.bincount(inv, weights=m)
-    # a rigid body's mass-weighted sphere positions and velocities average to its own
-    com = np.column_stack([np.bincount(inv, weights=m * centres[:, k])
-                           for k in range(3)]) / mass[:, None]
-    v = np.column_stack([np.bincount(inv, weights=m * vel[:, k]) for k in range(3)]) \
-        / mass[:, None]
-    return step, FrameState(centres, dump["radius"], com, v, mass)
+    mass, means = clump_means(dump, ("x", "y", "z", "vx", "vy", "vz"))
+    return step, FrameState(centres, dump["radius"], means[:, :3], means[:, 3:], mass)
 
 
 @dataclass

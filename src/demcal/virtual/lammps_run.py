@@ -46,9 +46,21 @@ from demcal.virtual.outcome import (
 from demcal.virtual.parameters import check_parameters
 from demcal.virtual.pile import measure_pile
 
-__all__ = ["MISSING", "LammpsMissing", "LammpsOptions", "RunReporting", "lammps_command",
-           "lammps_version", "launch", "log_events", "parse_lammps_version", "read_dump",
-           "run_aor_lammps"]
+__all__ = [
+    "MISSING",
+    "LammpsMissing",
+    "LammpsOptions",
+    "RunReporting",
+    "clump_means",
+    "lammps_command",
+    "lammps_version",
+    "launch",
+    "log_events",
+    "parse_lammps_version",
+    "read_dump",
+    "read_dump_step",
+    "run_aor_lammps",
+]
 
 log = logging.getLogger("demcal.virtual")
 
@@ -122,25 +134,40 @@ def lammps_version(options: LammpsOptions | None = None) -> str | None:
     return parse_lammps_version(out)
 
 
-def read_dump(path: str | Path) -> dict[str, np.ndarray]:
-    """The columns of a one-snapshot LAMMPS ``custom`` dump, by name (float arrays)."""
+def read_dump_step(path: str | Path) -> tuple[int, dict[str, np.ndarray]]:
+    """The time step and the columns (by name, float arrays) of a one-snapshot LAMMPS
+    ``custom`` dump."""
     lines = Path(path).read_text().splitlines()
+    step = int(lines[lines.index("ITEM: TIMESTEP") + 1])
     head = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ATOMS"))
     names = lines[head].split()[2:]
     rows = lines[head + 1:]
     data = np.loadtxt(rows, ndmin=2) if rows else np.empty((0, len(names)))
-    return {name: data[:, k] for k, name in enumerate(names)}
+    return step, {name: data[:, k] for k, name in enumerate(names)}
+
+
+def read_dump(path: str | Path) -> dict[str, np.ndarray]:
+    """The columns of a one-snapshot LAMMPS ``custom`` dump, by name (float arrays)."""
+    return read_dump_step(path)[1]
+
+
+def clump_means(dump: Mapping[str, np.ndarray],
+                columns: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Per clump (the dump's molecule, in ascending order): its mass (kg) and the
+    mass-weighted mean of each of ``columns`` over its spheres, (m, len(columns)): of x, y,
+    z its centre of mass, of vx, vy, vz its centre-of-mass velocity (a rigid body's)."""
+    _, inv = np.unique(dump["mol"].astype(np.int64), return_inverse=True)
+    mass = np.bincount(inv, weights=dump["mass"])
+    means = np.column_stack([np.bincount(inv, weights=dump["mass"] * dump[c])
+                             for c in columns]) / mass[:, None]
+    return mass, means
 
 
 def _clumps(dump: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                                      np.ndarray]:
     """(sphere centres, radii, clump centres of mass, clump masses) of a dump."""
     centres = np.column_stack([dump["x"], dump["y"], dump["z"]])
-    mol = dump["mol"].astype(np.int64)
-    _, inv = np.unique(mol, return_inverse=True)
-    mass = np.bincount(inv, weights=dump["mass"])
-    com = np.column_stack([np.bincount(inv, weights=dump["mass"] * centres[:, k])
-                           for k in range(3)]) / mass[:, None]
+    mass, com = clump_means(dump, ("x", "y", "z"))
     return centres, dump["radius"], com, mass
 
 
