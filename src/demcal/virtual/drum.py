@@ -140,7 +140,7 @@ def run_drum(parameter_sets: Sequence[Mapping[str, float]], *, settings: DrumSet
             if reporting is not None and reporting.progress is not None:
                 reporting.progress(i, phase, t, wall)
         vtk = None if reporting is None or reporting.vtk_dir is None else \
-            _series(reporting.vtk_dir, f"drum_seed{int(seed)}")
+            VtkSeries(reporting.vtk_dir, f"drum_seed{int(seed)}")
         out.append(_one_run(params, (int(seed), vtk), settings, backend, report))
     return out
 
@@ -156,14 +156,6 @@ def particle_count(settings: DrumSettings) -> int:
     volume = math.pi * settings.radius**2 * settings.width
     solid = settings.fill_fraction * volume * settings.bed_solid_fraction
     return max(10, round(solid / (make_template(p).volume * mean_s3)))
-
-
-def _series(folder: str | Path, name: str) -> VtkSeries:
-    try:
-        Path(folder).mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"vtk_dir {str(folder)!r}: {exc.strerror}") from None
-    return VtkSeries(folder, name)
 
 
 def _one_run(params: dict[str, float], run_of: tuple[int, VtkSeries | None], s: DrumSettings,
