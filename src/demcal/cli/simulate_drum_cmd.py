@@ -179,8 +179,6 @@ def _run(o: DrumOptions, engine: str, params: dict[str, float], settings: Any) -
 
         if o.vtk is not None:
             raise InputError("--vtk is for demcal's engine; LAMMPS writes no VTK here")
-        if not 1 <= o.lammps_np <= 100_000:
-            raise InputError(f"--lammps-np must be in 1..100000; got {o.lammps_np}")
         return run_drum_lammps([params] * o.seeds, settings=settings, seeds=seeds,
                                options=LammpsOptions(np=o.lammps_np))
     from demcal.virtual.drum import DrumReporting, run_drum
