@@ -334,11 +334,7 @@ def _marks(ctx: st.Context, res: bayes.BayesResult, labs: Sequence[bayes.Respons
     (inside the 95 % credible region when at most 0.95)."""
     out = []
     for mark in ctx.study.strategy.marks:
-        values = mark.values or {}
-        missing = [n for n in space.names if n not in values]
-        if missing:
-            raise InputError(f"strategy.marks {mark.label!r}: no value for the factor(s) "
-                             f"{', '.join(missing)}")
+        values = mark.values or {}  # a value for every factor (parse_study checks it)
         actual = np.array([[values[n] for n in space.names]])
         coded = space.to_coded(actual)
         mass = float(bayes.credibility(res.posterior, res.surrogates, labs, coded)[0])
