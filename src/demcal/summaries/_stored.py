@@ -1,0 +1,52 @@
+"""How a typed summary is read from and written to the run store (shared by every summary)."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from collections.abc import Mapping
+from typing import Any, Self, TypeVar
+
+__all__: list[str] = []
+
+_T = TypeVar("_T")
+
+
+def _known(cls: type[_T], summary: Mapping[str, Any]) -> dict[str, Any]:
+    """The items of ``summary`` that are fields of the dataclass ``cls``."""
+    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    return {k: v for k, v in summary.items() if k in names}
+
+
+class _Flat:
+    """A summary stored as its own fields: read from any release's (a key it lacks takes its
+    default, a key it does not know is left out), written as every field in order."""
+
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any]) -> Self:
+        """Read the stored form."""
+        return cls(**_known(cls, summary))
+
+    def to_summary(self) -> dict[str, Any]:
+        """The stored form: every field."""
+        return dataclasses.asdict(self)  # type: ignore[call-overload]
+
+
+def _written(obj: Any, always: tuple[str, ...]) -> dict[str, Any]:
+    """The stored form of the flat dataclass ``obj``: its fields in order, those not named in
+    ``always`` only where they hold a value (a key a producer does not write stays out, so
+    the summary it stored reads back to the same keys)."""
+    return {f.name: copy.deepcopy(v) for f in dataclasses.fields(obj)
+            if (v := getattr(obj, f.name)) is not None or f.name in always}
+
+
+def _plain(value: Any) -> Any:
+    """``value`` as JSON: a typed summary by its ``to_summary``, lists and dicts item by item,
+    anything else copied (the stored form shares nothing with the object)."""
+    if isinstance(value, list):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if hasattr(value, "to_summary"):
+        return value.to_summary()
+    return copy.deepcopy(value)

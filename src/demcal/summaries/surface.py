@@ -1,0 +1,150 @@
+"""The response-surface stage's typed summary: the design, its runs, the model, its ANOVA
+and adequacy, and every other response's model."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from demcal.summaries._stored import _Flat, _known, _plain
+
+__all__ = ["ResponseModel", "Surface"]
+
+
+@dataclass(frozen=True)
+class ResponseModel(_Flat):
+    """One response's model beside the angle at the response-surface stage (a
+    several-response study; :class:`demcal.calibrate.several.ResponseFit` writes it).
+
+    Attributes
+    ----------
+    model : str or None
+        ``"quadratic"``, ``"reduced"`` or ``"constant"`` (the response did not vary).
+    adequate : bool or None
+        Design-Expert's adequacy rules.
+    adequacy : dict
+        p of the model and of the lack of fit, R^2, adjusted and predicted R^2, Adeq Precision.
+    warnings : list of str
+    excluded_points : list of int
+        Design points without this response.
+    anova : list of dict
+        The ANOVA table's rows.
+    coefficients_coded : dict str -> float
+        The model's coefficients in coded units, by term.
+    equation_actual : str or None
+        The model in the factors' units.
+    """
+
+    model: str | None = None
+    adequate: bool | None = None
+    adequacy: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    excluded_points: list[int] = field(default_factory=list)
+    anova: list[dict[str, Any]] = field(default_factory=list)
+    coefficients_coded: dict[str, float] = field(default_factory=dict)
+    equation_actual: str | None = None
+
+
+@dataclass(frozen=True)
+class Surface:
+    """The response-surface stage: the design, its runs, the angle's quadratic (or reduced)
+    model, its ANOVA and Design-Expert's adequacy, and in a several-response study every other
+    response's model.
+
+    The nested rows (``factors``, ``runs``, ``anova``, ``rounds``) keep the stored form; the
+    report's model helpers read them alike from the screening stage's summary.
+
+    Attributes
+    ----------
+    design : str or None
+        ``"box_behnken"`` or ``"ccd"``.
+    factors : list of dict
+        ``{"name", "symbol", "low", "high", "unit"}``: the ranges the design spans.
+    runs : list of dict
+        Per design point: ``point``, ``coded``, ``actual``, ``aor_deg`` (the replicates'
+        mean), ``outcome``, ``aor_runs_deg``, ``aor_std_deg``.
+    excluded_points : list of int
+        Design points without a pile (not in the fit).
+    replicates : int or None
+        Replicates per design point used (more are added while the model is not adequate).
+    responses : dict str -> ResponseModel or None
+        Every response beside the angle; None with the angle alone.
+    anova : list of dict
+        The ANOVA of the model the optimum is read from (every replicate a row).
+    fit : dict
+        Its fit statistics.
+    lack_of_fit_p : float or None
+    adequacy : dict or None
+        The design-point means' statistics Design-Expert's rules judge.
+    rounds : list of dict or None
+        One row per replicate round: replicates, runs, model, adequacy.
+    model : str or None
+        ``"quadratic"`` or ``"reduced"`` (None: a store written before the reduction, a
+        quadratic).
+    removed_terms : list of str or None
+    anova_full, adequacy_full : list of dict, dict or None
+        The full quadratic model's ANOVA and adequacy.
+    coefficients_coded, coefficients_actual : dict str -> float
+        The model's coefficients by term, in coded and in actual units.
+    equation_coded, equation_actual : str or None
+    adequate : bool or None
+    warnings : list of str
+    """
+
+    design: str | None = None
+    factors: list[dict[str, Any]] = field(default_factory=list)
+    runs: list[dict[str, Any]] = field(default_factory=list)
+    excluded_points: list[int] = field(default_factory=list)
+    replicates: int | None = None
+    responses: dict[str, ResponseModel] | None = None
+    anova: list[dict[str, Any]] = field(default_factory=list)
+    fit: dict[str, Any] = field(default_factory=dict)
+    lack_of_fit_p: float | None = None
+    adequacy: dict[str, Any] | None = None
+    rounds: list[dict[str, Any]] | None = None
+    model: str | None = None
+    removed_terms: list[str] | None = None
+    anova_full: list[dict[str, Any]] | None = None
+    adequacy_full: dict[str, Any] | None = None
+    coefficients_coded: dict[str, float] = field(default_factory=dict)
+    coefficients_actual: dict[str, float] = field(default_factory=dict)
+    equation_coded: str | None = None
+    equation_actual: str | None = None
+    adequate: bool | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    #: written even when None (no lack-of-fit test); the other fields: when not None
+    ALWAYS = ("lack_of_fit_p",)
+
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any] | None) -> Surface:
+        """Read a stored rsm summary (any release's; empty: not run; a failed stage's: its
+        design and runs)."""
+        items = _known(cls, summary or {})
+        if items.get("responses") is not None:
+            items["responses"] = {name: ResponseModel.from_summary(r)
+                                  for name, r in items["responses"].items()}
+        for name in ("factors", "runs", "excluded_points", "anova", "warnings"):
+            items[name] = items.get(name) or []
+        for name in ("fit", "coefficients_coded", "coefficients_actual"):
+            items[name] = items.get(name) or {}
+        return cls(**items)
+
+    @property
+    def names(self) -> list[str]:
+        """The factors' names, in the design's order."""
+        return [str(f["name"]) for f in self.factors]
+
+    @property
+    def model_kind(self) -> str:
+        """The model the optimum is read from (``"quadratic"`` where a store predates the
+        reduction)."""
+        return self.model or "quadratic"
+
+    def to_summary(self) -> dict[str, Any]:
+        """The stored form: the fields in order, each where it is not None (``responses``
+        only in a several-response study), ``lack_of_fit_p`` always."""
+        return {f.name: _plain(v) for f in dataclasses.fields(self)
+                if (v := getattr(self, f.name)) is not None or f.name in self.ALWAYS}

@@ -1,0 +1,176 @@
+"""The verification stage's typed summary: runs at the optimum on fresh seeds, judged
+against the lab."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from demcal.summaries._stored import _Flat, _known
+
+__all__ = ["ResponseVerification", "Verification"]
+
+
+@dataclass(frozen=True)
+class ResponseVerification(_Flat):
+    """One response of a several-response study at the verification (its lab comparison).
+
+    Attributes
+    ----------
+    values : list of float
+        The verification runs' values of the response (runs that reported it), its unit.
+    mean, std : float or None
+        Their mean and sample standard deviation.
+    n : int
+        How many runs reported it.
+    lab : dict or None
+        The lab value as the study gave it (``mean``, ``std``, ``n``, ``unit``...).
+    relative_error_percent : float or None
+        ``|mean - lab| / |lab|``, %.
+    ci_low_deg, ci_high_deg : float or None
+        The 95 % t-interval of the mean, in the response's unit (the keys keep the angle's
+        names for the store's sake).
+    target_in_interval, consistent : bool or None
+        The lab mean inside that interval; the t-test's p >= 0.05.
+    p_value : float or None
+    test : str or None
+        Which t-test.
+    desirability : float or None
+        The goal's desirability of the verified mean.
+    """
+
+    values: list[float] = field(default_factory=list)
+    mean: float | None = None
+    std: float | None = None
+    n: int = 0
+    lab: dict[str, Any] | None = None
+    relative_error_percent: float | None = None
+    ci_low_deg: float | None = None
+    ci_high_deg: float | None = None
+    target_in_interval: bool | None = None
+    p_value: float | None = None
+    test: str | None = None
+    consistent: bool | None = None
+    desirability: float | None = None
+
+
+@dataclass(frozen=True)
+class Verification:
+    """The verification stage: replicate runs at the optimum on fresh seeds, judged against
+    the lab's angle (and, in a several-response study, every response against its lab value).
+
+    Attributes
+    ----------
+    params : dict str -> float
+        The full parameter set run, SI.
+    aor_deg : list of float or None
+        Each run's angle, deg (None: no pile).
+    outcomes : list of str
+        Each run's outcome.
+    aor_mean_deg, aor_std_deg : float or None
+        Mean and sample standard deviation of the piles' angles, deg.
+    relative_error_percent : float or None
+        ``|mean - target| / target``, %.
+    n, n_piles : int
+        Runs made and piles formed.
+    pile_png : str or None
+        A side view of one verification pile.
+    half_width_deg, half_width_goal_deg : float or None
+        The 95 % interval's half width reached and the study's goal for it, deg.
+    half_width_reached : bool
+    sized_with_std_deg : float or None
+        The pure-error standard deviation the run count was sized with, deg.
+    sized_with_df : int or float or None
+        Its degrees of freedom.
+    ci_low_deg, ci_high_deg : float or None
+        The 95 % t-interval of the mean, deg.
+    target_in_interval : bool or None
+        The lab angle inside it.
+    p_value : float or None
+        The t-test against the lab (:func:`demcal.calibrate.verify.compare_to_target`).
+    test : str or None
+        Which t-test.
+    consistent : bool or None
+        p >= 0.05.
+    tolerance_percent : float or None
+        The study's tolerance on the relative error, %.
+    within_tolerance : bool or None
+    confirm_pi_low_deg, confirm_pi_high_deg : float or None
+        The surface's 95 % prediction interval for the mean of n runs (Design-Expert's
+        confirmation), deg.
+    confirmed : bool or None
+        The mean inside it.
+    responses : dict str -> ResponseVerification or None
+        Every response of a several-response study; None with the angle alone.
+    round : int or None
+        The refinement round (None: the first and only).
+    rounds : list of Verification
+        The earlier rounds' verifications, oldest first (each without its own history).
+    """
+
+    params: dict[str, float] = field(default_factory=dict)
+    aor_deg: list[float | None] = field(default_factory=list)
+    outcomes: list[str] = field(default_factory=list)
+    aor_mean_deg: float | None = None
+    aor_std_deg: float | None = None
+    relative_error_percent: float | None = None
+    n: int = 0
+    n_piles: int = 0
+    pile_png: str | None = None
+    half_width_deg: float | None = None
+    half_width_goal_deg: float | None = None
+    half_width_reached: bool = False
+    sized_with_std_deg: float | None = None
+    sized_with_df: int | float | None = None
+    ci_low_deg: float | None = None
+    ci_high_deg: float | None = None
+    target_in_interval: bool | None = None
+    p_value: float | None = None
+    test: str | None = None
+    consistent: bool | None = None
+    tolerance_percent: float | None = None
+    within_tolerance: bool | None = None
+    confirm_pi_low_deg: float | None = None
+    confirm_pi_high_deg: float | None = None
+    confirmed: bool | None = None
+    responses: dict[str, ResponseVerification] | None = None
+    round: int | None = None
+    rounds: list[Verification] = field(default_factory=list)
+
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any] | None) -> Verification:
+        """Read a stored verification summary (any release's; empty: not verified)."""
+        items = _known(cls, summary or {})
+        if items.get("responses") is not None:
+            items["responses"] = {name: ResponseVerification.from_summary(r)
+                                  for name, r in items["responses"].items()}
+        items["rounds"] = [cls.from_summary(r) for r in items.get("rounds") or []]
+        return cls(**items)
+
+    @property
+    def done(self) -> bool:
+        """Whether any run was made (an empty summary reads as not verified)."""
+        return self.n > 0 or bool(self.outcomes)
+
+    @property
+    def round_number(self) -> int:
+        """The refinement round, 1 for the first."""
+        return self.round or 1
+
+    def to_summary(self) -> dict[str, Any]:
+        """The stored form: every field, less ``responses``, ``round`` and ``rounds`` where
+        they are empty (a single-response, single-round study stores what it always did)."""
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name == "responses":
+                if value is not None:
+                    out["responses"] = {k: r.to_summary() for k, r in value.items()}
+            elif f.name == "rounds":
+                if value:
+                    out["rounds"] = [r.to_summary() for r in value]
+            elif f.name != "round" or value is not None:
+                out[f.name] = value
+        return out
