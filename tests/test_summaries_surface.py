@@ -10,7 +10,7 @@ import shutil
 import sqlite3
 from pathlib import Path
 
-from demcal.summaries import ResponseModel, Surface
+from demcal.summaries import DesignRun, ResponseModel, Surface
 
 DATA = Path(__file__).parent / "data"
 
@@ -37,8 +37,9 @@ def _surface(**extra) -> Surface:
     """As :func:`demcal.calibrate.stages.rsm` builds it (``lack_of_fit_p`` None: no test)."""
     return Surface(
         design="box_behnken", factors=FACTORS,
-        runs=[{"point": 0, "coded": {"pp.static_friction": -1.0}, "aor_deg": 35.0,
-               "outcome": "pile", "aor_runs_deg": [35.0], "aor_std_deg": None}],
+        runs=[DesignRun(point=0, coded={"pp.static_friction": -1.0},
+                        actual={"pp.static_friction": 0.2}, value=35.0, outcome="pile",
+                        replicates=[35.0], replicate_std=None)],
         excluded_points=[], replicates=1, anova=[{"term": "pp.static_friction", "p": 0.001}],
         fit={"r2": 0.99}, lack_of_fit_p=None, adequacy=ADEQUACY,
         rounds=[{"replicates": 1, "runs": 13, "adequate": True}], model="quadratic",

@@ -127,7 +127,9 @@ def test_climb_is_d_where_d_is_positive_else_minus_the_shortfall() -> None:
 
 def test_the_report_shows_what_the_path_climbed(both) -> None:
     from demcal.report.tables import steepest_table
+    from demcal.summaries import Steepest
 
-    table = steepest_table(both["two"]["steepest"], {})
+    table = steepest_table(Steepest.from_summary(both["two"]["steepest"]), {})
     assert {"drum_deg", "D"} <= set(table.frame.columns)
-    assert "D" not in steepest_table(both["angle"]["steepest"], {}).frame.columns
+    angle = steepest_table(Steepest.from_summary(both["angle"]["steepest"]), {})
+    assert "D" not in angle.frame.columns

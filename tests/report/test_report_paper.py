@@ -16,7 +16,7 @@ from scipy import stats
 
 from demcal import report
 from demcal.store import RunStore
-from demcal.summaries import Verification
+from demcal.summaries import RangeFind, Screening, Steepest, Verification
 
 
 def _number(cell: str) -> float | None:
@@ -223,9 +223,9 @@ def test_figures_are_callable_from_python(paper_report):
     summ = paper_report["json"]["summaries"]
     target = paper_report["json"]["target"]
     figs = [report.measurement_figure(target),
-            report.rangefind_figure(summ["rangefind"], 44.12),
-            report.pareto_figure(summ["screening"]["effects"]),
-            report.steepest_figure(summ["steepest"], 44.12),
+            report.rangefind_figure(RangeFind.from_summary(summ["rangefind"]), 44.12),
+            report.pareto_figure(Screening.from_summary(summ["screening"]).effects or []),
+            report.steepest_figure(Steepest.from_summary(summ["steepest"]), 44.12),
             report.surface_figure(summ["rsm"], ("x3", "x4")),
             report.predicted_actual_figure(summ["rsm"]),
             report.verification_figure(Verification.from_summary(summ["verification"]), 44.12),

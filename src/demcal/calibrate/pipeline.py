@@ -27,7 +27,7 @@ from demcal.execute.local import GPU_CHUNK, default_chunk, default_workers
 from demcal.execute.tasks import TestDef
 from demcal.store import STAGES as STAGE_TITLES
 from demcal.store import RunStore
-from demcal.summaries import Optimum, Surface, Verification
+from demcal.summaries import DesignRun, Optimum, Screening, Steepest, Surface, Verification
 
 __all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def"]
 
@@ -202,12 +202,12 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
                       target_n=target.get("n"), responses=specs, labs=labs)
 
 
-def _design_json(design: str | None, factors: list[dict[str, Any]], runs: list[dict[str, Any]],
+def _design_json(design: str | None, factors: list[dict[str, Any]], runs: list[DesignRun],
                  excluded: list[int]) -> dict[str, Any]:
     """A designed stage's part of the result: its design, factors and each point's angle."""
     return {"design": design, "factors": [f["name"] for f in factors],
-            "responses": [{"point": r["point"], "actual": r["actual"], "aor_deg": r["aor_deg"],
-                           "outcome": r["outcome"]} for r in runs],
+            "responses": [{"point": r.point, "actual": r.actual, "aor_deg": r.value,
+                           "outcome": r.outcome} for r in runs],
             "excluded_points": excluded}
 
 
@@ -219,30 +219,32 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
             continue
         if name == "rangefind":
             out[name] = {"design": "one factor at a time",
-                         "responses": [p for f in s["factors"] for p in f["points"]],
-                         "ranges": {f["name"]: [f["new_low"], f["new_high"]]
-                                    for f in s["factors"]}, "message": s["message"]}
-        elif name == "screening" and "runs" in s:  # a skipped screening: no runs
-            out[name] = {**_design_json(s["design"], s["factors"], s["runs"],
-                                        s["excluded_points"]), "selected": s["selected"]}
+                         "responses": [p.to_summary() for f in s.factors for p in f.points],
+                         "ranges": {f.name: [f.new_low, f.new_high] for f in s.factors},
+                         "message": s.message}
+        elif name == "screening" and s.ran:  # a skipped screening: no runs
+            out[name] = {**_design_json(s.design, s.factors, s.runs, s.excluded_points),
+                         "selected": s.selected}
         elif name == "rsm":  # typed (demcal.summaries.Surface), no fidelity of its own
             out[name] = {**_design_json(s.design, s.factors, s.runs, s.excluded_points),
                          "adequate": s.adequate, "warnings": s.warnings,
                          "equation_actual": s.equation_actual, "adequacy": s.adequacy,
                          "replicates": s.replicates, "rounds": s.rounds}
             continue
-        elif name == "steepest" and "steps" in s:  # a disabled stage keeps only its levels
-            out[name] = {"design": "steepest path", "factors": s["factors"],
-                         "responses": s["steps"], "best_step": s["best_step"],
-                         "levels": s["levels"],
-                         **{k: s[k] for k in ("anchor", "followed", "climb") if k in s}}
+        elif name == "steepest" and s.ran:  # a disabled stage keeps only its levels
+            stored = s.to_summary()
+            out[name] = {"design": "steepest path", "factors": s.factors,
+                         "responses": stored["steps"], "best_step": s.best_step,
+                         "levels": s.levels,
+                         **{k: stored[k] for k in ("anchor", "followed", "climb") if k in stored}}
         elif name == "optimize":  # typed (demcal.summaries.Optimum), no fidelity of its own
             out[name] = {"candidates": [c.to_summary() for c in s.candidates]}
             continue
-        elif name == "verification":
+        elif name == "verification":  # no fidelity of its own
             out[name] = {"aor_deg": s["aor_deg"], "outcomes": s["outcomes"]}
-        if name in out and "fidelity" in s:  # the stage ran at its own fidelity
-            out[name]["fidelity"] = s["fidelity"]
+            continue
+        if name in out and s.fidelity is not None:  # the stage ran at its own fidelity
+            out[name]["fidelity"] = s.fidelity
     return out
 
 
@@ -278,14 +280,15 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         if name == "screening" and not s.screening.enabled:
             # straight to the response surface: its factors are the ones given, or all
             refs = s.screening.factors or [f.name for f in ctx.study.factors]
-            ctx.results["screening"] = {"selected": [ctx.study.factor(r).name for r in refs]}
+            ctx.results["screening"] = Screening(
+                selected=[ctx.study.factor(r).name for r in refs])
             ctx.store.delete_stage(name)
             continue
         if name == "steepest" and not s.steepest.enabled:
-            sel = ctx.results["screening"]["selected"]
-            ctx.results["steepest"] = {"levels": {
+            sel = ctx.results["screening"].selected
+            ctx.results["steepest"] = Steepest(levels={
                 n: [ctx.factor(n)["low"], 0.5 * (ctx.factor(n)["low"] + ctx.factor(n)["high"]),
-                    ctx.factor(n)["high"]] for n in sel}}
+                    ctx.factor(n)["high"]] for n in sel})
             ctx.store.delete_stage(name)
             continue
         getattr(st, name)(ctx)

@@ -38,10 +38,20 @@ from demcal.calibrate.verify import (
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord, RunStore, params_hash
 from demcal.summaries import (
+    Anchor,
+    AnchorRun,
     Candidate,
+    DesignRun,
+    Effect,
     Optimum,
+    PathStep,
+    RangeFind,
     ResponseModel,
     ResponseVerification,
+    ScanFactor,
+    ScanPoint,
+    Screening,
+    Steepest,
     Surface,
     Verification,
 )
@@ -253,21 +263,17 @@ def _fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_se
 
 
 def _run_rows(design: doe.Design, y: np.ndarray, outcomes: list[str],
-              runs: list[list[float]] | None = None) -> list[dict[str, Any]]:
+              runs: list[list[float]]) -> list[DesignRun]:
+    """Each design point's settings, its mean response (None: excluded), outcome and
+    replicates."""
     actual = design.actual
-    rows = []
-    for i in range(design.n_runs):
-        row: dict[str, Any] = {
-            "point": i,
-            "coded": {n: float(design.coded[i, j]) for j, n in enumerate(design.names)},
-            "actual": {n: float(actual[i, j]) for j, n in enumerate(design.names)},
-            "aor_deg": None if math.isnan(y[i]) else float(y[i]), "outcome": outcomes[i]}
-        if runs is not None:
-            r = runs[i]
-            row["aor_runs_deg"] = r
-            row["aor_std_deg"] = float(np.std(r, ddof=1)) if len(r) > 1 else None
-        rows.append(row)
-    return rows
+    return [DesignRun(
+        point=i, coded={n: float(design.coded[i, j]) for j, n in enumerate(design.names)},
+        actual={n: float(actual[i, j]) for j, n in enumerate(design.names)},
+        value=None if math.isnan(y[i]) else float(y[i]), outcome=outcomes[i],
+        replicates=runs[i],
+        replicate_std=float(np.std(runs[i], ddof=1)) if len(runs[i]) > 1 else None)
+        for i in range(design.n_runs)]
 
 
 def _exclusion_note(excluded: list[int], outcomes: list[str]) -> str:
@@ -303,111 +309,144 @@ def _feasible(values: np.ndarray, piles: np.ndarray) -> tuple[float, float] | No
     return float(values[a]), float(values[b])
 
 
-def rangefind(ctx: Context) -> dict[str, Any]:
-    """Scan each listed factor at the others' centre; keep the part of its range with piles."""
+def rangefind(ctx: Context) -> RangeFind:
+    """Scan each listed factor at the others' centre; keep the part of its range with piles.
+
+    Where the target lies outside every response the scans saw and the factors may move
+    (``move_ranges``, by default where ``hard_limits`` are set), each factor with a measured
+    slope moves half its width the way that reaches the target, within its hard limits, and
+    is scanned again (at most ``max_moves`` times).
+    """
     opts = ctx.study.stages.rangefind
     names = [ctx.study.factor(r).name for r in (opts.factors or [f["name"] for f in ctx.factors])]
     ctx.begin("rangefind", {"factors": ctx.factors, "opts": opts.model_dump(mode="json"),
                             "fixed": ctx.fixed})
     hard = {ctx.study.factor(k).name: v for k, v in opts.hard_limits.items()}
+    may_move = bool(hard) if opts.move_ranges is None else opts.move_ranges
     moves: list[str] = []
     for attempt in range(opts.max_moves + 1):
-        points, index = [], []
-        for fi, name in enumerate(names):
-            f = ctx.factor(name)
-            for j, v in enumerate(np.linspace(f["low"], f["high"], opts.points)):
-                pt = 100 * fi + j
-                for r in range(ctx.reps("rangefind")):
-                    points.append(Point(pt, r, ctx.full({name: float(v)}), ctx.seed(pt, r, 0)))
-                index.append((name, float(v), pt))
-        recs = ctx.run("rangefind", points)
-        y, outcomes = _point_responses(recs, 100 * len(names))
-        rows, aors, lines = [], [], {}
-        for name in names:
-            f = ctx.factor(name)
-            pts = [(v, pt) for n, v, pt in index if n == name]
-            vals = np.array([v for v, _ in pts])
-            ys = np.array([y[pt] for _, pt in pts])
-            piles = ~np.isnan(ys)
-            feas = _feasible(vals, piles)
-            reason = None
-            new_low, new_high = f["low"], f["high"]
-            if feas is None:
-                reason = (f"no pile anywhere in {f['low']:g}..{f['high']:g} "
-                          f"({', '.join(sorted({outcomes[pt] for _, pt in pts}))})")
-            else:
-                new_low, new_high = feas
-                cut = [f"{v:g} ({outcomes[pt]})" for v, pt in pts if np.isnan(y[pt])]
-                if cut:
-                    reason = ("no pile at " + ", ".join(cut) + f"; range cut to "
-                              f"{new_low:g}..{new_high:g}")
-            if piles.sum() >= 2:
-                lines[name] = tuple(float(c) for c in np.polyfit(vals[piles], ys[piles], 1))
-            aors += [float(v) for v in ys[piles]]
-            rows.append({"name": name, "symbol": f["symbol"], "low": f["low"],
-                         "high": f["high"], "new_low": new_low, "new_high": new_high,
-                         "points": [{"value": float(v), "outcome": outcomes[pt],
-                                     "aor_deg": None if np.isnan(y[pt]) else float(y[pt])}
-                                    for v, pt in pts],
-                         "reason": reason})
-        slopes = {name: line[0] for name, line in lines.items()}
-        if not aors:
-            summary = {**ctx.own_fidelity("rangefind"),
-                       "factors": rows, "response_min_deg": None, "response_max_deg": None,
-                       "target_in_range": False, "message": "no pile formed in any scan"}
-            ctx.store.set_stage("rangefind", "failed", {**summary, "error": summary["message"]})
-            raise StudyError("rangefind: no pile formed anywhere in the scanned ranges; lower "
-                             "the cohesion (e.g. pp.surface_energy) or widen the ranges")
-        lo, hi = min(aors), max(aors)
+        scans, lines = _scan(ctx, names)
+        seen = [p.response for f in scans for p in f.points if p.response is not None]
+        if not seen:
+            _no_pile_anywhere(ctx, scans)
+        lo, hi = min(seen), max(seen)
         inside = lo <= ctx.target <= hi
-        if inside:
-            msg = f"target {ctx.target:g} deg lies in the response seen ({lo:.2f}..{hi:.2f} deg)"
-        else:
-            way = "raise" if ctx.target > hi else "lower"
-            drivers = [f"{n} ({'up' if (s > 0) == (way == 'raise') else 'down'})"
-                       for n, s in sorted(slopes.items(), key=lambda kv: -abs(kv[1]))]
-            msg = (f"target {ctx.target:g} deg lies outside the response seen ({lo:.2f}.."
-                   f"{hi:.2f} deg): ranges must move to {way} the AoR: "
-                   + (", ".join(drivers) or "no factor with a measurable slope"))
-        moved = False
-        may_move = bool(hard) if opts.move_ranges is None else opts.move_ranges
-        if not inside and may_move and attempt < opts.max_moves:
-            want_up = ctx.target > hi
-            for name, s in slopes.items():
-                if name not in hard or s == 0:
-                    continue
-                f = ctx.factor(name)
-                width = f["high"] - f["low"]
-                shift = width / 2 * (1 if (s > 0) == want_up else -1)
-                h_lo, h_hi = hard[name]
-                new_lo = min(max(f["low"] + shift, h_lo), h_hi - width)
-                new_lo = max(new_lo, h_lo)
-                new_hi = min(new_lo + width, h_hi)
-                if abs(new_lo - f["low"]) > 1e-12 * max(1.0, width):
-                    moves.append(f"{name}: {f['low']:g}..{f['high']:g} -> {new_lo:g}..{new_hi:g}")
-                    f["low"], f["high"] = new_lo, new_hi
-                    ctx.fixed[name] = 0.5 * (new_lo + new_hi)
-                    moved = True
-        if not moved:
+        slopes = {name: line[0] for name, line in lines.items()}
+        if inside or not may_move or attempt == opts.max_moves \
+                or not _move_ranges(ctx, slopes, hard, ctx.target > hi, moves):
             break
-    for row in rows:
-        f = ctx.factor(row["name"])
-        f["low"], f["high"] = row["new_low"], row["new_high"]
-        ctx.fixed[row["name"]] = 0.5 * (f["low"] + f["high"])
+    for scan in scans:
+        f = ctx.factor(scan.name)
+        f["low"], f["high"] = scan.new_low, scan.new_high
+        ctx.fixed[scan.name] = 0.5 * (f["low"] + f["high"])
+    msg = _scan_message(ctx.target, (lo, hi), slopes)
     if moves:
         msg += "; ranges moved within hard limits: " + "; ".join(moves)
-    summary = {**ctx.own_fidelity("rangefind"),
-               "factors": rows, "response_min_deg": lo, "response_max_deg": hi,
-               "target_in_range": inside, "message": msg}
+    found = RangeFind(fidelity=ctx.own_fidelity("rangefind").get("fidelity"), factors=scans,
+                      response_min=lo, response_max=hi, target_in_range=inside, message=msg)
     if not inside:
-        _refuse_out_of_reach(ctx, summary, _reach(ctx, rows, lines, hard))
-    ctx.store.set_stage("rangefind", "done", summary,
+        _refuse_out_of_reach(ctx, found, _reach(ctx, scans, lines, hard))
+    ctx.store.set_stage("rangefind", "done", found.to_summary(),
                         inputs_hash=ctx.store.stage("rangefind").inputs_hash)
-    ctx.results["rangefind"] = summary
-    return summary
+    ctx.results["rangefind"] = found
+    return found
 
 
-def _reach(ctx: Context, rows: list[dict[str, Any]],
+def _scan(ctx: Context, names: list[str]
+          ) -> tuple[list[ScanFactor], dict[str, tuple[float, float]]]:
+    """Run every factor's scan at the others' centre: each factor's points, the range kept
+    (the longest contiguous run of piles) and why it was cut; and each factor's scan line
+    (slope, intercept) over its piles, where it formed two or more."""
+    opts = ctx.study.stages.rangefind
+    points, index = [], []
+    for fi, name in enumerate(names):
+        f = ctx.factor(name)
+        for j, v in enumerate(np.linspace(f["low"], f["high"], opts.points)):
+            pt = 100 * fi + j
+            for r in range(ctx.reps("rangefind")):
+                points.append(Point(pt, r, ctx.full({name: float(v)}), ctx.seed(pt, r, 0)))
+            index.append((name, float(v), pt))
+    y, outcomes = _point_responses(ctx.run("rangefind", points), 100 * len(names))
+    scans, lines = [], {}
+    for name in names:
+        f = ctx.factor(name)
+        pts = [(v, pt) for n, v, pt in index if n == name]
+        vals = np.array([v for v, _ in pts])
+        ys = np.array([y[pt] for _, pt in pts])
+        piles = ~np.isnan(ys)
+        feas = _feasible(vals, piles)
+        reason = None
+        new_low, new_high = f["low"], f["high"]
+        if feas is None:
+            reason = (f"no pile anywhere in {f['low']:g}..{f['high']:g} "
+                      f"({', '.join(sorted({outcomes[pt] for _, pt in pts}))})")
+        else:
+            new_low, new_high = feas
+            cut = [f"{v:g} ({outcomes[pt]})" for v, pt in pts if np.isnan(y[pt])]
+            if cut:
+                reason = ("no pile at " + ", ".join(cut) + f"; range cut to "
+                          f"{new_low:g}..{new_high:g}")
+        if piles.sum() >= 2:
+            lines[name] = tuple(float(c) for c in np.polyfit(vals[piles], ys[piles], 1))
+        scans.append(ScanFactor(
+            name=name, symbol=f["symbol"], low=f["low"], high=f["high"], new_low=new_low,
+            new_high=new_high, reason=reason,
+            points=[ScanPoint(value=float(v), outcome=outcomes[pt],
+                              response=None if np.isnan(y[pt]) else float(y[pt]))
+                    for v, pt in pts]))
+    return scans, lines
+
+
+def _no_pile_anywhere(ctx: Context, scans: list[ScanFactor]) -> None:
+    """Fail the stage: no scan formed a pile."""
+    found = RangeFind(fidelity=ctx.own_fidelity("rangefind").get("fidelity"), factors=scans,
+                      target_in_range=False, message="no pile formed in any scan")
+    ctx.store.set_stage("rangefind", "failed",
+                        {**found.to_summary(), "error": found.message})
+    raise StudyError("rangefind: no pile formed anywhere in the scanned ranges; lower "
+                     "the cohesion (e.g. pp.surface_energy) or widen the ranges")
+
+
+def _scan_message(target: float, seen: tuple[float, float], slopes: Mapping[str, float]) -> str:
+    """Whether the target lies in the response the scans saw, and if not, which way each
+    factor must move to reach it (the steepest scan line first)."""
+    lo, hi = seen
+    if lo <= target <= hi:
+        return f"target {target:g} deg lies in the response seen ({lo:.2f}..{hi:.2f} deg)"
+    way = "raise" if target > hi else "lower"
+    drivers = [f"{n} ({'up' if (s > 0) == (way == 'raise') else 'down'})"
+               for n, s in sorted(slopes.items(), key=lambda kv: -abs(kv[1]))]
+    return (f"target {target:g} deg lies outside the response seen ({lo:.2f}.."
+            f"{hi:.2f} deg): ranges must move to {way} the AoR: "
+            + (", ".join(drivers) or "no factor with a measurable slope"))
+
+
+def _move_ranges(ctx: Context, slopes: Mapping[str, float],
+                 hard: Mapping[str, tuple[float, float]], want_up: bool,
+                 moves: list[str]) -> bool:
+    """Move each factor with hard limits and a measured slope half its width the way that
+    raises (``want_up``) or lowers the response, inside its hard limits; say each move in
+    ``moves``. Returns whether any range moved."""
+    moved = False
+    for name, s in slopes.items():
+        if name not in hard or s == 0:
+            continue
+        f = ctx.factor(name)
+        width = f["high"] - f["low"]
+        shift = width / 2 * (1 if (s > 0) == want_up else -1)
+        h_lo, h_hi = hard[name]
+        new_lo = min(max(f["low"] + shift, h_lo), h_hi - width)
+        new_lo = max(new_lo, h_lo)
+        new_hi = min(new_lo + width, h_hi)
+        if abs(new_lo - f["low"]) > 1e-12 * max(1.0, width):
+            moves.append(f"{name}: {f['low']:g}..{f['high']:g} -> {new_lo:g}..{new_hi:g}")
+            f["low"], f["high"] = new_lo, new_hi
+            ctx.fixed[name] = 0.5 * (new_lo + new_hi)
+            moved = True
+    return moved
+
+
+def _reach(ctx: Context, scans: Sequence[ScanFactor],
            lines: Mapping[str, tuple[float, float]],
            hard: Mapping[str, tuple[float, float]]) -> tuple[float, float] | None:
     """The response range the factors may reach within their hard limits, deg, or None
@@ -420,22 +459,22 @@ def _reach(ctx: Context, rows: list[dict[str, Any]],
     steepest path's own model. None unless every factor of the study was scanned, formed at
     least two piles and has hard limits (a factor free to move can reach any angle).
     """
-    if {r["name"] for r in rows} != {f["name"] for f in ctx.factors}:
+    if {s.name for s in scans} != {f["name"] for f in ctx.factors}:
         return None
     centre, up, down = [], 0.0, 0.0
-    for r in rows:
-        if r["name"] not in lines or r["name"] not in hard:  # under two piles, or free
+    for s in scans:
+        if s.name not in lines or s.name not in hard:  # under two piles, or free
             return None
-        slope, icpt = lines[r["name"]]
-        c = 0.5 * (r["new_low"] + r["new_high"])
+        slope, icpt = lines[s.name]
+        c = 0.5 * (s.new_low + s.new_high)
         centre.append(icpt + slope * c)
-        ends = [slope * (h - c) for h in hard[r["name"]]]
+        ends = [slope * (h - c) for h in hard[s.name]]
         up, down = up + max(ends), down + min(ends)
     base = float(np.mean(centre))
     return base + down, base + up
 
 
-def _refuse_out_of_reach(ctx: Context, summary: dict[str, Any],
+def _refuse_out_of_reach(ctx: Context, found: RangeFind,
                          reach: tuple[float, float] | None) -> None:
     """Stop the study after range finding (its runs kept) when the target lies beyond what
     the factors may reach within their hard limits, with 10 % of that span as a margin for
@@ -449,19 +488,18 @@ def _refuse_out_of_reach(ctx: Context, summary: dict[str, Any],
     err = (f"rangefind: target {ctx.target:g} deg is out of reach: within the hard limits the "
            f"scans reach {low:.2f}..{high:.2f} deg (each factor's scan line, added); widen "
            "hard_limits, add a factor, or check the target")
-    ctx.store.set_stage("rangefind", "failed", {**summary, "reach_deg": [low, high],
-                                                "error": err})
+    ctx.store.set_stage("rangefind", "failed",
+                        replace(found, reach=[low, high], error=err).to_summary())
     raise StudyError(err)
 
 
 # ------------------------------------------------------------------------------ screening
-def screening(ctx: Context) -> dict[str, Any]:
+def screening(ctx: Context) -> Screening:
     """Plackett-Burman design, linear fit, effects and ANOVA, the significant factors."""
     opts = ctx.study.stages.screening
     h = ctx.begin("screening", {"factors": ctx.factors, "opts": opts.model_dump(mode="json"),
                                 "fixed": ctx.fixed, "reps": ctx.reps("screening")})
     space = _space(ctx.factors)
-    k = len(space)
     try:
         design = doe.plackett_burman(space, n_runs=opts.runs, randomize=False)
     except InputError as exc:
@@ -469,12 +507,11 @@ def screening(ctx: Context) -> dict[str, Any]:
     recs = ctx.run("screening", _design_points(ctx, design, range(ctx.reps("screening"))))
     y, outcomes, point_runs = _point_runs(recs, design.n_runs)
     excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
-    summary: dict[str, Any] = {
-        **ctx.own_fidelity("screening"), "design": "plackett_burman",
-        "n_runs": design.n_runs, "alpha": opts.alpha,
-        "factors": [dict(f) for f in ctx.factors],
-        "dummies": [f"dummy{j + 1}" for j in range(design.dummies.shape[1])],
-        "runs": _run_rows(design, y, outcomes, point_runs), "excluded_points": excluded}
+    ran = Screening(
+        fidelity=ctx.own_fidelity("screening").get("fidelity"), design="plackett_burman",
+        n_runs=design.n_runs, alpha=opts.alpha, factors=[dict(f) for f in ctx.factors],
+        dummies=[f"dummy{j + 1}" for j in range(design.dummies.shape[1])],
+        runs=_run_rows(design, y, outcomes, point_runs), excluded_points=excluded)
     try:
         if (flat := no_variation(y)) is not None:  # no effect to screen: say it, now
             raise InputError(flat)
@@ -485,39 +522,44 @@ def screening(ctx: Context) -> dict[str, Any]:
         err = (f"screening: the linear model cannot be fitted ({exc}); "
                + _exclusion_note(excluded, outcomes) + ". Run range finding or narrow the "
                "ranges to the pile region")
-        ctx.store.set_stage("screening", "failed", {**summary, "error": err}, inputs_hash=h)
+        ctx.store.set_stage("screening", "failed", replace(ran, error=err).to_summary(),
+                            inputs_hash=h)
         raise StudyError(err) from None
-    eff = rs.effects()
-    effects = [{"term": str(t), "effect": float(r["effect"]),
-                "contribution_percent": float(r["contribution_percent"]),
-                "f": None if not np.isfinite(r["f"]) else float(r["f"]),
-                "p": None if not np.isfinite(r["p"]) else float(r["p"]), "rank": int(r["rank"])}
-               for t, r in eff.iterrows()]
-    if opts.factors:
-        selected = [ctx.study.factor(r).name for r in opts.factors]
-        why = "factors given in the study"
-    else:
-        sig = [e["term"] for e in effects if e["p"] is not None and e["p"] < opts.alpha]
-        selected = sig[:opts.max_factors]
-        why = f"{len(sig)} significant at alpha={opts.alpha:g}"
-        need = min(opts.min_factors, k)
-        for e in effects:
-            if len(selected) >= need:
-                break
-            if e["term"] not in selected:
-                selected.append(e["term"])
-        if len(selected) > len(sig[:opts.max_factors]):
-            why += f"; filled up to {need} by effect rank"
+    effects = [Effect(term=str(t), effect=float(r["effect"]),
+                      contribution_percent=float(r["contribution_percent"]),
+                      f=None if not np.isfinite(r["f"]) else float(r["f"]),
+                      p=None if not np.isfinite(r["p"]) else float(r["p"]), rank=int(r["rank"]))
+               for t, r in rs.effects().iterrows()]
+    selected, why = _select(ctx, effects, len(space))
     table = rs.anova()
-    summary.update(anova=table.to_records(), fit=table.fit.to_dict(), effects=effects,
-                   selected=selected,
-                   message=f"selected {', '.join(selected)} ({why}); "
-                   + _exclusion_note(excluded, outcomes))
-    ctx.store.set_stage("screening", "done", summary, inputs_hash=h)
-    ctx.results["screening"] = summary
+    found = replace(ran, anova=table.to_records(), fit=table.fit.to_dict(), effects=effects,
+                    selected=selected, message=f"selected {', '.join(selected)} ({why}); "
+                    + _exclusion_note(excluded, outcomes))
+    ctx.store.set_stage("screening", "done", found.to_summary(), inputs_hash=h)
+    ctx.results["screening"] = found
     ctx.results["_screening_model"] = rs
     ctx.results["_screening_runs"] = (design, recs)  # the other responses' first-order models
-    return summary
+    return found
+
+
+def _select(ctx: Context, effects: list[Effect], k: int) -> tuple[list[str], str]:
+    """The factors the next stage varies, and why: those the study gives, else the
+    significant ones (at most ``max_factors``), filled up to ``min_factors`` by effect rank."""
+    opts = ctx.study.stages.screening
+    if opts.factors:
+        return [ctx.study.factor(r).name for r in opts.factors], "factors given in the study"
+    sig = [e.term for e in effects if e.p is not None and e.p < opts.alpha]
+    selected = sig[:opts.max_factors]
+    why = f"{len(sig)} significant at alpha={opts.alpha:g}"
+    need = min(opts.min_factors, k)
+    for e in effects:
+        if len(selected) >= need:
+            break
+        if e.term not in selected:
+            selected.append(e.term)
+    if len(selected) > len(sig[:opts.max_factors]):
+        why += f"; filled up to {need} by effect rank"
+    return selected, why
 
 
 # ------------------------------------------------------------------------------ steepest
@@ -560,22 +602,22 @@ def _best_step(miss: Sequence[float | None]) -> int | None:
 
 
 def _path_summary(ctx: Context, climb: several.PathClimb | None, recs: Sequence[RunRecord],
-                  steps: list[dict[str, Any]]) -> tuple[dict[str, Any], list[float | None]]:
-    """Several responses: the summary's ``followed`` and ``climb``, each step's ``responses``
-    and ``desirability`` (added to ``steps``), and the misses the best step is chosen by
-    (``[]`` for the angle alone: its relative error)."""
+                  steps: list[PathStep]) -> tuple[Steepest, list[PathStep], list[float | None]]:
+    """Several responses: the summary's ``followed`` and ``climb``, the steps with each one's
+    ``responses`` and ``desirability``, and the misses the best step is chosen by (``[]``
+    for the angle alone: its relative error)."""
     if climb is None:
-        return {}, []
+        return Steepest(), steps, []
     values = _step_values(ctx, recs, len(steps))
-    for row, v, d in zip(steps, values, climb.desirability(values), strict=True):
-        row.update(responses=v, desirability=d)
+    steps = [replace(row, responses=v, desirability=d)
+             for row, v, d in zip(steps, values, climb.desirability(values), strict=True)]
     if climb.flat:
-        return {"followed": [ctx.responses[0].name], "climb": climb.summary()}, []
-    return {"followed": [g.name for g in climb.goals], "climb": climb.summary()}, \
-        climb.misses(values)
+        return Steepest(followed=[ctx.responses[0].name], climb=climb.summary()), steps, []
+    return (Steepest(followed=[g.name for g in climb.goals], climb=climb.summary()), steps,
+            climb.misses(values))
 
 
-def steepest(ctx: Context) -> dict[str, Any]:
+def steepest(ctx: Context) -> Steepest:
     """Path from the screening effects toward the target; best step = centre of the RSM.
 
     With several responses the path climbs their overall desirability (:func:`_path_direction`)
@@ -583,7 +625,7 @@ def steepest(ctx: Context) -> dict[str, Any]:
     """
     opts = ctx.study.stages.steepest
     rs = ctx.results["_screening_model"]
-    selected = ctx.results["screening"]["selected"]
+    selected = ctx.results["screening"].selected
     h = ctx.begin("steepest", {"sel": selected, "factors": ctx.factors,
                                "opts": opts.model_dump(mode="json"), "fixed": ctx.fixed,
                                "coef": {k: float(v) for k, v in rs.coefficients_coded.items()},
@@ -613,15 +655,16 @@ def steepest(ctx: Context) -> dict[str, Any]:
         recs = ctx.run("steepest", pts)  # earlier steps are stored: only new ones run
         y, outcomes = _point_responses(recs, len(path))
         err = [None if math.isnan(v) else abs(v - ctx.target) / ctx.target * 100 for v in y]
-        steps = [{"step": i, "actual": path[i],
-                  "aor_deg": None if math.isnan(y[i]) else float(y[i]),
-                  "outcome": outcomes[i], "relative_error_percent": err[i]}
+        steps = [PathStep(step=i, actual=path[i],
+                          value=None if math.isnan(y[i]) else float(y[i]),
+                          outcome=outcomes[i], relative_error_percent=err[i])
                  for i in range(len(path))]
-        followed, miss = _path_summary(ctx, climb, recs, steps)
+        followed, steps, miss = _path_summary(ctx, climb, recs, steps)
         best = _best_step(miss or err)
         if best is None:
             msg = "steepest: no step of the path formed a pile"
-            ctx.store.set_stage("steepest", "failed", {"error": msg}, inputs_hash=h)
+            ctx.store.set_stage("steepest", "failed", Steepest(error=msg).to_summary(),
+                                inputs_hash=h)
             raise StudyError(msg)
         # the miss still falls at the last step: go on along the path (bounded)
         if best < len(path) - 1 or n_points >= opts.max_steps or path[-1] == path[-2]:
@@ -637,26 +680,29 @@ def steepest(ctx: Context) -> dict[str, Any]:
     step_actual = {n: abs(step_c) * space[n].half_range for n in selected}
     centre, anchored = _surface_centre(ctx, path, y, best, message)
     levels = _levels(ctx, selected, centre, step_actual)
-    summary = {**ctx.own_fidelity("steepest"), "factors": selected, "direction": sign,
-               "steps": steps, "best_step": best, "centre": {n: levels[n][1] for n in selected},
-               "levels": levels, "message": message, **anchored, **followed}
-    ctx.store.set_stage("steepest", "done", summary, inputs_hash=h)
-    ctx.results["steepest"] = summary
-    return summary
+    found = replace(followed, fidelity=ctx.own_fidelity("steepest").get("fidelity"),
+                    factors=selected, direction=sign, steps=steps, best_step=best,
+                    centre={n: levels[n][1] for n in selected}, levels=levels,
+                    message=message if anchored is None else anchored[1],
+                    anchor=None if anchored is None else anchored[0])
+    ctx.store.set_stage("steepest", "done", found.to_summary(), inputs_hash=h)
+    ctx.results["steepest"] = found
+    return found
 
 
 def _levels(ctx: Context, selected: list[str], centre: Mapping[str, float],
             step_actual: Mapping[str, float]) -> dict[str, list[float]]:
     """The response surface's low, centre and high of each factor: a path step either side of
     the centre, inside the parameter's bounds and the range finding's pile region."""
-    rf = {r["name"]: r for r in ctx.results.get("rangefind", {}).get("factors", [])}
+    found = ctx.results.get("rangefind")
     levels = {}
     for n in selected:
         lo = _clip(n, centre[n] - step_actual[n])
         hi = _clip(n, centre[n] + step_actual[n])
-        if n in rf and rf[n]["reason"]:  # keep the rangefind's pile region
-            lo, hi = max(lo, min(rf[n]["new_low"], centre[n])), min(
-                hi, max(rf[n]["new_high"], centre[n]))
+        scan = None if found is None else found.factor(n)
+        if scan is not None and scan.reason:  # keep the rangefind's pile region
+            lo, hi = max(lo, min(scan.new_low, centre[n])), min(
+                hi, max(scan.new_high, centre[n]))
         if not hi > lo:
             lo, hi = centre[n] - step_actual[n] / 2, centre[n] + step_actual[n] / 2
         levels[n] = [lo, 0.5 * (lo + hi), hi]
@@ -664,8 +710,10 @@ def _levels(ctx: Context, selected: list[str], centre: Mapping[str, float],
 
 
 def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, best: int,
-                    path_message: str) -> tuple[dict[str, float], dict[str, Any]]:
-    """The response surface's centre on the path, and the anchor's summary keys.
+                    path_message: str
+                    ) -> tuple[dict[str, float], tuple[Anchor, str] | None]:
+    """The response surface's centre on the path, and where it was anchored, the anchor and
+    the stage's message.
 
     The best step of the path, unless the path ran at its own fidelity and
     ``anchor_rounds`` > 0: then the study's own test is run at path points around it
@@ -675,7 +723,7 @@ def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, b
     rounds = ctx.study.stages.steepest.anchor_rounds
     path_fid = ctx.study.stage_fidelities().get("steepest")
     if path_fid is None or rounds < 1 or len(path) < 2:
-        return dict(path[best]), {}
+        return dict(path[best]), None
     path_aor = [float(v) for v in y]
     got: dict[int, RunRecord] = {}
     want: tuple[int, ...] | None = anchor.first_pair(best, len(path))
@@ -693,17 +741,16 @@ def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, b
         want = anchor.next_pair(path_aor, piles, ctx.target)
     step, message = _anchor_step(ctx, piles, cross, best)
     centre_step = anchor.surface_centre(step, len(path))
-    runs = [{"step": s, "actual": path[s], "aor_deg": r.aor_deg if r.outcome == "pile" else None,
-             "outcome": r.outcome,
-             "path_aor_deg": None if math.isnan(path_aor[s]) else path_aor[s]}
+    runs = [AnchorRun(step=s, actual=path[s],
+                      value=r.aor_deg if r.outcome == "pile" else None, outcome=r.outcome,
+                      path_value=None if math.isnan(path_aor[s]) else path_aor[s])
             for s, r in sorted(got.items())]
-    return anchor.path_point(path, centre_step), {"anchor": {
-        "fidelity": ctx.study.test.fidelity, "runs": runs, "crossing_step": cross,
-        "centre_step": centre_step, "offset_deg": anchor.offset(path_aor, piles),
-        "message": message},
-        "message": f"the path's best step at its own test ({path_fid}) is {best} "
-                   f"({path_message}); {message}; the response surface is centred at step "
-                   f"{centre_step:.2f}"}
+    anchored = Anchor(fidelity=ctx.study.test.fidelity, runs=runs, crossing_step=cross,
+                      centre_step=centre_step, offset=anchor.offset(path_aor, piles),
+                      message=message)
+    return anchor.path_point(path, centre_step), (anchored, (
+        f"the path's best step at its own test ({path_fid}) is {best} ({path_message}); "
+        f"{message}; the response surface is centred at step {centre_step:.2f}"))
 
 
 def _anchor_step(ctx: Context, piles: Mapping[int, float], cross: float | None, best: int
@@ -821,7 +868,7 @@ def rsm(ctx: Context) -> Surface:
     more replicates rather than an optimum read off noise.
     """
     opts = ctx.study.stages.rsm
-    levels = ctx.results["steepest"]["levels"]
+    levels = ctx.results["steepest"].levels
     factors = [{**ctx.factor(n), "low": lv[0], "high": lv[2]} for n, lv in levels.items()]
     h = ctx.begin("rsm", {"factors": factors, "opts": opts.model_dump(mode="json"),
                           "fixed": ctx.fixed, "reps": ctx.reps("rsm"),
@@ -951,7 +998,7 @@ def optimize(ctx: Context) -> Optimum:
     if kept is not None:  # a resume (on this or another machine): the decision stands
         return _store_optimum(ctx, kept, h)
     prev = ctx.rounds.optimize[-1].chosen if ctx.rounds.optimize else None
-    near = prev or {n: ctx.results["steepest"]["levels"][n][1] for n in names}
+    near = prev or {n: ctx.results["steepest"].levels[n][1] for n in names}
     try:
         res = doe.optimize_target(model, aim, constraint=constraint, near=near,
                                   n_solutions=opts.n_solutions, n_starts=opts.n_starts,

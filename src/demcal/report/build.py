@@ -271,14 +271,14 @@ def _rangefind(b: _Builder) -> str:
     d, view = b.data, b.data.stage("rangefind")
 
     def render() -> str:
-        s = view.summary
+        s = d.rangefind
         parts = []
-        if s.get("message"):
-            parts.append(f"<p>{escape(str(s['message']))}</p>")
-        if s.get("response_min_deg") is not None:
-            parts.append(f"<p>AoR over the scan: {_fmt(s.get('response_min_deg'))}° to "
-                         f"{_fmt(s.get('response_max_deg'))}°; target "
-                         f"{'inside' if s.get('target_in_range') else 'outside'} this range.</p>")
+        if s.message:
+            parts.append(f"<p>{escape(s.message)}</p>")
+        if s.response_min is not None:
+            parts.append(f"<p>AoR over the scan: {_fmt(s.response_min)}° to "
+                         f"{_fmt(s.response_max)}°; target "
+                         f"{'inside' if s.target_in_range else 'outside'} this range.</p>")
         parts.append(b.table(T.rangefind_table(s, d.symbols)))
         parts.append(b.figure("rangefind", "AoR against each factor's value; × = no pile; "
                               "shaded = range kept; dashed = target.",
@@ -353,36 +353,37 @@ def _screening(b: _Builder) -> str:
     d, view = b.data, b.data.stage("screening")
 
     def render() -> str:
-        s = view.summary
+        # the typed summary; the model helpers shared with the surface read the stored one
+        s, stored = d.screening, view.summary
         parts = []
-        info = (f"{str(s.get('design', '')).replace('_', '-').title()} design, "
-                f"{s.get('n_runs', len(s.get('runs') or []))} runs, alpha = {s.get('alpha')}.")
-        if s.get("dummies"):
-            info += f" Dummy columns: {', '.join(map(str, s['dummies']))}."
+        info = (f"{(s.design or '').replace('_', '-').title()} design, "
+                f"{s.n_runs if s.n_runs is not None else len(s.runs or [])} runs, "
+                f"alpha = {s.alpha}.")
+        if s.dummies:
+            info += f" Dummy columns: {', '.join(map(str, s.dummies))}."
         parts.append(f"<p>{escape(info)}</p>")
         parts.append(b.table(T.screening_design_table(s, d.symbols)))
         row = []
-        if s.get("anova"):
+        if s.anova:
             row.append(b.table(T.screening_anova_table(s, d.symbols)))
-        if s.get("fit"):
+        if s.fit:
             row.append(b.table(T.fit_table("screening_fit", "Screening fit statistics",
-                                           s["fit"])))
+                                           s.fit)))
         parts.append(f'<div class="row">{"".join(row)}</div>')
-        if s.get("effects"):
+        if s.effects:
             parts.append(b.figure("pareto", "Pareto chart of the effects: |effect| with % "
                                   "contribution; ** p < 0.01, * p < 0.05.",
-                                  lambda: F.pareto_figure(s["effects"], d.symbols)))
-        sel = ", ".join(f"{d.symbol(n)} ({n})" for n in s.get("selected") or [])
+                                  lambda: F.pareto_figure(s.effects or [], d.symbols)))
+        sel = ", ".join(f"{d.symbol(n)} ({n})" for n in s.selected)
         parts.append(f"<p><b>Selected for the next stage:</b> {escape(sel or 'none')}.</p>")
-        if s.get("excluded_points"):
+        if s.excluded_points:
             parts.append(f"<p>Excluded design points (no pile): "
-                         f"{escape(', '.join(map(str, s['excluded_points'])))}.</p>")
-        if s.get("message"):
-            parts.append(f"<p>{escape(str(s['message']))}</p>")
-        if s.get("runs") and s.get("anova"):
-            parts.append(_diagnostics(b, "screening", s, None)[0])
-            sel = [n for n in s.get("selected") or [] if any(
-                f.get("name") == n for f in s.get("factors") or [])]
+                         f"{escape(', '.join(map(str, s.excluded_points)))}.</p>")
+        if s.message:
+            parts.append(f"<p>{escape(s.message)}</p>")
+        if s.runs and s.anova:
+            parts.append(_diagnostics(b, "screening", stored, None)[0])
+            sel = [n for n in s.selected if n in s.names]
             if len(sel) >= 2:
                 goal = d.target_aor_deg
                 parts.append(b.figure(
@@ -391,7 +392,7 @@ def _screening(b: _Builder) -> str:
                     + ("" if goal is None else f"; red = the target {goal:.2f}° where reached")
                     + ".",
                     lambda: MF.pair_contours_figure(
-                        _fitted_summary(s, D.refit(s, "screening")),
+                        _fitted_summary(stored, D.refit(stored, "screening")),
                         list(itertools.combinations(sel, 2)), None, goal)))
         return "".join(parts)
 
@@ -402,24 +403,25 @@ def _steepest(b: _Builder) -> str:
     d, view = b.data, b.data.stage("steepest")
 
     def render() -> str:
-        s = view.summary
+        s = d.steepest
         direction = ", ".join(f"{d.symbol(k)} {'up' if v > 0 else 'down'}"
-                              for k, v in (s.get("direction") or {}).items())
+                              for k, v in (s.direction or {}).items())
         climbed = (f" The path climbed the overall desirability of "
-                   f"{', '.join(s['followed'])} (first-order models over the screening runs)."
-                   if len(s.get("followed") or []) > 1 else "")
+                   f"{', '.join(s.followed or [])} (first-order models over the screening "
+                   "runs)." if len(s.followed or []) > 1 else "")
         parts = [f"<p>Direction: {escape(direction or '—')}; best step: "
-                 f"{escape(str(s.get('best_step', '—')))}.{escape(climbed)}</p>",
+                 f"{escape(str(s.best_step if s.best_step is not None else '—'))}."
+                 f"{escape(climbed)}</p>",
                  b.table(T.steepest_table(s, d.symbols)),
                  b.figure("steepest", "AoR (line) and relative error to the measurement (bars) "
                           "along the path.",
                           lambda: F.steepest_figure(s, d.target_aor_deg, d.symbols))]
-        if s.get("anchor"):
-            a = s["anchor"]
-            parts += [f"<p>Anchor: {escape(str(a.get('message', '')))}; the response surface "
-                      f"is centred at step {_fmt(a.get('centre_step'))}.</p>",
+        if s.anchor is not None:
+            a = s.anchor
+            parts += [f"<p>Anchor: {escape(a.message)}; the response surface "
+                      f"is centred at step {_fmt(a.centre_step)}.</p>",
                       b.table(T.steepest_anchor_table(s, d.symbols))]
-        if s.get("levels"):
+        if s.levels:
             parts.append(b.table(T.steepest_levels_table(s, d.symbols)))
         return "".join(parts)
 

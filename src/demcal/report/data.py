@@ -14,7 +14,7 @@ from typing import Any
 
 from demcal.errors import InputError, StoreError
 from demcal.store import STAGES, STORE_NAME, RunRecord, RunStore
-from demcal.summaries import Optimum, Surface, Verification
+from demcal.summaries import Optimum, RangeFind, Screening, Steepest, Surface, Verification
 
 __all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
 
@@ -111,6 +111,21 @@ class ReportData:
     def verification(self) -> Verification:
         """The verification stage's summary, typed (empty when the stage has not run)."""
         return Verification.from_summary(self.stage("verification").summary)
+
+    @property
+    def rangefind(self) -> RangeFind:
+        """The range-finding stage's summary, typed (empty when the stage has not run)."""
+        return RangeFind.from_summary(self.stage("rangefind").summary)
+
+    @property
+    def screening(self) -> Screening:
+        """The screening stage's summary, typed (empty when the stage has not run)."""
+        return Screening.from_summary(self.stage("screening").summary)
+
+    @property
+    def steepest(self) -> Steepest:
+        """The steepest path's summary, typed (empty when the stage has not run)."""
+        return Steepest.from_summary(self.stage("steepest").summary)
 
     @property
     def surface(self) -> Surface:

@@ -4,10 +4,11 @@ The figures are built on :class:`matplotlib.figure.Figure` directly (no pyplot s
 canvas), so they can be called from a notebook and displayed, or saved by the report. Angles
 are in degrees; factor values in their own units.
 
->>> fig = steepest_figure({"factors": ["a"], "steps": [
-...     {"step": 1, "actual": {"a": 0.1}, "aor_deg": 30.0, "relative_error_percent": 10.0},
-...     {"step": 2, "actual": {"a": 0.2}, "aor_deg": 33.0, "relative_error_percent": 1.0}],
-...     "best_step": 2}, target_aor_deg=33.3)
+>>> from demcal.summaries import PathStep, Steepest
+>>> fig = steepest_figure(Steepest(factors=["a"], steps=[
+...     PathStep(step=1, actual={"a": 0.1}, value=30.0, relative_error_percent=10.0),
+...     PathStep(step=2, actual={"a": 0.2}, value=33.0, relative_error_percent=1.0)],
+...     best_step=2), target_aor_deg=33.3)
 >>> len(fig.axes)
 2
 """
@@ -26,7 +27,7 @@ from matplotlib.image import imread
 
 from demcal.report.surface import StoredSurface
 from demcal.report.tables import term_label
-from demcal.summaries import Verification
+from demcal.summaries import Anchor, Effect, RangeFind, Steepest, Verification
 
 __all__ = [
     "comparison_figure",
@@ -86,10 +87,10 @@ def measurement_figure(target: Mapping[str, Any]) -> Figure:
 
 
 # -------------------------------------------------------------------------------- range finding
-def rangefind_figure(summary: Mapping[str, Any], target_aor_deg: float | None = None,
+def rangefind_figure(found: RangeFind, target_aor_deg: float | None = None,
                      symbols: Mapping[str, str] | None = None) -> Figure:
     """One small plot per factor: AoR vs value, no-pile points marked, kept range shaded."""
-    factors = summary.get("factors") or []
+    factors = found.factors
     n = max(len(factors), 1)
     cols = min(n, 4)
     rows = math.ceil(n / cols)
@@ -98,13 +99,12 @@ def rangefind_figure(summary: Mapping[str, Any], target_aor_deg: float | None = 
     for ax in axes.flat[len(factors):]:
         ax.set_axis_off()
     for ax, f in zip(axes.flat, factors, strict=False):
-        pts = f.get("points") or []
-        v = np.array([_num(p.get("value")) for p in pts])
-        a = np.array([_num(p.get("aor_deg")) for p in pts])
-        pile = np.array([p.get("outcome") == "pile" and math.isfinite(_num(p.get("aor_deg")))
-                         for p in pts], dtype=bool)
-        if math.isfinite(_num(f.get("new_low"))) and math.isfinite(_num(f.get("new_high"))):
-            ax.axvspan(_num(f["new_low"]), _num(f["new_high"]), color=_SHADE, alpha=0.6,
+        v = np.array([_num(p.value) for p in f.points])
+        a = np.array([_num(p.response) for p in f.points])
+        pile = np.array([p.outcome == "pile" and math.isfinite(_num(p.response))
+                         for p in f.points], dtype=bool)
+        if math.isfinite(_num(f.new_low)) and math.isfinite(_num(f.new_high)):
+            ax.axvspan(_num(f.new_low), _num(f.new_high), color=_SHADE, alpha=0.6,
                        label="kept range")
         if pile.any():
             order = np.argsort(v[pile])
@@ -116,8 +116,8 @@ def rangefind_figure(summary: Mapping[str, Any], target_aor_deg: float | None = 
                     label="no pile")
         if target_aor_deg is not None:
             ax.axhline(target_aor_deg, color=_TARGET, lw=1, ls="--", label="target")
-        sym = f.get("symbol") or _sym(str(f.get("name", "")), symbols)
-        ax.set_title(f"{sym}: {f.get('name', '')}", fontsize=8)
+        sym = f.symbol or _sym(f.name, symbols)
+        ax.set_title(f"{sym}: {f.name}", fontsize=8)
         ax.set_xlabel("value", fontsize=8)
         ax.set_ylabel("AoR (°)", fontsize=8)
         ax.tick_params(labelsize=7)
@@ -128,23 +128,23 @@ def rangefind_figure(summary: Mapping[str, Any], target_aor_deg: float | None = 
 
 
 # ------------------------------------------------------------------------------------ screening
-def pareto_figure(effects: Sequence[Mapping[str, Any]],
+def pareto_figure(effects: Sequence[Effect],
                   symbols: Mapping[str, str] | None = None) -> Figure:
     """Pareto chart of the screening effects: |effect| (deg), largest first, sign coloured,
     with each term's % contribution and significance marker."""
-    rows = sorted(effects, key=lambda e: -abs(_num(e.get("effect"))))
+    rows = sorted(effects, key=lambda e: -abs(_num(e.effect)))
     fig = _figure(6.0, 0.35 * len(rows) + 1.2)
     ax = fig.add_subplot()
-    labels = [term_label(str(e.get("term", "")), symbols or {}) for e in rows]
-    vals = np.array([abs(_num(e.get("effect"))) for e in rows])
-    colors = ["#ff7f0e" if _num(e.get("effect")) >= 0 else "#1f77b4" for e in rows]
+    labels = [term_label(e.term, symbols or {}) for e in rows]
+    vals = np.array([abs(_num(e.effect)) for e in rows])
+    colors = ["#ff7f0e" if _num(e.effect) >= 0 else "#1f77b4" for e in rows]
     y = np.arange(len(rows))[::-1]
     ax.barh(y, vals, color=colors)
     ax.set_yticks(y, labels)
     for yi, val, e in zip(y, vals, rows, strict=True):
-        p = _num(e.get("p"))
+        p = _num(e.p)
         mark = "**" if p < 0.01 else "*" if p < 0.05 else ""
-        c = _num(e.get("contribution_percent"))
+        c = _num(e.contribution_percent)
         ax.text(val, yi, f" {c:.1f} % {mark}" if math.isfinite(c) else f" {mark}",
                 va="center", fontsize=8)
     ax.set_xlim(0, (vals[np.isfinite(vals)].max() if np.isfinite(vals).any() else 1) * 1.3)
@@ -154,13 +154,13 @@ def pareto_figure(effects: Sequence[Mapping[str, Any]],
 
 
 # ------------------------------------------------------------------------------------- steepest
-def steepest_figure(summary: Mapping[str, Any], target_aor_deg: float | None = None,
+def steepest_figure(path: Steepest, target_aor_deg: float | None = None,
                     symbols: Mapping[str, str] | None = None) -> Figure:
     """AoR (deg, left axis) and relative error (%, right axis) per step of the path."""
-    steps = summary.get("steps") or []
-    s = np.array([_num(x.get("step")) for x in steps])
-    a = np.array([_num(x.get("aor_deg")) for x in steps])
-    e = np.array([_num(x.get("relative_error_percent")) for x in steps])
+    steps = path.steps or []
+    s = np.array([_num(x.step) for x in steps])
+    a = np.array([_num(x.value) for x in steps])
+    e = np.array([_num(x.relative_error_percent) for x in steps])
     fig = _figure(6.0, 3.6)
     ax = fig.add_subplot()
     ax2 = ax.twinx()
@@ -175,15 +175,15 @@ def steepest_figure(summary: Mapping[str, Any], target_aor_deg: float | None = N
                 color=_NOPILE, ms=8, mew=2, label="no pile")
     if target_aor_deg is not None:
         ax.axhline(target_aor_deg, color=_TARGET, ls="--", label=f"target {target_aor_deg:.2f}°")
-    best = summary.get("best_step")
+    best = path.best_step
     if best is not None and best in list(s):
         i = list(s).index(best)
         ax.plot([s[i]], [a[i]], "o", ms=14, mfc="none", mec="k", label="best step")
-    _anchor_marks(ax, summary.get("anchor"))
+    _anchor_marks(ax, path.anchor)
     ax.set_xlabel("step")
     ax.set_xticks(s if len(s) else [1])
     ax.set_ylabel("AoR (°)")
-    names = ", ".join(_sym(n, symbols) for n in summary.get("factors") or [])
+    names = ", ".join(_sym(n, symbols) for n in path.factors or [])
     ax.set_title(f"Path of steepest ascent ({names})")
     handles, labels = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
@@ -192,15 +192,15 @@ def steepest_figure(summary: Mapping[str, Any], target_aor_deg: float | None = N
     return fig
 
 
-def _anchor_marks(ax: Any, anchor: Mapping[str, Any] | None) -> None:
+def _anchor_marks(ax: Any, anchor: Anchor | None) -> None:
     """The anchor's runs (the study's own test at path points) and the surface's centre."""
-    if not anchor:
+    if anchor is None:
         return
-    runs = [r for r in anchor.get("runs") or [] if r.get("aor_deg") is not None]
+    runs = [r for r in anchor.runs if r.value is not None]
     if runs:
-        ax.plot([r["step"] for r in runs], [r["aor_deg"] for r in runs], "s", color="#9467bd",
-                mfc="none", ms=8, label=f"AoR, {anchor.get('fidelity') or 'study'} test")
-    centre = anchor.get("centre_step")
+        ax.plot([r.step for r in runs], [r.value for r in runs], "s", color="#9467bd",
+                mfc="none", ms=8, label=f"AoR, {anchor.fidelity or 'study'} test")
+    centre = anchor.centre_step
     if centre is not None:
         ax.axvline(centre, color="k", ls=":", lw=1, label="surface centre")
 

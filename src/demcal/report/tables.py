@@ -18,7 +18,8 @@ import pandas as pd
 from demcal.display import readable
 from demcal.doe.anova import significance
 from demcal.report.data import ReportData, StageView
-from demcal.summaries import Optimum, Surface, Verification
+from demcal.summaries import Optimum, RangeFind, Screening, Steepest, Surface, Verification
+from demcal.summaries.steepest import AnchorRun, PathStep
 
 __all__ = [
     "Table",
@@ -195,30 +196,28 @@ def measurement_table(data: ReportData) -> Table:
 
 
 # --------------------------------------------------------------------------------- range finding
-def rangefind_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def rangefind_table(found: RangeFind, symbols: Mapping[str, str]) -> Table:
     """Per factor: range given, range kept, points tried, no-pile points and the reason."""
     rows = []
-    for f in summary.get("factors") or []:
-        pts = f.get("points") or []
-        rows.append({"symbol": f.get("symbol") or symbols.get(f.get("name", ""), ""),
-                     "parameter": f.get("name", ""), "low": _num(f.get("low")),
-                     "high": _num(f.get("high")), "new low": _num(f.get("new_low")),
-                     "new high": _num(f.get("new_high")), "points": len(pts),
-                     "no pile": sum(1 for p in pts if p.get("outcome") != "pile"),
-                     "reason": f.get("reason") or ""})
+    for f in found.factors:
+        rows.append({"symbol": f.symbol or symbols.get(f.name, ""), "parameter": f.name,
+                     "low": _num(f.low), "high": _num(f.high), "new low": _num(f.new_low),
+                     "new high": _num(f.new_high), "points": len(f.points),
+                     "no pile": sum(1 for p in f.points if p.outcome != "pile"),
+                     "reason": f.reason or ""})
     cols = ["symbol", "parameter", "low", "high", "new low", "new high", "points", "no pile",
             "reason"]
     return Table("rangefind", "Range-finding scan: ranges given and kept", _frame(rows, cols))
 
 
-def rangefind_points_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def rangefind_points_table(found: RangeFind, symbols: Mapping[str, str]) -> Table:
     """Every point of the range-finding scan: factor, value, outcome, AoR (deg)."""
     rows = []
-    for f in summary.get("factors") or []:
-        sym = f.get("symbol") or symbols.get(f.get("name", ""), f.get("name", ""))
-        for p in f.get("points") or []:
-            rows.append({"symbol": sym, "value": _num(p.get("value")),
-                         "outcome": p.get("outcome", ""), "AoR (deg)": _num(p.get("aor_deg"))})
+    for f in found.factors:
+        sym = f.symbol or symbols.get(f.name, f.name)
+        for p in f.points:
+            rows.append({"symbol": sym, "value": _num(p.value), "outcome": p.outcome,
+                         "AoR (deg)": _num(p.response)})
     return Table("rangefind_points", "Range-finding scan: every point",
                  _frame(rows, ["symbol", "value", "outcome", "AoR (deg)"]))
 
@@ -229,22 +228,21 @@ def _factor_symbols(factors: Sequence[Mapping[str, Any]], symbols: Mapping[str, 
     return [(f["name"], f.get("symbol") or symbols.get(f["name"], f["name"])) for f in factors]
 
 
-def screening_design_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def screening_design_table(found: Screening, symbols: Mapping[str, str]) -> Table:
     """The screening design in coded units and its responses (the paper's Table 4)."""
-    facs = _factor_symbols(summary.get("factors") or [], symbols)
-    runs = summary.get("runs") or []
-    dummies = [d for d in summary.get("dummies") or []  # shown only when their levels are
-               if any(d in (r.get("coded") or {}) for r in runs)]  # stored
+    facs = _factor_symbols(found.factors or [], symbols)
+    runs = found.runs or []
+    dummies = [d for d in found.dummies or []  # shown only when their levels are stored
+               if any(d in r.coded for r in runs)]
     rows = []
     for r in runs:
-        coded = r.get("coded") or {}
-        row: dict[str, Any] = {"point": r.get("point")}
+        row: dict[str, Any] = {"point": r.point}
         for name, sym in facs:
-            row[sym] = _num(coded.get(name))
+            row[sym] = _num(r.coded.get(name))
         for d in dummies:
-            row[d] = _num(coded.get(d))
-        row["AoR (deg)"] = _num(r.get("aor_deg"))
-        row["outcome"] = r.get("outcome", "")
+            row[d] = _num(r.coded.get(d))
+        row["AoR (deg)"] = _num(r.value)
+        row["outcome"] = r.outcome
         rows.append(row)
     cols = ["point", *(s for _, s in facs), *dummies, "AoR (deg)", "outcome"]
     frame = _frame(rows, cols)
@@ -267,14 +265,14 @@ def anova_frame(records: list[Mapping[str, Any]], symbols: Mapping[str, str]) ->
     return _frame(rows, ["source", "SS", "df", "MS", "F", "p", "significance"])
 
 
-def screening_anova_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def screening_anova_table(found: Screening, symbols: Mapping[str, str]) -> Table:
     """ANOVA of the screening fit with each effect, % contribution and rank (cf. Table 5)."""
-    frame = anova_frame(summary.get("anova") or [], symbols)
-    eff = {term_label(str(e.get("term", "")), symbols): e for e in summary.get("effects") or []}
-    frame["effect"] = [_num(eff[s].get("effect")) if s in eff else None for s in frame["source"]]
-    frame["contribution %"] = [_num(eff[s].get("contribution_percent")) if s in eff else None
+    frame = anova_frame(found.anova or [], symbols)
+    eff = {term_label(e.term, symbols): e for e in found.effects or []}
+    frame["effect"] = [_num(eff[s].effect) if s in eff else None for s in frame["source"]]
+    frame["contribution %"] = [_num(eff[s].contribution_percent) if s in eff else None
                                for s in frame["source"]]
-    frame["rank"] = [eff[s].get("rank") if s in eff else None for s in frame["source"]]
+    frame["rank"] = [eff[s].rank if s in eff else None for s in frame["source"]]
     return Table("screening_anova", "Screening ANOVA, effects and % contribution (cf. Table 5)",
                  frame, note="** p < 0.01, * p < 0.05. Effect = mean AoR at +1 minus at -1, "
                              "deg; contribution = 100 SS / SS total.")
@@ -293,57 +291,55 @@ def fit_table(key: str, title: str, fit: Mapping[str, Any],
 
 
 # ------------------------------------------------------------------------------------- steepest
-def _path_rows(points: Sequence[Mapping[str, Any]], names: Sequence[str],
+def _path_rows(points: Sequence[PathStep | AnchorRun], names: Sequence[str],
                symbols: Mapping[str, str], values: Mapping[str, str]) -> list[dict[str, Any]]:
-    """One row per path point: its step, factor settings, then ``values`` (column ->
-    the point's key) and its outcome."""
+    """One row per path point: its step, factor settings, then ``values`` (column -> the
+    point's attribute) and its outcome."""
     rows = []
     for s in points:
-        actual = s.get("actual") or {}
-        row: dict[str, Any] = {"step": s.get("step")}
-        row.update({symbols.get(n, n): _num(actual.get(n)) for n in names})
-        row.update({col: _num(s.get(key)) for col, key in values.items()})
-        row["outcome"] = s.get("outcome", "")
+        row: dict[str, Any] = {"step": s.step}
+        row.update({symbols.get(n, n): _num(s.actual.get(n)) for n in names})
+        row.update({col: _num(getattr(s, key)) for col, key in values.items()})
+        row["outcome"] = s.outcome
         rows.append(row)
     return rows
 
 
-def steepest_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def steepest_table(path: Steepest, symbols: Mapping[str, str]) -> Table:
     """The path of steepest ascent: settings, AoR and relative error per step (cf. Table 6)."""
-    names = list(summary.get("factors") or [])
-    best = summary.get("best_step")
-    steps = summary.get("steps") or []
-    rows = _path_rows(steps, names, symbols, {"AoR (deg)": "aor_deg",
+    names = list(path.factors or [])
+    steps = path.steps or []
+    rows = _path_rows(steps, names, symbols, {"AoR (deg)": "value",
                                                "relative error %": "relative_error_percent"})
     # several responses: the others' means and the overall desirability the path climbed
-    others = [n for n in summary.get("followed") or [] if n != "aor_deg"]
+    others = [n for n in path.followed or [] if n != "aor_deg"]
     for row, s in zip(rows, steps, strict=True):
-        row["best"] = "best" if s.get("step") == best else ""
-        row.update({n: _num((s.get("responses") or {}).get(n)) for n in others})
+        row["best"] = "best" if s.step == path.best_step else ""
+        row.update({n: _num((s.responses or {}).get(n)) for n in others})
         if others:
-            row["D"] = _num(s.get("desirability"))
+            row["D"] = _num(s.desirability)
     cols = ["step", *(symbols.get(n, n) for n in names), "AoR (deg)", "relative error %",
             *others, *(["D"] if others else []), "outcome", "best"]
     return Table("steepest", "Path of steepest ascent (cf. Table 6)", _frame(rows, cols))
 
 
-def steepest_anchor_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def steepest_anchor_table(path: Steepest, symbols: Mapping[str, str]) -> Table:
     """The anchor's runs: the study's own test at path points, next to the path's cheaper
     test at the same points (empty when the path ran at the study's fidelity)."""
-    a = summary.get("anchor") or {}
-    names = list(summary.get("factors") or [])
-    own = f"AoR, {a.get('fidelity') or 'study'} (deg)"
-    rows = _path_rows(a.get("runs") or [], names, symbols,
-                      {own: "aor_deg", "AoR, path's test (deg)": "path_aor_deg"})
+    runs = [] if path.anchor is None else path.anchor.runs
+    names = list(path.factors or [])
+    own = f"AoR, {(path.anchor and path.anchor.fidelity) or 'study'} (deg)"
+    rows = _path_rows(runs, names, symbols,
+                      {own: "value", "AoR, path's test (deg)": "path_value"})
     cols = ["step", *(symbols.get(n, n) for n in names), own, "AoR, path's test (deg)",
             "outcome"]
     return Table("steepest_anchor", "The path anchored at the study's test", _frame(rows, cols))
 
 
-def steepest_levels_table(summary: Mapping[str, Any], symbols: Mapping[str, str]) -> Table:
+def steepest_levels_table(path: Steepest, symbols: Mapping[str, str]) -> Table:
     """Levels chosen for the response-surface design from the best step."""
     rows = []
-    for n, lv in (summary.get("levels") or {}).items():
+    for n, lv in path.levels.items():
         lv = list(lv) + [None] * (3 - len(lv))
         rows.append({"symbol": symbols.get(n, n), "parameter": n, "low": _num(lv[0]),
                      "centre": _num(lv[1]), "high": _num(lv[2])})
@@ -357,20 +353,19 @@ def rsm_design_table(surface: Surface, symbols: Mapping[str, str]) -> Table:
     replicates, the AoR is their mean and each replicate and their spread are shown."""
     facs = _factor_symbols(surface.factors, symbols)
     runs = surface.runs
-    replicated = any(len(r.get("aor_runs_deg") or []) > 1 for r in runs)
+    replicated = any(len(r.replicates or []) > 1 for r in runs)
     rows = []
     for r in runs:
-        coded, actual = r.get("coded") or {}, r.get("actual") or {}
-        row: dict[str, Any] = {"point": r.get("point")}
+        row: dict[str, Any] = {"point": r.point}
         for name, sym in facs:
-            row[sym] = _num(coded.get(name))
+            row[sym] = _num(r.coded.get(name))
         for name, sym in facs:
-            row[f"{sym} actual"] = _num(actual.get(name))
-        row["AoR (deg)"] = _num(r.get("aor_deg"))
+            row[f"{sym} actual"] = _num(r.actual.get(name))
+        row["AoR (deg)"] = _num(r.value)
         if replicated:
-            row["replicates (deg)"] = ", ".join(f"{v:.2f}" for v in r.get("aor_runs_deg") or [])
-            row["std (deg)"] = _num(r.get("aor_std_deg"))
-        row["outcome"] = r.get("outcome", "")
+            row["replicates (deg)"] = ", ".join(f"{v:.2f}" for v in r.replicates or [])
+            row["std (deg)"] = _num(r.replicate_std)
+        row["outcome"] = r.outcome
         rows.append(row)
     cols = ["point", *(s for _, s in facs), *(f"{s} actual" for _, s in facs), "AoR (deg)",
             *(["replicates (deg)", "std (deg)"] if replicated else []), "outcome"]

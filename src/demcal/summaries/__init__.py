@@ -2,17 +2,24 @@
 card and the result JSON read back.
 
 A stage's summary lives in the run store as JSON. ``from_summary``
-(:meth:`Verification.from_summary`, :meth:`Optimum.from_summary`,
-:meth:`Surface.from_summary`) reads one written by any
+(:meth:`RangeFind.from_summary`, :meth:`Screening.from_summary`,
+:meth:`Steepest.from_summary`, :meth:`Surface.from_summary`, :meth:`Optimum.from_summary`,
+:meth:`Verification.from_summary`) reads one written by any
 release (a key it lacks takes its default, as older stores lack the newer keys; keys it does
 not know are left out), and ``to_summary`` writes this release's keys in a fixed order.
 Readers use the attributes, so renaming a field breaks the code that reads it and its tests,
 not a cell of the report.
 """
 
+from demcal.summaries.design import DesignRun
 from demcal.summaries.optimum import Candidate, Goal, Optimum, ResponsesOptimum
+from demcal.summaries.rangefind import RangeFind, ScanFactor, ScanPoint
+from demcal.summaries.screening import Effect, Screening
+from demcal.summaries.steepest import Anchor, AnchorRun, PathStep, Steepest
 from demcal.summaries.surface import ResponseModel, Surface
 from demcal.summaries.verification import ResponseVerification, Verification
 
-__all__ = ["Candidate", "Goal", "Optimum", "ResponseModel", "ResponseVerification",
-           "ResponsesOptimum", "Surface", "Verification"]
+__all__ = ["Anchor", "AnchorRun", "Candidate", "DesignRun", "Effect", "Goal", "Optimum",
+           "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
+           "ResponsesOptimum", "ScanFactor", "ScanPoint", "Screening", "Steepest", "Surface",
+           "Verification"]

@@ -50,3 +50,35 @@ def _plain(value: Any) -> Any:
     if hasattr(value, "to_summary"):
         return value.to_summary()
     return copy.deepcopy(value)
+
+
+def stored_as(key: str, default: Any = None) -> Any:
+    """A field stored under ``key`` instead of its own name.
+
+    The store's keys are a file format: summaries written when the angle was the only
+    response name their response values ``aor_deg`` and stores of every release must read
+    back. A field with a generic name (``value``) keeps that key here, in its declaration,
+    and nowhere else.
+    """
+    return dataclasses.field(default=default, metadata={"key": key})
+
+
+def _key(f: dataclasses.Field) -> str:
+    """The stored key of the field ``f``."""
+    return f.metadata.get("key", f.name)
+
+
+def _read(cls: type[_T], summary: Mapping[str, Any]) -> dict[str, Any]:
+    """The constructor's arguments from a stored summary: each field's stored key that
+    ``summary`` holds (a key it lacks takes the default; one it does not know is left out)."""
+    return {f.name: summary[_key(f)] for f in dataclasses.fields(cls)  # type: ignore[arg-type]
+            if _key(f) in summary}
+
+
+def _stored(obj: Any, always: tuple[str, ...] = ()) -> dict[str, Any]:
+    """The stored form of the dataclass ``obj``: each field under its stored key, in order,
+    nested summaries by their own ``to_summary``; a field not named in ``always`` only where
+    it is not None (a key its producer did not write stays out, so a summary reads back to
+    the same keys)."""
+    return {_key(f): _plain(v) for f in dataclasses.fields(obj)
+            if (v := getattr(obj, f.name)) is not None or f.name in always}

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from demcal.summaries._stored import _Flat, _known, _plain
+from demcal.summaries.design import DesignRun, design_runs
 
 __all__ = ["ResponseModel", "Surface"]
 
@@ -53,8 +54,8 @@ class Surface:
     model, its ANOVA and Design-Expert's adequacy, and in a several-response study every other
     response's model.
 
-    The nested rows (``factors``, ``runs``, ``anova``, ``rounds``) keep the stored form; the
-    report's model helpers read them alike from the screening stage's summary.
+    The design's runs are typed (:class:`DesignRun`, as screening's); the other nested rows
+    (``factors``, ``anova``, ``rounds``) keep the stored form.
 
     Attributes
     ----------
@@ -62,9 +63,9 @@ class Surface:
         ``"box_behnken"`` or ``"ccd"``.
     factors : list of dict
         ``{"name", "symbol", "low", "high", "unit"}``: the ranges the design spans.
-    runs : list of dict
-        Per design point: ``point``, ``coded``, ``actual``, ``aor_deg`` (the replicates'
-        mean), ``outcome``, ``aor_runs_deg``, ``aor_std_deg``.
+    runs : list of DesignRun
+        Per design point: its settings, the lead response's mean over the replicates, its
+        outcome and each replicate's value.
     excluded_points : list of int
         Design points without a pile (not in the fit).
     replicates : int or None
@@ -95,7 +96,7 @@ class Surface:
 
     design: str | None = None
     factors: list[dict[str, Any]] = field(default_factory=list)
-    runs: list[dict[str, Any]] = field(default_factory=list)
+    runs: list[DesignRun] = field(default_factory=list)
     excluded_points: list[int] = field(default_factory=list)
     replicates: int | None = None
     responses: dict[str, ResponseModel] | None = None
@@ -126,8 +127,9 @@ class Surface:
         if items.get("responses") is not None:
             items["responses"] = {name: ResponseModel.from_summary(r)
                                   for name, r in items["responses"].items()}
-        for name in ("factors", "runs", "excluded_points", "anova", "warnings"):
+        for name in ("factors", "excluded_points", "anova", "warnings"):
             items[name] = items.get(name) or []
+        items["runs"] = design_runs(items.get("runs"))
         for name in ("fit", "coefficients_coded", "coefficients_actual"):
             items[name] = items.get(name) or {}
         return cls(**items)
