@@ -76,3 +76,31 @@ def test_a_screening_of_a_flat_response_has_no_division_warning():
     rs = doe.fit(design, np.full(design.n_runs, 30.0), model="linear")
     eff = rs.effects()  # warnings are errors under pytest: no divide-by-zero warning
     assert np.isnan(eff["f"]).all()
+
+
+def test_a_constant_response_at_the_surface_stores_its_design_rows(study_file):
+    """Straight to the response surface: the failed stage stores its design and every run's
+    row (plain JSON, readable back), so the report can show what was run."""
+    from demcal.summaries import Surface
+
+    text = study_file.read_text()
+    for key in ("linear", "quadratic"):
+        text = "\n".join(f"{key} = {{}}" if ln.startswith(f"{key} = ") else ln
+                         for ln in text.splitlines())
+    text = text.replace("noise_deg = 0.3", "noise_deg = 0.0")
+    for stage in ("rangefind", "screening", "steepest"):
+        text = text.replace(f"[stages.{stage}]\n", f"[stages.{stage}]\nenabled = false\n")
+    study_file.write_text(text)
+    res = CliRunner().invoke(app, ["calibrate", str(study_file), "--no-report"])
+    assert res.exit_code == 3, res.output
+    assert res.output.strip().splitlines()[-1].startswith("failed: rsm:"), res.output
+    store = RunStore(study_file.parent, readonly=True)
+    try:
+        stage = store.stage("rsm")
+    finally:
+        store.close()
+    assert stage.status == "failed" and "does not vary" in stage.summary["error"]
+    runs = Surface.from_summary(stage.summary).runs
+    piles = [r for r in runs if r.outcome == "pile"]
+    assert piles and all(r.value == 30.0 and r.replicates == [30.0] for r in piles)
+    assert all(r.value is None for r in runs if r.outcome != "pile")  # the columns

@@ -201,7 +201,8 @@ def test_a_study_reads_its_optimum_from_the_reduced_model_and_reports_both(tmp_p
 
 
 def test_common_seed_blocks_fall_back_to_no_blocks_when_a_run_failed():
-    from demcal.calibrate.stages import _fit_rows, _replicated
+    from demcal.calibrate.surface_fit import fit_rows as _fit_rows
+    from demcal.calibrate.surface_fit import replicated as _replicated
 
     d = doe.box_behnken(3, center_points=3, randomize=False)
     rng = np.random.default_rng(2)

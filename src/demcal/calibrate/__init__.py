@@ -39,17 +39,19 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
 
 ## stages (RunStore.set_stage(name, status, summary)); status running|done|failed;
 ## a failed stage's summary holds {"error": str}
-- "rangefind": {"factors": [{"name", "symbol", "low", "high", "new_low", "new_high",
-      "points": [{"value", "outcome", "aor_deg"|None}], "reason": str|None}],
+- "rangefind" (typed: demcal.summaries.RangeFind): {"factors": [{"name", "symbol", "low",
+      "high", "new_low", "new_high", "points": [{"value", "outcome", "aor_deg"|None}],
+      "reason": str|None}],
       "response_min_deg", "response_max_deg", "target_in_range": bool, "message": str}
-- "screening": {"design": "plackett_burman", "n_runs": int, "alpha": float,
+- "screening" (typed: demcal.summaries.Screening, its runs DesignRun): {"design":
+      "plackett_burman", "n_runs": int, "alpha": float,
       "factors": [{"name","symbol","low","high","unit"}], "dummies": [str],
       "runs": [{"point": int, "coded": {name: -1|1}, "actual": {name: value},
                 "aor_deg": float|None, "outcome": str}],
       "anova": [AnovaTable.to_records() rows], "fit": FitStatistics.to_dict(),
       "effects": [{"term", "effect", "contribution_percent", "f", "p", "rank"}],
       "selected": [names], "excluded_points": [int], "message": str}
-- "steepest": {"factors": [names], "direction": {name: +1|-1},
+- "steepest" (typed: demcal.summaries.Steepest): {"factors": [names], "direction": {name: +1|-1},
       "steps": [{"step": int, "actual": {name: value}, "aor_deg": float|None,
                  "outcome": str, "relative_error_percent": float|None}],
       "best_step": int, "centre": {name: value}, "levels": {name: [low, centre, high]},
@@ -68,7 +70,7 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       "coefficients_coded": {term: value}, "coefficients_actual": {term: value},
       "equation_coded": str, "equation_actual": str, "adequate": bool,
       "adequacy": {"p_model", "lack_of_fit_p", "r2", "adj_r2", "pred_r2", "adeq_precision"}
-      (of the design-point means; Design-Expert's rules, see stages.adequacy),
+      (of the design-point means; Design-Expert's rules, see surface_fit.adequacy),
       "replicates": int (replicates used, extra ones added while not adequate within
       stages.rsm.max_runs), "rounds": [{"replicates", "runs", "model", "removed_terms",
       "adequate", "failed", ...}], "model": "quadratic"|"reduced" (the one anova,

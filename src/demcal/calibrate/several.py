@@ -24,6 +24,7 @@ import numpy as np
 
 from demcal import doe
 from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
+from demcal.calibrate.surface_fit import choose_model, fit_rows, replicated
 from demcal.calibrate.verify import compare_to_target
 from demcal.errors import StudyError
 from demcal.store import RunRecord
@@ -53,7 +54,7 @@ class ResponseFit:
     model_kind : str
         ``"quadratic"``, ``"reduced"`` or ``"constant"`` (a response that did not vary).
     adequate : bool
-        Design-Expert's adequacy rules (:func:`demcal.calibrate.stages.adequacy`).
+        Design-Expert's adequacy rules (:func:`demcal.calibrate.surface_fit.adequacy`).
     statistics : dict
         p of the model and of the lack of fit, R^2, adjusted and predicted R^2, Adeq Precision.
     warnings : tuple of str
@@ -272,8 +273,6 @@ def path_climb(ctx: Any, factors: Sequence[str]) -> PathClimb:
 
 def _fit_one(spec: ResponseSpec, runs: list[list[float]], design: doe.Design, n_reps: int,
              ctx: Any) -> ResponseFit:
-    from demcal.calibrate import stages as st
-
     excluded = tuple(i for i, r in enumerate(runs) if not r)
     means = np.array([float(np.mean(r)) if r else math.nan for r in runs])
     finite = means[np.isfinite(means)]
@@ -286,11 +285,11 @@ def _fit_one(spec: ResponseSpec, runs: list[list[float]], design: doe.Design, n_
         return ResponseFit(spec.name, model, "constant", False, {}, (
             f"{spec.name} did not vary over the design ({finite[0]:g} at every point): no "
             "model; it cannot steer the optimum",), excluded, ())
-    rep_design, y_rows = st._replicated(design, runs, n_reps)
-    rows, notes = st._fit_rows(rep_design, y_rows, n_reps, ctx.study.common_seeds)
+    rep_design, y_rows = replicated(design, runs, n_reps)
+    rows, notes = fit_rows(rep_design, y_rows, n_reps, ctx.study.common_seeds)
     full = doe.fit(design, means, model="quadratic") if n_reps > 1 else rows
     opts = ctx.study.stages.rsm
-    choice = st.choose_model(opts.model, opts.alpha_out, rows, full)
+    choice = choose_model(opts.model, opts.alpha_out, rows, full)
     warnings = [*choice["failed"], *choice["notes"], *notes]
     if excluded:
         warnings.insert(0, f"{len(excluded)} design point(s) without {spec.name}: "

@@ -1,0 +1,182 @@
+"""The state the calibration stages share (:class:`Context`) and the design points'
+helpers they all use: a design's rows as runs, their responses per point, the stored rows."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from demcal import doe
+from demcal.calibrate.responses import LabValue, ResponseSpec
+from demcal.calibrate.rounds import Rounds
+from demcal.calibrate.runner import Point, Runner
+from demcal.calibrate.study import Study
+from demcal.store import RunRecord, RunStore, params_hash
+from demcal.summaries import DesignRun
+from demcal.virtual import PARAMETERS
+
+__all__ = ["Context", "clip", "design_points", "exclusion_note", "factor_space", "point_means",
+           "point_runs", "run_rows"]
+
+
+@dataclass
+class Context:
+    """State shared by the stages of one study.
+
+    ``fixed``: full parameter set with every factor at its current centre (SI);
+    ``factors``: current ranges [{"name","symbol","low","high","unit"}];
+    ``records``: every run the stages used (for the pile classifier);
+    ``target_std``, ``target_n``: spread (deg) and count of the measured AoR, when known.
+    """
+
+    study: Study
+    store: RunStore
+    runner: Runner
+    fixed: dict[str, float]
+    target: float
+    factors: list[dict[str, Any]]
+    records: list[RunRecord] = field(default_factory=list)
+    results: dict[str, Any] = field(default_factory=dict)
+    target_std: float | None = None
+    target_n: int | None = None
+    rounds: Rounds = field(default_factory=Rounds)
+    #: every response the study aims at, the angle first (:mod:`demcal.calibrate.several`)
+    responses: list[ResponseSpec] = field(default_factory=list)
+    #: their lab values by name
+    labs: dict[str, LabValue] = field(default_factory=dict)
+
+    @property
+    def several(self) -> bool:
+        """Does the study aim at more responses than the angle?"""
+        return len(self.responses) > 1
+
+    def full(self, actual: dict[str, float]) -> dict[str, float]:
+        """The fixed set with ``actual`` factor values applied (floats)."""
+        out = dict(self.fixed)
+        out.update({k: float(v) for k, v in actual.items()})
+        return out
+
+    def reps(self, stage: str) -> int:
+        """Replicates per design point of a stage: its own ``replicates`` or the study's."""
+        own = getattr(getattr(self.study.stages, stage), "replicates", None)
+        return int(own if own is not None else self.study.replicates)
+
+    def factor(self, name: str) -> dict[str, Any]:
+        return next(f for f in self.factors if f["name"] == name)
+
+    def seed(self, point: int, replicate: int, copy: int | None = None) -> int:
+        """Seed of a run.
+
+        By default distinct per design row (``point``), so replicated centre points differ.
+        With the study's ``common_seeds`` (common random numbers) every design point of a
+        stage gets the same seed set (one seed per replicate), so the differences between
+        points are not blurred by the particle packings; identical rows (centre points) still
+        differ through ``copy``, their rank among the identical rows.
+        """
+        if self.study.common_seeds and copy is not None:
+            return int(self.study.seed + 1000 * replicate + copy)
+        return int(self.study.seed + 1000 * replicate + point)
+
+    def own_fidelity(self, stage: str) -> dict[str, str]:
+        """``{"fidelity": name}`` when the stage runs at its own fidelity, else ``{}``."""
+        fid = self.study.stage_fidelities().get(stage)
+        return {"fidelity": fid} if fid is not None else {}
+
+    def run(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:
+        recs = self.runner.run(stage, points)
+        self.records.extend(recs)
+        return recs
+
+    def begin(self, stage: str, inputs: Any) -> str:
+        h = params_hash({"inputs": inputs, "test": self.runner.stage_hash(stage)})
+        self.store.set_stage(stage, "running", {}, inputs_hash=h)
+        return h
+
+
+def clip(name: str, value: float) -> float:
+    spec = PARAMETERS[name]
+    lo = spec.low if not spec.low_open else spec.low + 1e-9
+    hi = spec.high if not spec.high_open else spec.high - 1e-9
+    return float(min(max(value, lo), hi))
+
+
+def factor_space(factors: Sequence[dict[str, Any]]) -> doe.FactorSpace:
+    return doe.FactorSpace([doe.Factor(f["name"], f["low"], f["high"], f.get("unit") or "")
+                            for f in factors])
+
+
+def point_means(recs: Sequence[RunRecord], n_points: int) -> tuple[np.ndarray, list[str]]:
+    """Mean AoR per design point over its replicates; NaN if any replicate formed no pile."""
+    y, outcome, _ = point_runs(recs, n_points)
+    return y, outcome
+
+
+def point_runs(recs: Sequence[RunRecord], n_points: int
+                ) -> tuple[np.ndarray, list[str], list[list[float]]]:
+    """Per design point: mean AoR (NaN if any replicate formed no pile), outcome, and the
+    replicates' angles in replicate order (empty for a point without a pile)."""
+    y = np.full(n_points, math.nan)
+    outcome = ["pile"] * n_points
+    runs: list[list[float]] = [[] for _ in range(n_points)]
+    by: dict[int, list[RunRecord]] = {}
+    for r in recs:
+        by.setdefault(r.point, []).append(r)
+    for i in range(n_points):
+        rs = sorted(by.get(i, []), key=lambda r: r.replicate)
+        bad = [r.outcome for r in rs if r.outcome != "pile" or r.aor_deg is None]
+        if bad or not rs:
+            outcome[i] = bad[0] if bad else "missing"
+        else:
+            runs[i] = [float(r.aor_deg) for r in rs]  # type: ignore[arg-type]
+            y[i] = float(np.mean(runs[i]))
+    return y, outcome, runs
+
+
+def _copies(design: doe.Design) -> list[int]:
+    """Rank of each row among the rows with identical coded settings (0 for a unique row)."""
+    seen: dict[tuple[float, ...], int] = {}
+    out = []
+    for row in np.round(design.coded, 9):
+        key = tuple(float(v) for v in row)
+        out.append(seen.get(key, 0))
+        seen[key] = out[-1] + 1
+    return out
+
+
+def design_points(ctx: Context, design: doe.Design, replicates: Sequence[int]
+                   ) -> list[Point]:
+    actual = design.actual
+    copies = _copies(design)
+    pts = []
+    for i in range(design.n_runs):
+        values = {n: float(actual[i, j]) for j, n in enumerate(design.names)}
+        for r in replicates:
+            pts.append(Point(i, r, ctx.full(values), ctx.seed(i, r, copies[i])))
+    return pts
+
+
+def run_rows(design: doe.Design, y: np.ndarray, outcomes: list[str],
+              runs: list[list[float]]) -> list[DesignRun]:
+    """Each design point's settings, its mean response (None: excluded), outcome and
+    replicates."""
+    actual = design.actual
+    return [DesignRun(
+        point=i, coded={n: float(design.coded[i, j]) for j, n in enumerate(design.names)},
+        actual={n: float(actual[i, j]) for j, n in enumerate(design.names)},
+        value=None if math.isnan(y[i]) else float(y[i]), outcome=outcomes[i],
+        replicates=runs[i],
+        replicate_std=float(np.std(runs[i], ddof=1)) if len(runs[i]) > 1 else None)
+        for i in range(design.n_runs)]
+
+
+def exclusion_note(excluded: list[int], outcomes: list[str]) -> str:
+    if not excluded:
+        return "every design point formed a pile"
+    kinds = sorted({outcomes[i] for i in excluded})
+    return (f"{len(excluded)} design point(s) formed no pile ({', '.join(kinds)}): points "
+            f"{', '.join(str(i) for i in excluded)} are stored with their outcome and excluded "
+            "from the fit")

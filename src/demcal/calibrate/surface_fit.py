@@ -1,0 +1,161 @@
+"""The response-surface model's rules, shared by the angle's surface and every other
+response's: the rows it is fitted to (every replicate a row, in blocks with common seeds), a
+response that cannot be modelled, and Design-Expert's adequacy and model reduction."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from demcal import doe
+from demcal.errors import InputError
+
+__all__ = ["adequacy", "choose_model", "fit_rows", "no_variation", "replicated"]
+
+
+def replicated(design: doe.Design, runs: list[list[float]], n_reps: int
+                ) -> tuple[doe.Design, np.ndarray]:
+    """The design with one row per replicate run, and their angles (NaN rows: no pile).
+
+    Fitting every replicate as its own row (as Design-Expert does) gives the pure error of the
+    replicates and a lack-of-fit test with their degrees of freedom; with one replicate it is
+    the design itself.
+    """
+    if n_reps == 1:
+        return design, np.array([r[0] if r else math.nan for r in runs])
+    idx = np.repeat(np.arange(design.n_runs), n_reps)
+    y = np.array([runs[i][k] if runs[i] else math.nan
+                  for i in range(design.n_runs) for k in range(n_reps)])
+    rep = doe.Design(design.coded[idx], design.names, design.kind,
+                     np.arange(1, idx.size + 1), design.factors, design.point_type[idx],
+                     design.dummies[idx] if design.dummies.size else np.empty((idx.size, 0)),
+                     design.info)
+    return rep, y
+
+
+def no_variation(y: np.ndarray, unit: str = "deg") -> str | None:
+    """Why the responses ``y`` (NaN: no response) cannot be modelled, else None.
+
+    A response that does not vary (every run gave the same angle: the factors' ranges move
+    nothing the test measures, or the engine writes a constant), or whose spread is not a
+    finite number (a crafted or broken result of 1e308), has no effect to estimate: the
+    ANOVA would divide 0 by 0.
+    """
+    y = np.asarray(y, dtype=float)
+    y = y[~np.isnan(y)]
+    if y.size < 2:
+        return None  # too few responses: the fit says so
+    lo, hi = float(np.min(y)), float(np.max(y))
+    if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(hi - lo)):
+        return (f"the responses are not finite numbers of a usable size (from {lo:.6g} to "
+                f"{hi:.6g} {unit}); check the test's results")
+    if hi - lo <= 1e-9 * max(1.0, abs(hi)):
+        return (f"the response does not vary: all {y.size} runs gave {hi:.6g} {unit}; the "
+                "factors' ranges move nothing the test measures (widen them) or the test "
+                "gives a constant (check its result)")
+    return None
+
+
+def fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_seeds: bool
+              ) -> tuple[doe.ResponseSurface, list[str]]:
+    """The quadratic fitted to every replicate row; with common seeds, in blocks.
+
+    With ``common_seeds`` replicate k of every design point shares seed set k, so each
+    replicate round is a block (Design-Expert's): its shared offset leaves the residual and the
+    pure error. A run without a pile unbalances the blocks; then the rows are fitted without
+    blocks and a note (the list returned) says so.
+    """
+    if (flat := no_variation(y_rows)) is not None:  # a clear statement, not a 0/0 in the ANOVA
+        raise InputError(flat)
+    if not common_seeds or n_reps < 2:
+        return doe.fit(rep_design, y_rows, model="quadratic"), []
+    blocks = np.tile(np.arange(1, n_reps + 1), rep_design.n_runs // n_reps)
+    try:
+        return doe.fit(rep_design, y_rows, model="quadratic", blocks=blocks), []
+    except doe.UnbalancedBlocksError as exc:
+        return doe.fit(rep_design, y_rows, model="quadratic"), [
+            f"common seeds: the replicate rounds are not used as blocks ({exc}); the pure "
+            "error includes the seed sets' offsets"]
+
+
+def adequacy(model: Any, lof_p: float | None) -> tuple[bool, list[str], dict[str, Any]]:
+    """Is a response-surface model adequate, as Design-Expert judges it?
+
+    Inadequate when: the model is not significant (p >= 0.05); the lack of fit is
+    significant (p < 0.05); adjusted R^2 < 0.7; predicted R^2 is negative or more than 0.2
+    below the adjusted R^2 (the model does not predict new runs); or Adeq Precision (signal
+    to noise) < 4. Returns (adequate, the failed rules as warnings, the statistics).
+    """
+    p_model = float(model.f_pvalue)
+    adj, pred, adeq = float(model.adj_r2), float(model.pred_r2), float(model.adeq_precision)
+    fails = []
+    if not p_model < 0.05:
+        fails.append(f"model not significant (p = {p_model:.3g} >= 0.05)")
+    if lof_p is not None and lof_p < 0.05:
+        fails.append(f"significant lack of fit (p = {lof_p:.3g} < 0.05)")
+    if not adj >= 0.7:
+        fails.append(f"adjusted R^2 = {adj:.3f} < 0.7")
+    if not math.isfinite(pred) or pred < 0:
+        fails.append(f"predicted R^2 = {pred:.3f} is negative: the model predicts new runs "
+                     "worse than their mean")
+    elif adj - pred > 0.2:
+        fails.append(f"predicted R^2 = {pred:.3f} is more than 0.2 below the adjusted R^2 "
+                     f"({adj:.3f})")
+    if not adeq >= 4:
+        fails.append(f"Adeq Precision = {adeq:.2f} < 4 (signal too weak against the noise)")
+    stats_ = {"p_model": p_model, "lack_of_fit_p": lof_p, "r2": float(model.r2),
+              "adj_r2": adj, "pred_r2": pred if math.isfinite(pred) else None,
+              "adeq_precision": adeq if math.isfinite(adeq) else None}
+    return not fails, fails, stats_
+
+
+def _lof_p(table: Any) -> float | None:
+    for row in table.rows:
+        if row.source == "Lack of Fit" and math.isfinite(row.p):
+            return float(row.p)
+    return None
+
+
+def _judged(rows: Any, means: Any) -> dict[str, Any]:
+    """A model's ANOVA (rows: every replicate), lack of fit and adequacy (of the means)."""
+    table = rows.anova()
+    lof_p = _lof_p(table)
+    adequate, fails, stats_ = adequacy(means, lof_p)
+    return {"rows": rows, "table": table, "lof_p": lof_p, "adequate": adequate,
+            "failed": fails, "adequacy": stats_}
+
+
+def choose_model(kind: str, alpha_out: float, rows: Any, means: Any) -> dict[str, Any]:
+    """The response-surface model the optimum is read from, judged as Design-Expert would.
+
+    ``rows`` is the full quadratic fitted to every replicate, ``means`` the same model fitted
+    to the design-point means (the same coefficients: the replication is balanced). R^2,
+    predicted R^2 and Adeq Precision are the means' (the rows' R^2 is capped by the run-to-run
+    noise however many replicates are run); the ANOVA and its lack of fit are the rows'.
+
+    ``kind``: ``"quadratic"`` keeps the full model; ``"reduced"`` removes terms by
+    hierarchical backward elimination (p > ``alpha_out`` in the rows' ANOVA, as
+    Design-Expert's "backward" model reduction) and judges the reduced model; ``"auto"`` keeps
+    the full model when it is adequate and reduces it otherwise. A reduction that would leave
+    no factor term keeps the full model. Returns :func:`_judged`'s keys for the chosen model
+    plus ``model`` ("quadratic" or "reduced"), ``removed_terms``, ``full`` (the full
+    model's judgement) and ``notes`` (what to tell the user).
+    """
+    full = _judged(rows, means)
+    out = {**full, "model": "quadratic", "removed_terms": [], "full": full, "notes": []}
+    if kind == "quadratic" or (kind == "auto" and full["adequate"]):
+        return out
+    reduced = rows.reduce(alpha_out=alpha_out, hierarchical=True)
+    if reduced is rows or len(reduced.terms) < 2:
+        return out
+    kept = set(reduced.term_names)
+    removed = [t for t in rows.term_names if t not in kept]
+    means_r = reduced if rows is means else means.with_terms(list(reduced.terms))
+    why = ("the full quadratic model is not adequate: " + "; ".join(full["failed"])
+           if not full["adequate"] else "the full quadratic model is in 'anova_full'")
+    note = (f"the optimum is read from the reduced model (backward elimination, alpha out "
+            f"{alpha_out:g}; removed: {', '.join(removed)}); {why}")
+    return {**_judged(reduced, means_r), "model": "reduced", "removed_terms": removed,
+            "full": full, "notes": [note]}
