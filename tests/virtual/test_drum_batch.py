@@ -1,0 +1,90 @@
+"""The drum's runs as worlds of one engine: each world's result is its run alone, bit for bit,
+and a world that ends early (here: a fill that does not settle) ends alone while the others go
+on, its result handed over the moment it ends."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from demcal.virtual.drum import DrumReporting, run_drum
+from demcal.virtual.drum_settings import drum_settings
+from demcal.virtual.presets import preset_parameters
+
+#: the cheapest drum that still goes through every phase: 20 stalks, 3 frames, a 2-frame
+#: steady window, twice the default time step; the lining (wall friction 0.9) carries the
+#: bed so that it rolls and is measured (~1 s per run on one core)
+TINY = {"drum": {"count": 20, "frames": 3, "steady_window": 2, "spin_up_s": 0.04,
+                 "settle_max_s": 0.3, "wall_static_friction": 0.9}, "dt_fraction": 0.4}
+#: a bouncing, frictionless fill: it does not settle within TINY's 0.3 s (``unsettled``)
+BOUNCY = {"pp.restitution": 0.95, "pw.restitution": 0.95, "pp.static_friction": 0.05,
+          "pw.static_friction": 0.05, "pp.rolling_friction": 0.0, "pw.rolling_friction": 0.0}
+
+
+def _same(batched, alone) -> None:
+    """Every field but the wall time equal: the angles, the frames, the outcome and reason,
+    the simulated times."""
+    a, b = batched.to_dict(), alone.to_dict()
+    assert {k: v for k, v in a.items() if k != "wall_time_s"} == \
+        {k: v for k, v in b.items() if k != "wall_time_s"}
+
+
+def test_a_world_that_ends_early_ends_alone_and_the_batch_equals_its_runs_alone(tmp_path):
+    """World 1's fill keeps bouncing: it ends ``unsettled`` at 0.3 s, is handed over first
+    and paused, while world 0 turns on to its frames; both equal their runs alone (their
+    time steps differ: each world steps with its own)."""
+    settings = drum_settings("quick", TINY)
+    sets = [preset_parameters("corn_stalk_dry"), preset_parameters("corn_stalk_dry", BOUNCY)]
+    ended, phases = [], []
+    batch = run_drum(sets, settings=settings, seeds=[1, 5], backend="cpu",
+                     reporting=DrumReporting(
+                         on_result=lambda i, r: ended.append((i, r.outcome)),
+                         progress=lambda i, phase, t, wall: phases.append((i, phase)),
+                         vtk_dir=tmp_path / "vtk"))
+    assert ended == [(1, "unsettled"), (0, batch[0].outcome)]
+    assert batch[0].outcome == "rolling" and batch[0].dynamic_aor_deg is not None
+    assert len(batch[0].frames_deg) == 3 and batch[0].sim_time_s > batch[1].sim_time_s
+    assert "did not settle within 0.3 s" in batch[1].reason and batch[1].frames_deg == []
+    assert batch[0].time_step_s != batch[1].time_step_s
+    # progress per run: the ended one stops reporting, the other goes through every phase
+    assert {p for i, p in phases if i == 1} == {"settle"}
+    assert [p for i, p in phases if i == 0][-4:] == ["steady", "frames", "frames", "frames"]
+    # a VTK series per world: the ended one's bed is never written after it ended
+    for seed, beds in ((1, ["settled", "spun_up", "steady"] + ["frame"] * 3), (5, [])):
+        pvd = tmp_path / "vtk" / f"drum_seed{seed}.pvd"
+        labels = re.findall(r'_\d{4}_([a-z_]+?)(_walls)?\.vtp"', pvd.read_text()) if beds else []
+        labels = [name for name, walls in labels if not walls]
+        assert labels == beds
+        assert pvd.exists() == bool(beds)
+    for params, seed, batched in zip(sets, (1, 5), batch, strict=True):
+        (alone,) = run_drum([params], settings=settings, seeds=[seed], backend="cpu")
+        _same(batched, alone)
+
+
+def test_a_repeated_seed_gets_its_own_vtk_series(tmp_path):
+    """Two runs of one seed in a call write two series, not one file set twice."""
+    from demcal.virtual.drum import _series_names
+
+    assert _series_names([4, 5]) == ["drum_seed4", "drum_seed5"]
+    assert _series_names([4, 4]) == ["drum_run000_seed4", "drum_run001_seed4"]
+
+
+@pytest.mark.slow
+def test_three_worlds_of_different_materials_and_steps_equal_their_runs_alone():
+    """The quick drum's particle count and time step: a cohesive world (the engine's contact
+    margin is the batch's largest, so the dry worlds' pairs are looked at farther out), a
+    light one and one of a denser material (another time step) give, batched, each its
+    result alone (~40 s on one core)."""
+    settings = drum_settings("quick", {"drum": {"frames": 4, "steady_window": 2,
+                                                "wall_static_friction": 0.9}})
+    sets = [preset_parameters("corn_stalk_dry"),
+            preset_parameters("corn_stalk_dry", {"pp.static_friction": 0.3,
+                                                 "particle.density": 300.0}),
+            preset_parameters("corn_stalk")]
+    seeds = [1, 2, 4]
+    batch = run_drum(sets, settings=settings, seeds=seeds, backend="cpu")
+    assert len({r.time_step_s for r in batch}) == 3
+    for params, seed, batched in zip(sets, seeds, batch, strict=True):
+        (alone,) = run_drum([params], settings=settings, seeds=[seed], backend="cpu")
+        _same(batched, alone)
