@@ -8,6 +8,7 @@ import re
 
 import pytest
 
+from demcal.execute.tasks import RunTask, TestDef, run_chunk
 from demcal.virtual.drum import DrumReporting, run_drum
 from demcal.virtual.drum_settings import drum_settings
 from demcal.virtual.presets import preset_parameters
@@ -68,6 +69,25 @@ def test_a_repeated_seed_gets_its_own_vtk_series(tmp_path):
 
     assert _series_names([4, 5]) == ["drum_seed4", "drum_seed5"]
     assert _series_names([4, 4]) == ["drum_run000_seed4", "drum_run001_seed4"]
+
+
+def test_a_study_chunk_hands_each_drum_run_over_as_it_ends():
+    """``run_chunk`` runs a chunk of drum tasks as one batch per time-step scale: the run
+    that ends first is emitted first, and a retried run (scale 0.5) runs in its own engine at
+    half the step."""
+    test = TestDef(kind="drum", fidelity="quick", overrides=TINY, backend="cpu")
+    dry, bouncy = preset_parameters("corn_stalk_dry"), preset_parameters("corn_stalk_dry",
+                                                                         BOUNCY)
+    tasks = [RunTask("a", test, dry, 1), RunTask("b", test, bouncy, 5),
+             RunTask("c", test, bouncy, 5, dt_scale=0.5)]
+    seen: list[str] = []
+    out = run_chunk(tasks, on_result=lambda r: seen.append(r.key))
+    # the scale-0.5 engine runs first (sorted scales), then the batch of a and b
+    assert seen == ["c", "b", "a"] == [r.key for r in out]
+    by_key = {r.key: r for r in out}
+    assert by_key["a"].outcome == "rolling" and by_key["b"].outcome == "unsettled"
+    assert by_key["c"].detail["time_step_s"] == pytest.approx(
+        0.5 * by_key["b"].detail["time_step_s"])
 
 
 @pytest.mark.slow
