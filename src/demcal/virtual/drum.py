@@ -218,19 +218,26 @@ def _drive(sim: Simulation, runs: list[_Run],
     nearest of these points, so every world is looked at, changed and measured after exactly
     the steps it would take alone. Worlds share no contact, and the engine's per-world sums
     are gathers in a fixed order (no atomics), so a world's state is bit for bit its state
-    alone. The engine checks health (NaN, overlap, speed) after every call and every
-    ``_config.CHUNK_STEPS`` steps, and the other worlds' points move these checks: a world
-    that goes NaN or overlaps too far (flags that stay set until checked) is caught by the
-    frame at which it would be caught alone, with the same outcome, but the time in its
-    reason and its ``sim_time_s`` are those of the check that caught it (less than
-    ``CHUNK_STEPS`` steps apart). A speed above ``_config.MAX_SPEED`` is seen only at a check:
-    a spike that falls back between two checks can be caught in one schedule and missed in
-    the other (a blow-up that goes on is caught in both).
+    alone. What the batch does share changes only which candidates are looked at, not what
+    they add: the skin, grid cell and contact margin are the batch's largest (a cohesive
+    world's margin reaches a dry world's pairs, which add nothing out of reach), and a
+    neighbour rebuild that one world needs rebuilds all (the lists are sorted). The engine
+    checks health (NaN, overlap, speed) after every call and every ``_config.CHUNK_STEPS``
+    steps, and the other worlds' points move these checks: a world that goes NaN or overlaps
+    too far (flags that stay set until checked) is caught by the frame at which it would be
+    caught alone, with the same outcome, but the time in its reason and its ``sim_time_s``
+    are those of the check that caught it (less than ``CHUNK_STEPS`` steps apart). A speed
+    above ``_config.MAX_SPEED`` is seen only at a check: a spike that falls back between two
+    checks can be caught in one schedule and missed in the other (a blow-up that goes on is
+    caught in both).
 
-    A run that ends (its frames done, or stopped early: unsettled, unstable, a fill that
-    would not settle) is paused (:meth:`Simulation.set_world_enabled`): the engine skips a
-    paused world's clumps in every step, so the batch costs what its live runs cost and the
-    ended world's bed stays as it ended. Its result goes to ``on_result`` at once.
+    A run that ends (its frames done, or stopped early: unsettled, unstable) is paused
+    (:meth:`Simulation.set_world_enabled`): the engine's force and integration passes skip a
+    paused world (only a neighbour rebuild still bins its spheres), so the batch costs about
+    what its live runs cost and the ended world's bed stays as it ended. Its result goes to
+    ``on_result`` at once. A fill that cannot be placed is a setting's fault
+    (:class:`~demcal.errors.InputError`, one line) and ends the call, as it did when the
+    runs ran one by one.
     """
     scripts = {run.world: _script(run) for run in runs}
     left: dict[int, int] = {}  #: live world -> steps before its script goes on
