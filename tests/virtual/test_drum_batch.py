@@ -63,6 +63,35 @@ def test_a_world_that_ends_early_ends_alone_and_the_batch_equals_its_runs_alone(
         _same(batched, alone)
 
 
+def test_an_unstable_world_stops_at_its_frame_alone_and_the_other_goes_on(monkeypatch):
+    """With the overlap limit lowered to 5 % of a radius, a soft material (shear modulus
+    1e5 Pa) overlaps past it while the fill settles and goes ``unstable``; the stiff world
+    beside it rolls on to its frames. The soft one is its run alone (the first test shows
+    that a world that finishes is); only the time at which the engine's health check caught
+    it may differ (here it does not): the checks fall after every engine call and every
+    ``CHUNK_STEPS`` steps, and the stiff world's points add calls."""
+    from demcal.dem import _config
+
+    monkeypatch.setattr(_config, "MAX_OVERLAP_FRACTION", 0.05)
+    settings = drum_settings("quick", TINY)
+    sets = [preset_parameters("corn_stalk_dry"),
+            preset_parameters("corn_stalk_dry", {"particle.shear_modulus": 1e5})]
+    ended: list[int] = []
+    batch = run_drum(sets, settings=settings, seeds=[1, 1], backend="cpu",
+                     reporting=DrumReporting(on_result=lambda i, r: ended.append(i)))
+    assert ended == [1, 0]
+    stiff, soft = batch
+    assert stiff.outcome == "rolling" and len(stiff.frames_deg) == 3
+    assert soft.outcome == "unstable" and soft.reason.startswith("a contact overlap exceeded 5%")
+    (alone,) = run_drum(sets[1:], settings=settings, seeds=[1], backend="cpu")
+    when = re.compile(r" \(at t=[0-9.e-]+ s\)$")
+    assert when.sub("", soft.reason) == when.sub("", alone.reason)
+    assert abs(soft.sim_time_s - alone.sim_time_s) < _config.CHUNK_STEPS * soft.time_step_s
+    a, b = soft.to_dict(), alone.to_dict()
+    assert {k: v for k, v in a.items() if k not in ("wall_time_s", "reason", "sim_time_s")} \
+        == {k: v for k, v in b.items() if k not in ("wall_time_s", "reason", "sim_time_s")}
+
+
 def test_a_repeated_seed_gets_its_own_vtk_series(tmp_path):
     """Two runs of one seed in a call write two series, not one file set twice."""
     from demcal.virtual.drum import _series_names

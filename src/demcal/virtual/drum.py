@@ -358,8 +358,8 @@ def _advance(run: _Run, duration: float) -> Generator[int, None, None]:
     numerical failure stops the run."""
     yield max(1, round(duration / run.dt))
     error = run.sim.world_errors[run.world]
-    if error is not None:
-        raise _Stop(DrumOutcome.UNSTABLE, error)
+    if error is not None:  # without the engine's "world <k>: ": k is the run's place in a batch
+        raise _Stop(DrumOutcome.UNSTABLE, error.removeprefix(f"world {run.world}: "))
 
 
 def _settle(run: _Run) -> Generator[int, None, None]:
