@@ -12,9 +12,13 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from demcal.results import RunResult
+
+if TYPE_CHECKING:  # the virtual tests are imported where they run (a task stays light)
+    from demcal.virtual.drum import DrumResult
+    from demcal.virtual.drum_settings import DrumSettings
 
 __all__ = ["MEASUREMENT_VERSION", "RunTask", "TestDef", "run_chunk"]
 
@@ -183,14 +187,14 @@ def _drum_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None
         scaled = settings if scale == 1.0 else dataclasses.replace(
             settings, dt_fraction=settings.dt_fraction * scale)
 
-        def world_done(i: int, r: Any, group: list[RunTask] = group) -> None:
+        def world_done(i: int, r: DrumResult, group: list[RunTask] = group) -> None:
             emit(r.run_result(group[i].key))
 
         run_drum([t.params for t in group], settings=scaled, seeds=[t.seed for t in group],
                  backend=test.backend, reporting=DrumReporting(on_result=world_done))
 
 
-def _lammps_drum_chunk(tasks: list[RunTask], settings: Any,
+def _lammps_drum_chunk(tasks: list[RunTask], settings: DrumSettings,
                        emit: Callable[[RunResult], None]) -> None:
     """The drum runs on LAMMPS, one after another (each its own ``mpirun``)."""
     from demcal.virtual.lammps_drum import run_drum_lammps
