@@ -121,7 +121,9 @@ class DrumOptions:
         "drum.fill_fraction=0.3, drum.diameter=0.08 (SI units), or particle.NAME=VALUE, "
         "rolling_model=C; repeatable.")] = None
     seeds: Annotated[int, typer.Option(
-        help="Replicates with seeds SEED..SEED+N-1, run one after the other.")] = 1
+        help="Replicates with seeds SEED..SEED+N-1: on demcal's engine worlds of one "
+        "engine run together (one GPU turns them all at once); on LAMMPS one after the "
+        "other.")] = 1
     seed0: Annotated[int, typer.Option("--seed", help="First seed.")] = 0
     json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON.")] \
         = None
@@ -171,7 +173,8 @@ def _engine(name: str) -> str:
 
 
 def _run(o: DrumOptions, engine: str, params: dict[str, float], settings: Any) -> list:
-    """The runs of seeds ``--seed`` .. on the chosen engine."""
+    """The runs of seeds ``--seed`` .. on the chosen engine (demcal's: one batch, every seed
+    a world of one engine)."""
     seeds = [o.seed0 + k for k in range(o.seeds)]
     if engine == "lammps":
         from demcal.virtual.lammps_drum import run_drum_lammps

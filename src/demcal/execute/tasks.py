@@ -12,9 +12,13 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from demcal.results import RunResult
+
+if TYPE_CHECKING:  # the virtual tests are imported where they run (a task stays light)
+    from demcal.virtual.drum import DrumResult
+    from demcal.virtual.drum_settings import DrumSettings
 
 __all__ = ["MEASUREMENT_VERSION", "RunTask", "TestDef", "run_chunk"]
 
@@ -165,26 +169,42 @@ def _aor_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None:
 
 
 def _drum_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None:
-    """The drum runs, one after another (each its own engine, demcal's or LAMMPS, emitted as
-    it ends; an engine that goes unstable is the run's outcome ``unstable``, as
-    :func:`demcal.virtual.drum.run_drum` and the LAMMPS drum report it)."""
-    from demcal.virtual.drum import run_drum
+    """The drum runs: on demcal's engine as worlds of one engine per time-step scale (the
+    worlds of one engine share the fraction), as the lift test's; on LAMMPS one after
+    another. Each run is emitted the moment it ends; an engine that goes unstable is the
+    run's outcome ``unstable``, as :func:`demcal.virtual.drum.run_drum` and the LAMMPS drum
+    report it."""
+    from demcal.virtual.drum import DrumReporting, run_drum
     from demcal.virtual.drum_settings import drum_settings
 
     test = tasks[0].test
     settings = drum_settings(test.fidelity, test.overrides)
+    if test.engine == "lammps":
+        _lammps_drum_chunk(tasks, settings, emit)
+        return
+    for scale in sorted({t.dt_scale for t in tasks}):
+        group = [t for t in tasks if t.dt_scale == scale]
+        scaled = settings if scale == 1.0 else dataclasses.replace(
+            settings, dt_fraction=settings.dt_fraction * scale)
+
+        def world_done(i: int, r: DrumResult, group: list[RunTask] = group) -> None:
+            emit(r.run_result(group[i].key))
+
+        run_drum([t.params for t in group], settings=scaled, seeds=[t.seed for t in group],
+                 backend=test.backend, reporting=DrumReporting(on_result=world_done))
+
+
+def _lammps_drum_chunk(tasks: list[RunTask], settings: DrumSettings,
+                       emit: Callable[[RunResult], None]) -> None:
+    """The drum runs on LAMMPS, one after another (each its own ``mpirun``)."""
+    from demcal.virtual.lammps_drum import run_drum_lammps
+    from demcal.virtual.lammps_options import LammpsOptions
+
+    options = LammpsOptions(**tasks[0].test.lammps)
     for t in tasks:
         scaled = settings if t.dt_scale == 1.0 else dataclasses.replace(
             settings, dt_fraction=settings.dt_fraction * t.dt_scale)
-        if test.engine == "lammps":
-            from demcal.virtual.lammps_drum import run_drum_lammps
-            from demcal.virtual.lammps_options import LammpsOptions
-
-            (res,) = run_drum_lammps([t.params], settings=scaled, seeds=[t.seed],
-                                     options=LammpsOptions(**test.lammps))
-        else:
-            (res,) = run_drum([t.params], settings=scaled, seeds=[t.seed],
-                              backend=test.backend)
+        (res,) = run_drum_lammps([t.params], settings=scaled, seeds=[t.seed], options=options)
         emit(res.run_result(t.key))
 
 
