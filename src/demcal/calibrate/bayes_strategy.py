@@ -32,7 +32,7 @@ import numpy as np
 from demcal import doe
 from demcal.calibrate import refine
 from demcal.calibrate import stages as st
-from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
+from demcal.calibrate.responses import LabValue, ResponseSpec
 from demcal.calibrate.runner import Point
 from demcal.doe import bayes
 from demcal.errors import InputError, StudyError
@@ -285,7 +285,7 @@ def _verify(ctx: st.Context, res: bayes.BayesResult,
     there is no Design-Expert confirmation (``confirmed`` None) and the number of runs is
     sized from the runs' own scatter.
     """
-    aor = predicted.get(AOR, {}).get("mean")
+    aor = predicted.get(ctx.lead.name, {}).get("mean")
     pile = predicted.get(PILE, {}).get("mean")
     best = res.best_point_actual
     optimum = Optimum(
@@ -365,7 +365,8 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
                           "factors": ctx.factors})
     ev = _Evaluator(ctx, space, tuple(r.name for r in labs))
     res = bayes.calibrate_bayes(ev, space, labs, cfg)
-    n_lab = (ctx.labs[AOR].n if AOR in ctx.labs else None) or 1
+    lead = ctx.labs.get(ctx.lead.name)
+    n_lab = (lead.n if lead is not None else None) or 1
     shrink = _shrinkage(res, _candidates(ev, res.x, n_lab, cfg.seed), cfg.seed)
     summary = _summary(res, labs, notes, shrink, cfg)
     summary["marks"] = _marks(ctx, res, labs, space)
@@ -378,7 +379,7 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
 def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> dict[str, Any]:
     opt: Optimum = ctx.results["optimize"]
     typed = Verification.from_summary(ver)
-    aor = summary["predicted"].get(AOR, {}).get("mean")
+    aor = summary["predicted"].get(ctx.lead.name, {}).get("mean")
     result = {
         "study": ctx.study.name, "strategy": STAGE, **summary,
         "optimum_full": typed.params, "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
@@ -392,7 +393,7 @@ def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> di
     if ctx.several:  # the surrogates' means at the best point, as the DOE path's predictions
         result["responses"] = {
             "predicted": {name: p.get("mean") for name, p in summary["predicted"].items()
-                          if name not in (AOR, PILE)},
+                          if name not in (ctx.lead.name, PILE)},
             "verification": ver.get("responses")}
     ctx.store.set_meta("result", result)
     return result

@@ -30,7 +30,10 @@ class Context:
     ``fixed``: full parameter set with every factor at its current centre (SI);
     ``factors``: current ranges [{"name","symbol","low","high","unit"}];
     ``records``: every run the stages used (for the pile classifier);
-    ``target_std``, ``target_n``: spread (deg) and count of the measured AoR, when known.
+    ``target``, ``target_std``, ``target_n``: the lead response's lab mean, spread and count
+    (std and count when known); ``responses``: every response aimed at, the lead first (the
+    one range finding, screening, the path's relative error and the anchor follow: the
+    study's angle today, :func:`demcal.calibrate.pipeline.open_study`).
     """
 
     study: Study
@@ -44,15 +47,25 @@ class Context:
     target_std: float | None = None
     target_n: int | None = None
     rounds: Rounds = field(default_factory=Rounds)
-    #: every response the study aims at, the angle first (:mod:`demcal.calibrate.several`)
+    #: every response the study aims at, the lead first (:mod:`demcal.calibrate.several`)
     responses: list[ResponseSpec] = field(default_factory=list)
     #: their lab values by name
     labs: dict[str, LabValue] = field(default_factory=dict)
 
     @property
     def several(self) -> bool:
-        """Does the study aim at more responses than the angle?"""
+        """Does the study aim at more responses than its lead?"""
         return len(self.responses) > 1
+
+    @property
+    def lead(self) -> ResponseSpec:
+        """The response the single-response rules follow (the first aimed at)."""
+        return self.responses[0]
+
+    def measured(self, record: RunRecord) -> float | None:
+        """The lead response of a run, where the run measured it (outcome ``pile``)."""
+        value = record.response(self.lead.name)
+        return value if record.outcome == "pile" and value is not None else None
 
     def full(self, actual: dict[str, float]) -> dict[str, float]:
         """The fixed set with ``actual`` factor values applied (floats)."""
@@ -109,16 +122,19 @@ def factor_space(factors: Sequence[dict[str, Any]]) -> doe.FactorSpace:
                             for f in factors])
 
 
-def point_means(recs: Sequence[RunRecord], n_points: int) -> tuple[np.ndarray, list[str]]:
-    """Mean AoR per design point over its replicates; NaN if any replicate formed no pile."""
-    y, outcome, _ = point_runs(recs, n_points)
+def point_means(recs: Sequence[RunRecord], n_points: int, name: str
+                ) -> tuple[np.ndarray, list[str]]:
+    """Mean of the response ``name`` per design point over its replicates; NaN if any
+    replicate did not measure it."""
+    y, outcome, _ = point_runs(recs, n_points, name)
     return y, outcome
 
 
-def point_runs(recs: Sequence[RunRecord], n_points: int
-                ) -> tuple[np.ndarray, list[str], list[list[float]]]:
-    """Per design point: mean AoR (NaN if any replicate formed no pile), outcome, and the
-    replicates' angles in replicate order (empty for a point without a pile)."""
+def point_runs(recs: Sequence[RunRecord], n_points: int, name: str
+               ) -> tuple[np.ndarray, list[str], list[list[float]]]:
+    """Per design point: the mean of the response ``name`` (NaN if any replicate did not
+    measure it: an outcome other than ``pile``, or no such value), the outcome, and the
+    replicates' values in replicate order (empty for a point without)."""
     y = np.full(n_points, math.nan)
     outcome = ["pile"] * n_points
     runs: list[list[float]] = [[] for _ in range(n_points)]
@@ -127,11 +143,11 @@ def point_runs(recs: Sequence[RunRecord], n_points: int
         by.setdefault(r.point, []).append(r)
     for i in range(n_points):
         rs = sorted(by.get(i, []), key=lambda r: r.replicate)
-        bad = [r.outcome for r in rs if r.outcome != "pile" or r.aor_deg is None]
+        bad = [r.outcome for r in rs if r.outcome != "pile" or r.response(name) is None]
         if bad or not rs:
             outcome[i] = bad[0] if bad else "missing"
         else:
-            runs[i] = [float(r.aor_deg) for r in rs]  # type: ignore[arg-type]
+            runs[i] = [float(r.response(name)) for r in rs]  # type: ignore[arg-type]
             y[i] = float(np.mean(runs[i]))
     return y, outcome, runs
 

@@ -97,7 +97,8 @@ def _scan(ctx: Context, names: list[str]
             for r in range(ctx.reps("rangefind")):
                 points.append(Point(pt, r, ctx.full({name: float(v)}), ctx.seed(pt, r, 0)))
             index.append((name, float(v), pt))
-    y, outcomes = point_means(ctx.run("rangefind", points), 100 * len(names))
+    y, outcomes = point_means(ctx.run("rangefind", points), 100 * len(names),
+                              ctx.lead.name)
     scans, lines = [], {}
     for name in names:
         f = ctx.factor(name)

@@ -35,7 +35,7 @@ def screening(ctx: Context) -> Screening:
     except InputError as exc:
         raise InputError(f"stages.screening.runs: {exc}") from None
     recs = ctx.run("screening", design_points(ctx, design, range(ctx.reps("screening"))))
-    y, outcomes, per_point = point_runs(recs, design.n_runs)
+    y, outcomes, per_point = point_runs(recs, design.n_runs, ctx.lead.name)
     excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
     ran = Screening(
         fidelity=ctx.own_fidelity("screening").get("fidelity"), design="plackett_burman",

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from demcal import doe
-from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
+from demcal.calibrate.responses import LabValue, ResponseSpec
 from demcal.calibrate.surface_fit import choose_model, fit_rows, replicated
 from demcal.calibrate.verify import compare_to_target
 from demcal.errors import StudyError
@@ -307,21 +307,23 @@ def fit_responses(ctx: Any, design: doe.Design, recs: Sequence[RunRecord], n_rep
             for spec in ctx.responses[1:]}
 
 
-def _goals(ctx: Any, aor_observed: np.ndarray) -> list[doe.ResponseGoal]:
+def _goals(ctx: Any, lead_observed: np.ndarray) -> list[doe.ResponseGoal]:
     fits: Mapping[str, ResponseFit] = ctx.results["_response_fits"]
     goals = []
     for spec in ctx.responses:
-        observed = aor_observed if spec.name == AOR else fits[spec.name].model.response
+        observed = lead_observed if spec.name == ctx.lead.name else \
+            fits[spec.name].model.response
         goals.append(spec.goal_for(observed, ctx.labs.get(spec.name)))
     return goals
 
 
-def _predictors(model: doe.ResponseSurface, fits: Mapping[str, ResponseFit], offset: float
-                ) -> dict[str, Callable[[np.ndarray], np.ndarray]]:
-    """Predictors of coded settings; the angle's corrected by a refinement round's offset."""
+def _predictors(lead: str, model: doe.ResponseSurface, fits: Mapping[str, ResponseFit],
+                offset: float) -> dict[str, Callable[[np.ndarray], np.ndarray]]:
+    """Predictors of coded settings; the lead's (``model``) corrected by a refinement
+    round's offset."""
     names = tuple(model.names)
     out: dict[str, Callable[[np.ndarray], np.ndarray]] = {
-        AOR: lambda x: np.asarray(model.predict(x, units="coded"), dtype=float) + offset}
+        lead: lambda x: np.asarray(model.predict(x, units="coded"), dtype=float) + offset}
     for name, fit in fits.items():
         sub = [names.index(n) for n in fit.model.names]
         out[name] = (lambda x, m=fit.model, sub=sub:
@@ -389,7 +391,7 @@ def optimize_summary(ctx: Any, clf: Any, constraint: Callable[[np.ndarray], np.n
     model = ctx.results["_rsm_model"]
     goals = _goals(ctx, np.asarray(model.response, dtype=float))
     ctx.results["_goals"] = goals
-    predictors = _predictors(model, ctx.results["_response_fits"], offset)
+    predictors = _predictors(ctx.lead.name, model, ctx.results["_response_fits"], offset)
     if prior is not None and _still_best(prior, goals, predictors, model):
         return prior
     try:
@@ -403,7 +405,7 @@ def optimize_summary(ctx: Any, clf: Any, constraint: Callable[[np.ndarray], np.n
         iv = model.predict_interval(at, units="actual")
         cands.append(Candidate(
             params={n: float(actual[n]) for n in model.names},
-            predicted_aor_deg=float(s.predicted[AOR]),
+            predicted_aor_deg=float(s.predicted[ctx.lead.name]),
             pi_low_deg=float(iv["pi_low"].iloc[0]) + offset,
             pi_high_deg=float(iv["pi_high"].iloc[0]) + offset,
             p_pile=float(clf.p_pile([ctx.full(actual)])[0]),

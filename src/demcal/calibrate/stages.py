@@ -101,7 +101,7 @@ def rsm(ctx: Context) -> Surface:
     rounds: list[dict[str, Any]] = []
     while True:
         recs = ctx.run("rsm", design_points(ctx, design, range(n_reps)))
-        y, outcomes, runs = point_runs(recs, design.n_runs)
+        y, outcomes, runs = point_runs(recs, design.n_runs, ctx.lead.name)
         excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
         design_rows = run_rows(design, y, outcomes, runs)
         base = {"design": design_name, "factors": factors,  # what a failure stores
@@ -307,8 +307,8 @@ def verification(ctx: Context) -> dict[str, Any]:
     while True:
         pts = [Point(0, i, params, verification_seed(ctx.study.seed, k, i)) for i in range(n)]
         recs = ctx.run("verification", pts)
-        aors = [r.aor_deg if r.outcome == "pile" else None for r in recs]
-        vals = np.array([a for a in aors if a is not None])
+        values = [ctx.measured(r) for r in recs]
+        vals = np.array([a for a in values if a is not None])
         if opts.half_width_deg is None or vals.size < 2 or vals.size < len(recs):
             break
         want = verification_size(vals, opts.half_width_deg, max(opts.max_n, opts.n), sigma)
@@ -324,7 +324,7 @@ def verification(ctx: Context) -> dict[str, Any]:
     tol = opts.tolerance_percent
     checks = several.check_responses(ctx, recs) if ctx.several else None
     ver = Verification(
-        params=params, aor_deg=aors, outcomes=[r.outcome for r in recs], aor_mean_deg=mean,
+        params=params, aor_deg=values, outcomes=[r.outcome for r in recs], aor_mean_deg=mean,
         aor_std_deg=std, relative_error_percent=rel, n=n, n_piles=int(vals.size),
         pile_png=png, half_width_deg=hw if math.isfinite(hw) else None,
         half_width_goal_deg=opts.half_width_deg,

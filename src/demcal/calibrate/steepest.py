@@ -111,7 +111,7 @@ def steepest(ctx: Context) -> Steepest:
         pts = [Point(i, r, ctx.full(path[i]), ctx.seed(i, r, 0))
                for i in range(len(path)) for r in range(ctx.reps("steepest"))]
         recs = ctx.run("steepest", pts)  # earlier steps are stored: only new ones run
-        y, outcomes = point_means(recs, len(path))
+        y, outcomes = point_means(recs, len(path), ctx.lead.name)
         err = [None if math.isnan(v) else abs(v - ctx.target) / ctx.target * 100 for v in y]
         steps = [PathStep(step=i, actual=path[i],
                           value=None if math.isnan(y[i]) else float(y[i]),
@@ -182,7 +182,7 @@ def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, b
     path_fid = ctx.study.stage_fidelities().get("steepest")
     if path_fid is None or rounds < 1 or len(path) < 2:
         return dict(path[best]), None
-    path_aor = [float(v) for v in y]
+    path_values = [float(v) for v in y]
     got: dict[int, RunRecord] = {}
     want: tuple[int, ...] | None = anchor.first_pair(best, len(path))
     cross, piles = None, {}
@@ -191,20 +191,19 @@ def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, b
             break
         pts = [Point(s, 0, ctx.full(path[s]), ctx.seed(s, 0, 0)) for s in want]
         got.update(zip(want, ctx.run(_ANCHOR_STAGE, pts), strict=True))
-        piles = {s: float(r.aor_deg) for s, r in got.items()
-                 if r.outcome == "pile" and r.aor_deg is not None}
+        piles = {s: v for s, r in got.items() if (v := ctx.measured(r)) is not None}
         cross = anchor.crossing(piles, ctx.target)
         if cross is not None:
             break
-        want = anchor.next_pair(path_aor, piles, ctx.target)
+        want = anchor.next_pair(path_values, piles, ctx.target)
     step, message = _anchor_step(ctx, piles, cross, best)
     centre_step = anchor.surface_centre(step, len(path))
     runs = [AnchorRun(step=s, actual=path[s],
-                      value=r.aor_deg if r.outcome == "pile" else None, outcome=r.outcome,
-                      path_value=None if math.isnan(path_aor[s]) else path_aor[s])
+                      value=ctx.measured(r), outcome=r.outcome,
+                      path_value=None if math.isnan(path_values[s]) else path_values[s])
             for s, r in sorted(got.items())]
     anchored = Anchor(fidelity=ctx.study.test.fidelity, runs=runs, crossing_step=cross,
-                      centre_step=centre_step, offset=anchor.offset(path_aor, piles),
+                      centre_step=centre_step, offset=anchor.offset(path_values, piles),
                       message=message)
     return anchor.path_point(path, centre_step), (anchored, (
         f"the path's best step at its own test ({path_fid}) is {best} ({path_message}); "
