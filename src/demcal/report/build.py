@@ -32,7 +32,7 @@ from demcal.report.data import ReportData, StageView, load_report_data
 from demcal.report.html import badge, banner, figure_html, page, table_html
 from demcal.report.surface import significant_pairs
 from demcal.safety import csv_safe, safe_filename, study_image
-from demcal.summaries import Surface
+from demcal.summaries import Screening, Surface
 from demcal.virtual.material_card import CONTACT_LAWS, ROLLING_LAWS, MaterialCard
 
 __all__ = ["build_report"]
@@ -374,6 +374,8 @@ def _screening(b: _Builder) -> str:
             parts.append(b.figure("pareto", "Pareto chart of the effects: |effect| with % "
                                   "contribution; ** p < 0.01, * p < 0.05.",
                                   lambda: F.pareto_figure(s.effects or [], d.symbols)))
+        if s.responses:
+            parts.append(b.table(T.screening_responses_table(s, d.symbols)))
         sel = ", ".join(f"{d.symbol(n)} ({n})" for n in s.selected)
         parts.append(f"<p><b>Selected for the next stage:</b> {escape(sel or 'none')}.</p>")
         if s.excluded_points:
@@ -382,21 +384,29 @@ def _screening(b: _Builder) -> str:
         if s.message:
             parts.append(f"<p>{escape(s.message)}</p>")
         if s.runs and s.anova:
-            parts.append(_diagnostics(b, "screening", stored, None)[0])
-            sel = [n for n in s.selected if n in s.names]
-            if len(sel) >= 2:
-                goal = d.target_aor_deg
-                parts.append(b.figure(
-                    "screening_contours", "Contours of the screening model (linear) over each "
-                    "pair of the selected factors, the others at their centres"
-                    + ("" if goal is None else f"; red = the target {goal:.2f}° where reached")
-                    + ".",
-                    lambda: MF.pair_contours_figure(
-                        _fitted_summary(stored, D.refit(stored, "screening")),
-                        list(itertools.combinations(sel, 2)), None, goal)))
+            parts += _screening_model(b, s, stored)
         return "".join(parts)
 
     return _section("screening", "Screening", view.status, _guard(b, view, render))
+
+
+def _screening_model(b: _Builder, s: Screening, stored: dict[str, Any]) -> list[str]:
+    """The screening model's diagnostics and its contours over the selected factors' pairs
+    (the model helpers, shared with the response surface, read the stored summary)."""
+    d = b.data
+    parts = [_diagnostics(b, "screening", stored, None)[0]]
+    sel = [n for n in s.selected if n in s.names]
+    if len(sel) >= 2:
+        goal = d.target_aor_deg
+        parts.append(b.figure(
+            "screening_contours", "Contours of the screening model (linear) over each "
+            "pair of the selected factors, the others at their centres"
+            + ("" if goal is None else f"; red = the target {goal:.2f}° where reached")
+            + ".",
+            lambda: MF.pair_contours_figure(
+                _fitted_summary(stored, D.refit(stored, "screening")),
+                list(itertools.combinations(sel, 2)), None, goal)))
+    return parts
 
 
 def _steepest(b: _Builder) -> str:

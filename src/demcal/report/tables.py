@@ -38,6 +38,7 @@ __all__ = [
     "rsm_design_table",
     "screening_anova_table",
     "screening_design_table",
+    "screening_responses_table",
     "stage_runs_table",
     "stages_table",
     "steepest_levels_table",
@@ -276,6 +277,29 @@ def screening_anova_table(found: Screening, symbols: Mapping[str, str]) -> Table
     return Table("screening_anova", "Screening ANOVA, effects and % contribution (cf. Table 5)",
                  frame, note="** p < 0.01, * p < 0.05. Effect = mean AoR at +1 minus at -1, "
                              "deg; contribution = 100 SS / SS total.")
+
+
+def screening_responses_table(found: Screening, symbols: Mapping[str, str]) -> Table:
+    """Each factor's effect on every response of a several-response study over the screening
+    runs, with its p: which test moves which parameter (empty with one response)."""
+    models = {"AoR": found.effects or [],
+              **{name: m.effects for name, m in (found.responses or {}).items()}}
+    terms = [e.term for e in found.effects or []]
+    rows = []
+    for term in terms:
+        row: dict[str, Any] = {"term": term_label(term, symbols)}
+        for name, effects in models.items():
+            e = next((x for x in effects if x.term == term), None)
+            row[f"{name} effect"] = None if e is None else _num(e.effect)
+            row[f"{name} p"] = None if e is None else _num(e.p)
+        rows.append(row)
+    cols = ["term", *(f"{n} {k}" for n in models for k in ("effect", "p"))]
+    notes = [m.note for m in (found.responses or {}).values() if m.note]
+    return Table("screening_responses", "Screening: each factor's effect on every response",
+                 _frame(rows, cols),
+                 note="Effect = mean response at +1 minus at -1, in the response's unit; a "
+                      "factor significant (p < alpha) for any response is a candidate for "
+                      "the next stage." + "".join(f" {n}." for n in notes))
 
 
 def fit_table(key: str, title: str, fit: Mapping[str, Any],

@@ -14,12 +14,13 @@ not a cell of the report.
 from demcal.summaries.design import DesignRun
 from demcal.summaries.optimum import Candidate, Goal, Optimum, ResponsesOptimum
 from demcal.summaries.rangefind import RangeFind, ScanFactor, ScanPoint
-from demcal.summaries.screening import Effect, Screening
+from demcal.summaries.screening import Effect, Screening, ScreeningModel
 from demcal.summaries.steepest import Anchor, AnchorRun, PathStep, Steepest
 from demcal.summaries.surface import ResponseModel, Surface
 from demcal.summaries.verification import ResponseVerification, Verification
 
 __all__ = ["Anchor", "AnchorRun", "Candidate", "DesignRun", "Effect", "Goal", "Optimum",
            "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
-           "ResponsesOptimum", "ScanFactor", "ScanPoint", "Screening", "Steepest", "Surface",
+           "ResponsesOptimum", "ScanFactor", "ScanPoint", "Screening", "ScreeningModel", "Steepest",
+           "Surface",
            "Verification"]

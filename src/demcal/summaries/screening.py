@@ -10,7 +10,7 @@ from typing import Any
 from demcal.summaries._stored import _read, _stored
 from demcal.summaries.design import DesignRun, design_runs
 
-__all__ = ["Effect", "Screening"]
+__all__ = ["Effect", "Screening", "ScreeningModel"]
 
 
 @dataclass(frozen=True)
@@ -49,6 +49,43 @@ class Effect:
 
 
 @dataclass(frozen=True)
+class ScreeningModel:
+    """Another response's main-effects model over the screening runs (a several-response
+    study): which factors move it.
+
+    Attributes
+    ----------
+    effects : list of Effect
+        Every term's effect on it, by rank (empty: no model, see ``note``).
+    anova : list of dict
+        Its ANOVA rows.
+    fit : dict
+        Its fit statistics.
+    excluded_points : list of int
+        Design points without this response.
+    note : str or None
+        Why there is no model (the response did not vary, too few points).
+    """
+
+    effects: list[Effect] = field(default_factory=list)
+    anova: list[dict[str, Any]] = field(default_factory=list)
+    fit: dict[str, Any] = field(default_factory=dict)
+    excluded_points: list[int] = field(default_factory=list)
+    note: str | None = None
+
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any]) -> ScreeningModel:
+        """Read a stored model."""
+        items = _read(cls, summary)
+        items["effects"] = [Effect.from_summary(e) for e in items.get("effects") or []]
+        return cls(**items)
+
+    def to_summary(self) -> dict[str, Any]:
+        """The stored form: every field."""
+        return _stored(self, ("note",))
+
+
+@dataclass(frozen=True)
 class Screening:
     """The screening stage (or, where it is disabled, only the factors given).
 
@@ -75,7 +112,10 @@ class Screening:
     fit : dict or None
         Its fit statistics.
     effects : list of Effect or None
-        Every term's effect, by rank.
+        Every term's effect on the lead response, by rank.
+    responses : dict str -> ScreeningModel or None
+        With several responses, every other response's model over the same runs; None with
+        one.
     selected : list of str
         The factors the next stage varies.
     message : str or None
@@ -95,6 +135,7 @@ class Screening:
     anova: list[dict[str, Any]] | None = None
     fit: dict[str, Any] | None = None
     effects: list[Effect] | None = None
+    responses: dict[str, ScreeningModel] | None = None
     selected: list[str] = field(default_factory=list)
     message: str | None = None
     error: str | None = None
@@ -107,6 +148,9 @@ class Screening:
             items["runs"] = design_runs(items["runs"])
         if items.get("effects") is not None:
             items["effects"] = [Effect.from_summary(e) for e in items["effects"]]
+        if items.get("responses") is not None:
+            items["responses"] = {name: ScreeningModel.from_summary(m)
+                                  for name, m in items["responses"].items()}
         items["selected"] = items.get("selected") or []
         return cls(**items)
 
