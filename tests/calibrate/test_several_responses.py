@@ -115,6 +115,11 @@ def test_three_responses_land_on_the_planted_parameters(tmp_path: Path) -> None:
                                                    "bulk_density_kg_m3"}
     assert doc["tables"]["responses_verified"]["columns"][:3] == ["response", "lab",
                                                                   "predicted"]
+    # every other response's own ANOVA and adequacy (the angle's: the surface section's)
+    for name in ("drum_deg", "bulk_density_kg_m3"):
+        anova = doc["tables"][f"responses_anova_{name}"]
+        assert anova["rows"][0][0] == "Model" and "Design-Expert's rules" in anova["note"]
+    assert "responses_anova_aor_deg" not in doc["tables"]
 
 
 def test_the_angle_alone_does_not_fix_the_point(tmp_path: Path) -> None:

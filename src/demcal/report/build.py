@@ -560,7 +560,28 @@ def _several_responses(b: _Builder) -> str:
                  lambda p=p, q=q: RS.overlay_figure(rsm, opt, (p, q)))
         for p, q in itertools.combinations(names, 2))
     return _section("responses", "Several responses", None,
-                    b.table(goals) + equations + b.table(verified) + figures)
+                    b.table(goals) + equations + _response_anovas(b, rsm) + b.table(verified)
+                    + figures)
+
+
+def _response_anovas(b: _Builder, rsm: Surface) -> str:
+    """Each other response's ANOVA at the response surface, with its adequacy and warnings
+    (the angle's is the Response surface section's)."""
+    parts = []
+    for name, fit in (rsm.responses or {}).items():
+        if not fit.anova:
+            continue
+        a = fit.adequacy or {}
+        note = (f"{'adequate' if fit.adequate else 'not adequate'} by Design-Expert's rules: "
+                f"model p {_fmt(a.get('p_model'), '.3g')}, lack of fit p "
+                f"{_fmt(a.get('lack_of_fit_p'), '.3g')}, adjusted R² {_fmt(a.get('adj_r2'))}, "
+                f"predicted R² {_fmt(a.get('pred_r2'))}, Adeq Precision "
+                f"{_fmt(a.get('adeq_precision'))}"
+                + "".join(f"; {w}" for w in fit.warnings) + ".")
+        parts.append(b.table(T.Table(
+            f"responses_anova_{name}", f"ANOVA of {name} ({fit.model} model)",
+            T.anova_frame(fit.anova, b.data.symbols), note=note)))
+    return "".join(parts)
 
 
 def _verification(b: _Builder) -> str:
