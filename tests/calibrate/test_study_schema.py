@@ -124,11 +124,12 @@ def test_the_result_json_leaves_out_a_disabled_steepest_stage():
     """With stages.steepest.enabled = false the stage holds only the RSM's levels (no path)."""
     from types import SimpleNamespace
 
+    from demcal.calibrate.context import StageResults
     from demcal.calibrate.pipeline import _stage_json
     from demcal.summaries import Steepest
 
-    ctx = SimpleNamespace(results={"steepest": Steepest(levels={
-        "pp.static_friction": [0.3, 0.6, 0.9]})})
+    ctx = SimpleNamespace(results=StageResults(steepest=Steepest(levels={
+        "pp.static_friction": [0.3, 0.6, 0.9]})))
     assert "steepest" not in _stage_json(ctx)  # type: ignore[arg-type]
 
 

@@ -281,7 +281,7 @@ def _verify(ctx: st.Context, res: bayes.BayesResult,
             predicted: Mapping[str, Mapping[str, float]]) -> dict[str, Any]:
     """The verification stage at the best point (the DOE path's rules and seeds).
 
-    The stage reads the optimum from ``ctx.results["optimize"]``; without a response surface
+    The stage reads the optimum from ``ctx.results.optimize``; without a response surface
     there is no Design-Expert confirmation (``confirmed`` None) and the number of runs is
     sized from the runs' own scatter.
     """
@@ -297,7 +297,7 @@ def _verify(ctx: st.Context, res: bayes.BayesResult,
         opts=STAGE, source="the posterior's best sample (strategy bayes)")
     # the report's overview and card
     ctx.store.set_stage("optimize", "done", optimum.to_summary())
-    ctx.results["optimize"] = optimum
+    ctx.results.optimize = optimum
     return st.verification(ctx)
 
 
@@ -377,7 +377,7 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
 
 
 def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> dict[str, Any]:
-    opt: Optimum = ctx.results["optimize"]
+    opt: Optimum = ctx.results.optimize
     typed = Verification.from_summary(ver)
     aor = summary["predicted"].get(ctx.lead.name, {}).get("mean")
     result = {

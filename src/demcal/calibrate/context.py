@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -16,11 +16,52 @@ from demcal.calibrate.rounds import Rounds
 from demcal.calibrate.runner import Point, Runner
 from demcal.calibrate.study import Study
 from demcal.store import RunRecord, RunStore, params_hash
-from demcal.summaries import DesignRun
+from demcal.summaries import DesignRun, Optimum, RangeFind, Screening, Steepest, Surface
 from demcal.virtual import PARAMETERS
 
-__all__ = ["Context", "clip", "design_points", "exclusion_note", "factor_space", "point_means",
-           "point_runs", "run_rows"]
+if TYPE_CHECKING:  # several imports nothing of this module's; its fits are only named here
+    from demcal.calibrate.several import ResponseFit
+
+__all__ = ["Context", "StageResults", "clip", "design_points", "exclusion_note", "factor_space",
+           "point_means", "point_runs", "run_rows"]
+
+
+@dataclass
+class StageResults:
+    """What the stages of one calibration hand on to the next, as they run (None: the stage
+    has not run in this call; a disabled screening or path leaves only its selection or
+    levels).
+
+    Attributes
+    ----------
+    rangefind, screening, steepest, rsm, optimize : typed summary or None
+        Each stage's summary (:mod:`demcal.summaries`), as stored.
+    verification : dict or None
+        The verification stage's stored summary, with the earlier rounds'
+        (:func:`demcal.calibrate.rounds.with_rounds`).
+    screening_model : ResponseSurface or None
+        The lead's main-effects model over the screening runs (the path's direction).
+    screening_runs : (Design, list of RunRecord) or None
+        The screening design and its runs (the other responses' first-order models).
+    rsm_model : ResponseSurface or None
+        The lead's response-surface model the optimum is read from.
+    response_fits : dict str -> ResponseFit or None
+        Every other response's model at the response surface (several responses).
+    goals : list of ResponseGoal
+        The desirability goals of the several-response optimum.
+    """
+
+    rangefind: RangeFind | None = None
+    screening: Screening | None = None
+    steepest: Steepest | None = None
+    rsm: Surface | None = None
+    optimize: Optimum | None = None
+    verification: dict[str, Any] | None = None
+    screening_model: doe.ResponseSurface | None = None
+    screening_runs: tuple[doe.Design, list[RunRecord]] | None = None
+    rsm_model: doe.ResponseSurface | None = None
+    response_fits: dict[str, ResponseFit] | None = None
+    goals: list[doe.ResponseGoal] = field(default_factory=list)
 
 
 @dataclass
@@ -43,7 +84,7 @@ class Context:
     target: float
     factors: list[dict[str, Any]]
     records: list[RunRecord] = field(default_factory=list)
-    results: dict[str, Any] = field(default_factory=dict)
+    results: StageResults = field(default_factory=StageResults)
     target_std: float | None = None
     target_n: int | None = None
     rounds: Rounds = field(default_factory=Rounds)

@@ -214,7 +214,7 @@ def _design_json(design: str | None, factors: list[dict[str, Any]], runs: list[D
 def _stage_json(ctx: st.Context) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name in STAGES:
-        s = ctx.results.get(name)
+        s = getattr(ctx.results, name)
         if s is None:
             continue
         if name == "rangefind":
@@ -280,13 +280,13 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         if name == "screening" and not s.screening.enabled:
             # straight to the response surface: its factors are the ones given, or all
             refs = s.screening.factors or [f.name for f in ctx.study.factors]
-            ctx.results["screening"] = Screening(
+            ctx.results.screening = Screening(
                 selected=[ctx.study.factor(r).name for r in refs])
             ctx.store.delete_stage(name)
             continue
         if name == "steepest" and not s.steepest.enabled:
-            sel = ctx.results["screening"].selected
-            ctx.results["steepest"] = Steepest(levels={
+            sel = ctx.results.screening.selected
+            ctx.results.steepest = Steepest(levels={
                 n: [ctx.factor(n)["low"], 0.5 * (ctx.factor(n)["low"] + ctx.factor(n)["high"]),
                     ctx.factor(n)["high"]] for n in sel})
             ctx.store.delete_stage(name)
@@ -294,9 +294,9 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         getattr(st, name)(ctx)
     st.rsm(ctx)
     refine.run_rounds(ctx)
-    opt: Optimum = ctx.results["optimize"]
-    surface: Surface = ctx.results["rsm"]
-    ver_summary = ctx.results["verification"]
+    opt: Optimum = ctx.results.optimize
+    surface: Surface = ctx.results.rsm
+    ver_summary = ctx.results.verification
     ver = Verification.from_summary(ver_summary)
     rounds = [refine.round_row(o, v) for o, v in zip(
         [*opt.rounds, opt], [*ver.rounds, ver], strict=True)]

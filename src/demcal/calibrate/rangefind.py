@@ -79,7 +79,7 @@ def rangefind(ctx: Context) -> RangeFind:
         _refuse_out_of_reach(ctx, found, _reach(ctx, scans, lines, hard))
     ctx.store.set_stage("rangefind", "done", found.to_summary(),
                         inputs_hash=ctx.store.stage("rangefind").inputs_hash)
-    ctx.results["rangefind"] = found
+    ctx.results.rangefind = found
     return found
 
 

@@ -76,6 +76,6 @@ def run_rounds(ctx: st.Context) -> dict[str, Any]:
         if ctx.rounds.number >= opts.max_rounds or \
                 not needs_another_round(Verification.from_summary(ver), opts.tolerance_percent):
             return ver
-        ctx.rounds.optimize.append(ctx.results["optimize"])  # their history is dropped
+        ctx.rounds.optimize.append(ctx.results.optimize)  # their history is dropped
         ctx.rounds.verification.append(ver)                 # when they are stored again
         ctx.rounds.number += 1

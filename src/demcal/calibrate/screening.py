@@ -67,9 +67,9 @@ def screening(ctx: Context) -> Screening:
                     message=f"selected {', '.join(selected)} ({why}); "
                     + exclusion_note(excluded, outcomes))
     ctx.store.set_stage("screening", "done", found.to_summary(), inputs_hash=h)
-    ctx.results["screening"] = found
-    ctx.results["_screening_model"] = rs
-    ctx.results["_screening_runs"] = (design, recs)  # the other responses' first-order models
+    ctx.results.screening = found
+    ctx.results.screening_model = rs
+    ctx.results.screening_runs = (design, recs)  # the other responses' first-order models
     return found
 
 

@@ -259,8 +259,8 @@ def _first_order(name: str, design: doe.Design, recs: Sequence[RunRecord],
 
 def path_climb(ctx: Any, factors: Sequence[str]) -> PathClimb:
     """The steepest path's direction over ``factors`` from every response's first-order model
-    over the screening's runs (``ctx.results["_screening_runs"]``: design and records)."""
-    design, recs = ctx.results["_screening_runs"]
+    over the screening's runs (``ctx.results.screening_runs``: design and records)."""
+    design, recs = ctx.results.screening_runs
     coefficients, goals = {}, []
     for spec in ctx.responses:
         coefficients[spec.name], means = _first_order(spec.name, design, recs, factors)
@@ -308,7 +308,7 @@ def fit_responses(ctx: Any, design: doe.Design, recs: Sequence[RunRecord], n_rep
 
 
 def _goals(ctx: Any, lead_observed: np.ndarray) -> list[doe.ResponseGoal]:
-    fits: Mapping[str, ResponseFit] = ctx.results["_response_fits"]
+    fits: Mapping[str, ResponseFit] = ctx.results.response_fits
     goals = []
     for spec in ctx.responses:
         observed = lead_observed if spec.name == ctx.lead.name else \
@@ -349,7 +349,7 @@ def _search(ctx: Any, model: doe.ResponseSurface, predictors: Mapping[str, Any],
 def check_responses(ctx: Any, recs: Sequence[RunRecord]) -> dict[str, ResponseCheck]:
     """Each response of the verification runs against its lab value (every response but the
     angle, whose verification is the stage's own)."""
-    goals = {g.name: g for g in ctx.results.get("_goals", [])}
+    goals = {g.name: g for g in ctx.results.goals}
     out = {}
     for spec in ctx.responses[1:]:
         vals = np.array([v for r in recs if r.outcome == "pile"
@@ -377,7 +377,7 @@ def goals_json(goals: Sequence[doe.ResponseGoal]) -> list[dict[str, Any]]:
 def optimize_summary(ctx: Any, clf: Any, constraint: Callable[[np.ndarray], np.ndarray],
                      offset: float, prior: Optimum | None) -> Optimum:
     """The optimize stage's optimum when the study has several responses: the desirability
-    optimum of the angle's surface (``ctx.results["_rsm_model"]``, corrected by ``offset``)
+    optimum of the angle's surface (``ctx.results.rsm_model``, corrected by ``offset``)
     and the other responses' inside the pile region (``constraint`` on actual settings, the
     classifier ``clf``); ``prior`` (this round's stored optimum) is kept when it still is the
     optimum, so a resume runs nothing again.
@@ -388,10 +388,10 @@ def optimize_summary(ctx: Any, clf: Any, constraint: Callable[[np.ndarray], np.n
     (``individual``).
     """
     opts = ctx.study.stages.optimize
-    model = ctx.results["_rsm_model"]
+    model = ctx.results.rsm_model
     goals = _goals(ctx, np.asarray(model.response, dtype=float))
-    ctx.results["_goals"] = goals
-    predictors = _predictors(ctx.lead.name, model, ctx.results["_response_fits"], offset)
+    ctx.results.goals = goals
+    predictors = _predictors(ctx.lead.name, model, ctx.results.response_fits, offset)
     if prior is not None and _still_best(prior, goals, predictors, model):
         return prior
     try:

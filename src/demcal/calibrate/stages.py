@@ -81,7 +81,7 @@ def rsm(ctx: Context) -> Surface:
     more replicates rather than an optimum read off noise.
     """
     opts = ctx.study.stages.rsm
-    levels = ctx.results["steepest"].levels
+    levels = ctx.results.steepest.levels
     factors = [{**ctx.factor(n), "low": lv[0], "high": lv[2]} for n, lv in levels.items()]
     h = ctx.begin("rsm", {"factors": factors, "opts": opts.model_dump(mode="json"),
                           "fixed": ctx.fixed, "reps": ctx.reps("rsm"),
@@ -158,20 +158,20 @@ def rsm(ctx: Context) -> Surface:
         equation_actual=model.equation(units="actual"), adequate=bool(adequate),
         warnings=warnings)
     ctx.store.set_stage("rsm", "done", surface.to_summary(), inputs_hash=h)
-    ctx.results["rsm"] = surface
-    ctx.results["_rsm_model"] = model
+    ctx.results.rsm = surface
+    ctx.results.rsm_model = model
     return surface
 
 
 def _other_responses(ctx: Context, design: doe.Design, recs: Sequence[RunRecord], n_reps: int
                      ) -> tuple[dict[str, ResponseModel] | None, list[str]]:
     """Fit every response beside the angle (a several-response study): the models go to
-    ``ctx.results["_response_fits"]``; returns their stored form and their warnings (None
+    ``ctx.results.response_fits``; returns their stored form and their warnings (None
     and none, and nothing done, for the angle alone)."""
     if not ctx.several:
         return None, []
     fits = several.fit_responses(ctx, design, recs, n_reps)
-    ctx.results["_response_fits"] = fits
+    ctx.results.response_fits = fits
     return ({name: f.summary() for name, f in fits.items()},
             [w for f in fits.values() for w in f.warnings])
 
@@ -187,7 +187,7 @@ def optimize(ctx: Context) -> Optimum:
     target contour instead of jumping to another branch of it.
     """
     opts = ctx.study.stages.optimize
-    model = ctx.results["_rsm_model"]
+    model = ctx.results.rsm_model
     k = ctx.rounds.number
     measured = ctx.rounds.offset(model)
     offset = measured.applied
@@ -195,7 +195,7 @@ def optimize(ctx: Context) -> Optimum:
     opts_json = opts.model_dump(mode="json")
     if ctx.rounds.stored is None:  # before begin() marks the stage running
         ctx.rounds.stored = stored_rounds(ctx.store.stage("optimize"))
-    h = ctx.begin("optimize", {"rsm": ctx.results["rsm"].coefficients_coded,
+    h = ctx.begin("optimize", {"rsm": ctx.results.rsm.coefficients_coded,
                                "opts": opts_json, "target": ctx.target,
                                **({"round": k, "offset": offset} if k > 1 else {})})
     clf = PileClassifier.fit(ctx.records, [(f.name, f.low, f.high) for f in ctx.study.factors])
@@ -212,7 +212,7 @@ def optimize(ctx: Context) -> Optimum:
     if kept is not None:  # a resume (on this or another machine): the decision stands
         return _store_optimum(ctx, kept, h)
     prev = ctx.rounds.optimize[-1].chosen if ctx.rounds.optimize else None
-    near = prev or {n: ctx.results["steepest"].levels[n][1] for n in names}
+    near = prev or {n: ctx.results.steepest.levels[n][1] for n in names}
     try:
         res = doe.optimize_target(model, aim, constraint=constraint, near=near,
                                   n_solutions=opts.n_solutions, n_starts=opts.n_starts,
@@ -253,7 +253,7 @@ def _in_round(found: Optimum, k: int, measured: Offset) -> Optimum:
 def _store_optimum(ctx: Context, found: Optimum, h: str) -> Optimum:
     stored = found.in_round(ctx.rounds.optimize)
     ctx.store.set_stage("optimize", "done", stored.to_summary(), inputs_hash=h)
-    ctx.results["optimize"] = stored
+    ctx.results.optimize = stored
     return stored
 
 
@@ -298,8 +298,8 @@ def verification(ctx: Context) -> dict[str, Any]:
     ``max_n`` (:func:`verification_size`).
     """
     opts = ctx.study.stages.verification
-    params = ctx.full(ctx.results["optimize"].chosen)
-    sigma, sigma_df = pure_error_std(ctx.results.get("_rsm_model"))
+    params = ctx.full(ctx.results.optimize.chosen)
+    sigma, sigma_df = pure_error_std(ctx.results.rsm_model)
     k = ctx.rounds.number
     h = ctx.begin("verification", {"params": params, "n": opts.n,
                                    **({"round": k} if k > 1 else {})})
@@ -320,7 +320,7 @@ def verification(ctx: Context) -> dict[str, Any]:
     rel = None if mean is None else abs(mean - ctx.target) / ctx.target * 100.0
     png = next((r.artefacts.get("pile_png") for r in recs if r.artefacts.get("pile_png")), None)
     hw = interval_half_width(vals)
-    model = ctx.results.get("_rsm_model")
+    model = ctx.results.rsm_model
     tol = opts.tolerance_percent
     checks = several.check_responses(ctx, recs) if ctx.several else None
     ver = Verification(
@@ -333,12 +333,12 @@ def verification(ctx: Context) -> dict[str, Any]:
         **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n),
         tolerance_percent=tol,
         within_tolerance=None if tol is None or rel is None else bool(rel <= tol),
-        **confirmation(model, ctx.results["optimize"].chosen, vals,
+        **confirmation(model, ctx.results.optimize.chosen, vals,
                        offset=ctx.rounds.offset(model)),
         responses=None if checks is None else {
             name: ResponseVerification.from_summary(c.to_dict()) for name, c in checks.items()},
         round=k if k > 1 else None)
     summary = with_rounds(ver.to_summary(), ctx.rounds.verification)
     ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
-    ctx.results["verification"] = summary
+    ctx.results.verification = summary
     return summary

@@ -29,7 +29,7 @@ def _path_direction(ctx: Context, selected: list[str]
     responses: the gradient of their overall desirability (:func:`several.path_climb`), climbed;
     where it is flat at the centre (every goal met there) the angle's direction stands.
     """
-    rs = ctx.results["_screening_model"]
+    rs = ctx.results.screening_model
     climb = several.path_climb(ctx, selected) if ctx.several else None
     if climb is not None and not climb.flat:
         return dict(climb.gradient), True, climb
@@ -82,8 +82,8 @@ def steepest(ctx: Context) -> Steepest:
     and its best step is the last before the measured desirability falls.
     """
     opts = ctx.study.stages.steepest
-    rs = ctx.results["_screening_model"]
-    selected = ctx.results["screening"].selected
+    rs = ctx.results.screening_model
+    selected = ctx.results.screening.selected
     h = ctx.begin("steepest", {"sel": selected, "factors": ctx.factors,
                                "opts": opts.model_dump(mode="json"), "fixed": ctx.fixed,
                                "coef": {k: float(v) for k, v in rs.coefficients_coded.items()},
@@ -144,7 +144,7 @@ def steepest(ctx: Context) -> Steepest:
                     message=message if anchored is None else anchored[1],
                     anchor=None if anchored is None else anchored[0])
     ctx.store.set_stage("steepest", "done", found.to_summary(), inputs_hash=h)
-    ctx.results["steepest"] = found
+    ctx.results.steepest = found
     return found
 
 
@@ -152,7 +152,7 @@ def _levels(ctx: Context, selected: list[str], centre: Mapping[str, float],
             step_actual: Mapping[str, float]) -> dict[str, list[float]]:
     """The response surface's low, centre and high of each factor: a path step either side of
     the centre, inside the parameter's bounds and the range finding's pile region."""
-    found = ctx.results.get("rangefind")
+    found = ctx.results.rangefind
     levels = {}
     for n in selected:
         lo = clip(n, centre[n] - step_actual[n])
