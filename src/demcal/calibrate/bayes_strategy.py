@@ -383,6 +383,7 @@ def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> di
     result = {
         "study": ctx.study.name, "strategy": STAGE, **summary,
         "optimum_full": typed.params, "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
+        **ctx.lead_keys(),
         "verification": {k: getattr(typed, k) for k in VERIFICATION_KEYS},
         "rounds": [refine.round_row(opt, typed)],
         # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy

@@ -103,6 +103,26 @@ class Context:
         """The response the single-response rules follow (the first aimed at)."""
         return self.responses[0]
 
+    @property
+    def unit(self) -> str:
+        """The lead's unit as the stages' messages write it after a number: `` deg`` for the
+        angle, ``""`` for a response without a unit."""
+        return f" {self.lead.unit}" if self.lead.unit else ""
+
+    @property
+    def lead_words(self) -> str:
+        """The lead as the stages' messages name it: ``the AoR`` for the angle."""
+        return "the AoR" if self.lead.name == "aor_deg" else self.lead.name
+
+    def lead_keys(self) -> dict[str, Any]:
+        """The result JSON's ``lead`` (name and unit) where the lead is not the angle: its
+        keys named for the angle (``target_aor_deg``, ``predicted_aor_deg``,
+        ``verification.aor_mean_deg``, ...) then hold the lead's values. Nothing for the
+        angle, whose result is what it always was."""
+        if self.lead.name == "aor_deg":
+            return {}
+        return {"lead": {"name": self.lead.name, "unit": self.lead.unit}}
+
     def measured(self, record: RunRecord) -> float | None:
         """The lead response of a run, where the run measured it (outcome ``pile``)."""
         value = record.response(self.lead.name)

@@ -19,7 +19,7 @@ import numpy as np
 
 from demcal.calibrate import refine
 from demcal.calibrate import stages as st
-from demcal.calibrate.responses import AOR, aor_spec
+from demcal.calibrate.responses import AOR, ResponseSpec, aor_spec
 from demcal.calibrate.runner import Runner
 from demcal.calibrate.study import Study, load_study, study_folder
 from demcal.errors import InputError
@@ -155,7 +155,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
 
         lammps_command(study.executor.lammps)  # LammpsMissing (exit 2) before any work
     folder = study_folder(path)
-    target = resolve_target(study, figures=folder / "figures")
+    target = None if study.target is None else resolve_target(study, figures=folder / "figures")
     fixed, physical = _fixed(study)
     store = RunStore(folder, lock=True, break_lock=break_lock)
     factors = [{"name": f.name, "symbol": f.symbol, "low": f.low, "high": f.high,
@@ -163,7 +163,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     store.set_meta("study", study.model_dump(mode="json"))
     store.set_meta("study_file", str(path))
     store.set_meta("study_dir", str(folder))
-    store.set_meta("target", target)
+    store.set_meta("target", target)  # the angle's; None where another response leads
     store.set_meta("physical", physical)
     store.set_meta("fixed_params", {k: v for k, v in fixed.items()
                                     if k not in {f.name for f in study.factors}})
@@ -194,12 +194,27 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
                     stage_tests={name: replace(test, fidelity=fid)
                                  for name, fid in study.stage_fidelities().items()},
                     beside=beside_tests(study, test))
-    own_aor = next((r for r in study.responses if r.name == AOR), None)
-    specs = [aor_spec(own_aor, target), *study.other_responses()]
+    specs = _responses(study, target)
     labs = {s.name: lab for s in specs if (lab := s.lab(path.parent)) is not None}
-    return st.Context(study, store, runner, fixed, float(target["aor_deg"]),
-                      [dict(f) for f in factors], target_std=target.get("std_deg"),
-                      target_n=target.get("n"), responses=specs, labs=labs)
+    lead = labs.get(specs[0].name)
+    if lead is None:  # a goal 'target' without its lab value: refused at the study's load
+        raise InputError(f"responses: {specs[0].name!r} leads the study but has no lab value")
+    # the lead where it is not the angle (the report's labels and target lines); None: the angle
+    store.set_meta("lead", None if specs[0].name == AOR else {
+        "name": specs[0].name, "unit": specs[0].unit, "mean": lead.mean, "std": lead.std,
+        "n": lead.n})
+    return st.Context(study, store, runner, fixed, lead.mean, [dict(f) for f in factors],
+                      target_std=lead.std, target_n=lead.n, responses=specs, labs=labs)
+
+
+def _responses(study: Study, target: dict[str, Any] | None) -> list[ResponseSpec]:
+    """Every response the study aims at, the lead first: the angle at the target the study
+    resolved (its own ``[[responses]]`` goal and limits, if any) where it gives one, else its
+    ``[[responses]]`` tables as given."""
+    if target is None:
+        return list(study.responses)
+    own_aor = next((r for r in study.responses if r.name == AOR), None)
+    return [aor_spec(own_aor, target), *study.other_responses()]
 
 
 def _design_json(design: str | None, factors: list[dict[str, Any]], runs: list[DesignRun],
@@ -306,6 +321,7 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         "optimum_full": ver.params,
         "predicted_aor_deg": opt.predicted_aor_deg,
         "target_aor_deg": ctx.target,
+        **ctx.lead_keys(),
         "verification": {k: getattr(ver, k) for k in (
             "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg",
             "ci_high_deg", "p_value", "consistent", "test", "half_width_deg",

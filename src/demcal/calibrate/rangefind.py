@@ -70,7 +70,7 @@ def rangefind(ctx: Context) -> RangeFind:
         f = ctx.factor(scan.name)
         f["low"], f["high"] = scan.new_low, scan.new_high
         ctx.fixed[scan.name] = 0.5 * (f["low"] + f["high"])
-    msg = _scan_message(ctx.target, (lo, hi), slopes)
+    msg = _scan_message(ctx, (lo, hi), slopes)
     if moves:
         msg += "; ranges moved within hard limits: " + "; ".join(moves)
     found = RangeFind(fidelity=ctx.own_fidelity("rangefind").get("fidelity"), factors=scans,
@@ -139,17 +139,18 @@ def _no_pile_anywhere(ctx: Context, scans: list[ScanFactor]) -> None:
                      "the cohesion (e.g. pp.surface_energy) or widen the ranges")
 
 
-def _scan_message(target: float, seen: tuple[float, float], slopes: Mapping[str, float]) -> str:
+def _scan_message(ctx: Context, seen: tuple[float, float], slopes: Mapping[str, float]) -> str:
     """Whether the target lies in the response the scans saw, and if not, which way each
     factor must move to reach it (the steepest scan line first)."""
     lo, hi = seen
+    target, u = ctx.target, ctx.unit
     if lo <= target <= hi:
-        return f"target {target:g} deg lies in the response seen ({lo:.2f}..{hi:.2f} deg)"
+        return f"target {target:g}{u} lies in the response seen ({lo:.2f}..{hi:.2f}{u})"
     way = "raise" if target > hi else "lower"
     drivers = [f"{n} ({'up' if (s > 0) == (way == 'raise') else 'down'})"
                for n, s in sorted(slopes.items(), key=lambda kv: -abs(kv[1]))]
-    return (f"target {target:g} deg lies outside the response seen ({lo:.2f}.."
-            f"{hi:.2f} deg): ranges must move to {way} the AoR: "
+    return (f"target {target:g}{u} lies outside the response seen ({lo:.2f}.."
+            f"{hi:.2f}{u}): ranges must move to {way} {ctx.lead_words}: "
             + (", ".join(drivers) or "no factor with a measurable slope"))
 
 
@@ -217,9 +218,9 @@ def _refuse_out_of_reach(ctx: Context, found: RangeFind,
     margin = 0.1 * (high - low)
     if low - margin <= ctx.target <= high + margin:
         return
-    err = (f"rangefind: target {ctx.target:g} deg is out of reach: within the hard limits the "
-           f"scans reach {low:.2f}..{high:.2f} deg (each factor's scan line, added); widen "
-           "hard_limits, add a factor, or check the target")
+    err = (f"rangefind: target {ctx.target:g}{ctx.unit} is out of reach: within the hard "
+           f"limits the scans reach {low:.2f}..{high:.2f}{ctx.unit} (each factor's scan line, "
+           "added); widen hard_limits, add a factor, or check the target")
     ctx.store.set_stage("rangefind", "failed",
                         replace(found, reach=[low, high], error=err).to_summary())
     raise StudyError(err)

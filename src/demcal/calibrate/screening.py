@@ -46,7 +46,7 @@ def screening(ctx: Context) -> Screening:
         dummies=[f"dummy{j + 1}" for j in range(design.dummies.shape[1])],
         runs=run_rows(design, y, outcomes, per_point), excluded_points=excluded)
     try:
-        if (flat := no_variation(y)) is not None:  # no effect to screen: say it, now
+        if (flat := no_variation(y, ctx.unit.strip())) is not None:  # nothing to screen: say it
             raise InputError(flat)
         rs = doe.fit(design, y, model="linear")
         if rs.df_resid < 1:

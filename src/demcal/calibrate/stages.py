@@ -109,7 +109,8 @@ def rsm(ctx: Context) -> Surface:
                 "replicates": n_reps}
         rep_design, y_rows = replicated(design, runs, n_reps)
         try:
-            model, block_notes = fit_rows(rep_design, y_rows, n_reps, ctx.study.common_seeds)
+            model, block_notes = fit_rows(rep_design, y_rows, n_reps, ctx.study.common_seeds,
+                                          unit=ctx.unit.strip())
             if model.df_resid < 1:
                 raise InputError("no residual degrees of freedom")
         except InputError as exc:

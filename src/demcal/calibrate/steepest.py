@@ -215,16 +215,16 @@ def _anchor_step(ctx: Context, piles: Mapping[int, float], cross: float | None, 
     """The anchored step the surface is centred on, and why."""
     fid = ctx.study.test.fidelity
     if cross is not None:
-        return cross, (f"the study's test ({fid}) crosses the target {ctx.target:.2f} deg at "
-                       f"step {cross:.2f} of the path")
+        return cross, (f"the study's test ({fid}) crosses the target "
+                       f"{ctx.target:.2f}{ctx.unit} at step {cross:.2f} of the path")
     if not piles:
         return float(best), (f"no anchored point formed a pile at the study's test ({fid}): "
                              f"the path's best step {best} is the centre")
     near = min(piles, key=lambda s: abs(piles[s] - ctx.target))
-    return float(near), (f"the study's test ({fid}) did not reach the target {ctx.target:.2f} "
-                         f"deg at the anchored steps {sorted(piles)}: step {near} (closest, "
-                         f"{piles[near]:.2f} deg) is the centre; the target may lie beyond "
-                         "the path or the ranges")
+    return float(near), (f"the study's test ({fid}) did not reach the target "
+                         f"{ctx.target:.2f}{ctx.unit} at the anchored steps {sorted(piles)}: "
+                         f"step {near} (closest, {piles[near]:.2f}{ctx.unit}) is the centre; "
+                         "the target may lie beyond the path or the ranges")
 
 
 #: the stage name of the anchor's runs (the study's own test, in the steepest stage)

@@ -407,7 +407,8 @@ class Study(_M):
     backend: Literal["auto", "cpu", "cuda"] = "auto"
     material: Material = Material()
     target: Target | None = Field(None, description="the measured angle of repose (or a "
-                                  "[[responses]] table named aor_deg)")
+                                  "[[responses]] table named aor_deg); without it the first "
+                                  "[[responses]] table leads")
     responses: list[ResponseSpec] = Field(default_factory=list, max_length=20,
                                           description="more responses beside the angle")
     factors: list[FactorSpec] = Field(min_length=1)
@@ -441,11 +442,21 @@ class Study(_M):
         if len(set(names)) != len(names):
             raise ValueError("responses: a name is listed twice")
         aor = next((r for r in self.responses if r.name == AOR), None)
-        if self.target is None:
-            if aor is None or aor.target is None:
-                raise ValueError("target: give [target] (the measured angle of repose) or a "
-                                 f"[[responses]] table named {AOR!r} with its target")
+        if self.target is None and aor is not None:
+            if aor.target is None:
+                raise ValueError(f"responses: {AOR!r} needs its target (the measured angle of "
+                                 "repose)")
             self.target = Target(aor_deg=aor.target, std_deg=aor.std, n=aor.n)
+        elif self.target is None:
+            if not self.responses:
+                raise ValueError("target: give [target] (the measured angle of repose) or "
+                                 "[[responses]] tables with the lab's values")
+            lead = self.responses[0]
+            if lead.goal != "target":
+                raise ValueError(f"responses: {lead.name!r} leads the study (the first "
+                                 "[[responses]] table, without [target]): range finding, "
+                                 "screening and the path aim at its lab value, so it needs "
+                                 f"goal 'target'; got {lead.goal!r}")
         elif aor is not None:
             raise ValueError(f"responses: {AOR!r} and [target] both give the angle; keep one")
         known = self.reported_responses()
@@ -471,9 +482,16 @@ class Study(_M):
 
         return {*RESPONSES, *beside}
 
+    @property
+    def lead(self) -> str:
+        """The response the study leads with: the angle where it gives one (``[target]``, or
+        a ``[[responses]]`` table named ``aor_deg``), else its first ``[[responses]]``
+        table's."""
+        return AOR if self.target is not None else self.responses[0].name
+
     def other_responses(self) -> list[ResponseSpec]:
-        """The responses beside the angle, in the order given."""
-        return [r for r in self.responses if r.name != AOR]
+        """The responses beside the lead, in the order given."""
+        return [r for r in self.responses if r.name != self.lead]
 
     def engine_data(self, base: Path | None = None) -> dict[str, Any] | None:
         """The external engine with its template read (None: demcal's engine); relative
@@ -566,8 +584,9 @@ def parse_study(data: dict[str, Any], *, base: Path | None = None) -> Study:
             return None if p is None else str((base / p).resolve())
 
         study.material.measurements = rel(study.material.measurements)
-        study.target.measurements = rel(study.target.measurements)
-        if study.target.photos:
+        if study.target is not None:
+            study.target.measurements = rel(study.target.measurements)
+        if study.target is not None and study.target.photos:
             study.target.photos = [rel(p) for p in study.target.photos]  # type: ignore[misc]
             from demcal.safety import photo_too_large
 

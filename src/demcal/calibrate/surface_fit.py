@@ -48,18 +48,19 @@ def no_variation(y: np.ndarray, unit: str = "deg") -> str | None:
     if y.size < 2:
         return None  # too few responses: the fit says so
     lo, hi = float(np.min(y)), float(np.max(y))
+    u = f" {unit}" if unit else ""
     if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(hi - lo)):
         return (f"the responses are not finite numbers of a usable size (from {lo:.6g} to "
-                f"{hi:.6g} {unit}); check the test's results")
+                f"{hi:.6g}{u}); check the test's results")
     if hi - lo <= 1e-9 * max(1.0, abs(hi)):
-        return (f"the response does not vary: all {y.size} runs gave {hi:.6g} {unit}; the "
+        return (f"the response does not vary: all {y.size} runs gave {hi:.6g}{u}; the "
                 "factors' ranges move nothing the test measures (widen them) or the test "
                 "gives a constant (check its result)")
     return None
 
 
-def fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_seeds: bool
-              ) -> tuple[doe.ResponseSurface, list[str]]:
+def fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_seeds: bool,
+             *, unit: str = "deg") -> tuple[doe.ResponseSurface, list[str]]:
     """The quadratic fitted to every replicate row; with common seeds, in blocks.
 
     With ``common_seeds`` replicate k of every design point shares seed set k, so each
@@ -67,7 +68,7 @@ def fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_see
     pure error. A run without a pile unbalances the blocks; then the rows are fitted without
     blocks and a note (the list returned) says so.
     """
-    if (flat := no_variation(y_rows)) is not None:  # a clear statement, not a 0/0 in the ANOVA
+    if (flat := no_variation(y_rows, unit)) is not None:  # a clear statement, not a 0/0
         raise InputError(flat)
     if not common_seeds or n_reps < 2:
         return doe.fit(rep_design, y_rows, model="quadratic"), []

@@ -32,6 +32,15 @@ from demcal.display import readable
 from demcal.errors import InputError
 
 
+def _lead(result: dict) -> tuple[str, str]:
+    """How the console names the study's lead response and writes its unit after a number:
+    ``("AoR", " deg")`` for the angle."""
+    lead = result.get("lead")
+    if not lead:
+        return "AoR", " deg"
+    return str(lead["name"]), f" {lead['unit']}" if lead.get("unit") else ""
+
+
 def _print_result(result: dict) -> None:
     table = Table(title=f"calibrated parameters ({result['study']})")
     table.add_column("parameter")
@@ -44,9 +53,10 @@ def _print_result(result: dict) -> None:
     std = "n/a" if v["aor_std_deg"] is None else f"{v['aor_std_deg']:.2f}"
     rel = "n/a" if v["relative_error_percent"] is None else \
         f"{v['relative_error_percent']:.2f} %"
-    console.print(f"target AoR {result['target_aor_deg']:.2f} deg; predicted "
-                  f"{result['predicted_aor_deg']:.2f} deg; verification ({v['n']} runs): "
-                  f"{mean} +/- {std} deg, relative error {rel}; {_runs_stored(result)}")
+    name, u = _lead(result)
+    console.print(f"target {name} {result['target_aor_deg']:.2f}{u}; predicted "
+                  f"{result['predicted_aor_deg']:.2f}{u}; verification ({v['n']} runs): "
+                  f"{mean} +/- {std}{u}, relative error {rel}; {_runs_stored(result)}")
     _print_verification(result)
     _print_responses(result)
     _print_bayes(result)
@@ -142,18 +152,19 @@ def _print_verification(result: dict) -> None:
     """The verification against the measurement, the surface's promise and the target."""
     _print_rounds(result)
     v = result["verification"]
+    _, u = _lead(result)
     if v.get("p_value") is not None:
         verdict = ("consistent with", "") if v["consistent"] else ("differs from", "yellow")
         console.print(styled(f"verification: 95 % interval {v['ci_low_deg']:.2f}-"
-                             f"{v['ci_high_deg']:.2f} deg, ", verdict, " the measurement "
+                             f"{v['ci_high_deg']:.2f}{u}, ", verdict, " the measurement "
                              f"(p = {v['p_value']:.3g}, {v['test']})"))
     if v.get("confirmed") is not None:
         word = ("confirmed", "") if v["confirmed"] else ("not confirmed", "yellow")
         console.print(styled(
             f"confirmation: the response surface"
             f"{' (corrected by the last offset)' if len(result.get('rounds') or []) > 1 else ''}"
-            f" predicted {result['predicted_aor_deg']:.2f} "
-            f"deg, 95 % interval for the mean of {v['n']} runs "
+            f" predicted {result['predicted_aor_deg']:.2f}"
+            f"{u}, 95 % interval for the mean of {v['n']} runs "
             f"{v['confirm_pi_low_deg']:.2f}-{v['confirm_pi_high_deg']:.2f}: ", word))
     if v.get("within_tolerance") is False:
         console.print(styled(("note:", "yellow"), f" the verification misses the target by "
@@ -165,14 +176,15 @@ def _print_verification(result: dict) -> None:
     tol, hw = v.get("tolerance_percent"), v.get("half_width_deg")
     if tol is not None and hw is not None and tol * result["target_aor_deg"] / 100 < hw:
         console.print(styled(("note:", "yellow"), f" the tolerance ({tol:g} % = "
-                             f"{tol * result['target_aor_deg'] / 100:.2f} deg) is narrower "
-                             f"than the verification's 95 % interval (+/- {hw:.2f} deg): "
+                             f"{tol * result['target_aor_deg'] / 100:.2f}{u}) is narrower "
+                             f"than the verification's 95 % interval (+/- {hw:.2f}{u}): "
                              "whether a round meets it is partly chance"), highlight=False)
     if v.get("target_in_interval") is False:
         off = v["aor_mean_deg"] - result["target_aor_deg"]
-        console.print(styled(("note:", "yellow"), f" the target {result['target_aor_deg']:.2f} "
-                             f"deg lies outside the verification's 95 % interval: the "
-                             f"calibrated angle is {off:+.2f} deg from it"), highlight=False)
+        console.print(styled(("note:", "yellow"), f" the target {result['target_aor_deg']:.2f}"
+                             f"{u} lies outside the verification's 95 % interval: the "
+                             f"calibrated {'angle' if u == ' deg' else 'value'} is "
+                             f"{off:+.2f}{u} from it"), highlight=False)
 
 
 def _print_demonstration_worth(result: dict) -> None:

@@ -140,12 +140,16 @@ def _overview(b: _Builder) -> str:
     study = d.meta.get("study") or {}
     name = study.get("name") or d.study_dir.name
     opt, ver = d.optimum, d.verification
-    t = d.target or {}
-    cards = [("Measured AoR", _fmt(t.get("aor_deg"), ".2f", "°")
-              + (f" ± {_fmt(t.get('std_deg'), '.2f')}°" if t.get("std_deg") is not None else "")),
-             ("Predicted at optimum", _fmt(opt.predicted_aor_deg, ".2f", "°")),
-             ("Verified AoR", _fmt(ver.aor_mean_deg, ".2f", "°")
-              + (f" ± {_fmt(ver.aor_std_deg, '.2f')}°" if ver.aor_std_deg is not None else "")),
+    lead = d.lead
+    t = (d.target or {}) if lead.is_angle else {"aor_deg": lead.target, "std_deg": lead.std}
+    label, u = ("AoR", "°") if lead.is_angle else (lead.name, f" {lead.unit}".rstrip())
+    cards = [(f"Measured {label}", _fmt(t.get("aor_deg"), ".2f", u)
+              + (f" ± {_fmt(t.get('std_deg'), '.2f')}{u}" if t.get("std_deg") is not None
+                 else "")),
+             ("Predicted at optimum", _fmt(opt.predicted_aor_deg, ".2f", u)),
+             (f"Verified {label}", _fmt(ver.aor_mean_deg, ".2f", u)
+              + (f" ± {_fmt(ver.aor_std_deg, '.2f')}{u}" if ver.aor_std_deg is not None
+                 else "")),
              ("Relative error", _fmt(ver.relative_error_percent, ".2f", " %"))]
     cards += [(f"{d.symbol(k)} ({k})", _fmt(v, ".4g")) for k, v in opt.chosen.items()]
     grid = "".join(f'<div class="card"><div class="k">{escape(k)}</div>'
@@ -155,8 +159,13 @@ def _overview(b: _Builder) -> str:
             + (f" · study file <code>{escape(str(d.meta['study_file']))}</code>"
                if d.meta.get("study_file") else "")
             + f" · report built {when} from the run store alone.</p>")
+    led = ("" if lead.is_angle else
+           f'<p class="warn">This study leads with <b>{escape(lead.name)}</b>'
+           f"{escape(f' ({lead.unit})' if lead.unit else '')}, not the angle of repose: range "
+           "finding, screening, the path, the surface and the verification follow it, and "
+           "where a section below writes AoR or °, read this response and its unit.</p>")
     return (f"<header><h1>Calibration report: {escape(str(name))}</h1>{meta}"
-            f'<div class="summary">{grid}</div></header>')
+            f'<div class="summary">{grid}</div>{led}</header>')
 
 
 def _stages(b: _Builder) -> str:
@@ -282,7 +291,7 @@ def _rangefind(b: _Builder) -> str:
         parts.append(b.table(T.rangefind_table(s, d.symbols)))
         parts.append(b.figure("rangefind", "AoR against each factor's value; × = no pile; "
                               "shaded = range kept; dashed = target.",
-                              lambda: F.rangefind_figure(s, d.target_aor_deg, d.symbols)))
+                              lambda: F.rangefind_figure(s, d.lead_target, d.symbols)))
         parts.append("<details open><summary>Every point of the scan</summary>"
                      + b.table(T.rangefind_points_table(s, d.symbols)) + "</details>")
         return "".join(parts)
@@ -334,7 +343,7 @@ def _diagnostics(b: _Builder, stage: str, summary: dict[str, Any],
                       "moves from -1 to +1 (coded) through "
                       f"{'the optimum' if hold else 'the centre'}; dashed = target.",
                       lambda: MF.perturbation_figure(_fitted_summary(summary, rs), hold,
-                                                     d.target_aor_deg)),
+                                                     d.lead_target)),
              "</div>",
              f'<p class="verdict"><b>Diagnostics verdict:</b> '
              f"{'adequate' if ok else 'not adequate'}"
@@ -397,7 +406,7 @@ def _screening_model(b: _Builder, s: Screening, stored: dict[str, Any]) -> list[
     parts = [_diagnostics(b, "screening", stored, None)[0]]
     sel = [n for n in s.selected if n in s.names]
     if len(sel) >= 2:
-        goal = d.target_aor_deg
+        goal = d.lead_target
         parts.append(b.figure(
             "screening_contours", "Contours of the screening model (linear) over each "
             "pair of the selected factors, the others at their centres"
@@ -425,7 +434,7 @@ def _steepest(b: _Builder) -> str:
                  b.table(T.steepest_table(s, d.symbols)),
                  b.figure("steepest", "AoR (line) and relative error to the measurement (bars) "
                           "along the path.",
-                          lambda: F.steepest_figure(s, d.target_aor_deg, d.symbols))]
+                          lambda: F.steepest_figure(s, d.lead_target, d.symbols))]
         if s.anchor is not None:
             a = s.anchor
             parts += [f"<p>Anchor: {escape(a.message)}; the response surface "
@@ -506,7 +515,7 @@ def _rsm_pair_figures(b: _Builder, s: Surface, stored: dict[str, Any],
     p_of = {str(r.get("term")): r.get("p") for r in s.anova}
     sig = set(significant_pairs(stored))
     parts = ["<h3>Response surface and contour of each factor pair</h3>"]
-    goal = d.target_aor_deg
+    goal = d.lead_target
     for a, c in itertools.combinations(s.names, 2):
         key = f"surface_{d.symbol(a)}_{d.symbol(c)}".replace(".", "_")
         p = p_of.get(f"{a}*{c}", p_of.get(f"{d.symbol(a)}*{d.symbol(c)}"))
@@ -551,7 +560,7 @@ def _several_responses(b: _Builder) -> str:
         return ""
     goals, verified = RS.responses_tables(view)
     equations = "".join(f"<p><b>{escape(r.name)}</b> = {escape(r.equation)}</p>"
-                        for r in view.rows if r.equation and r.name != "aor_deg")
+                        for r in view.rows if r.equation and r.name != view.rows[0].name)
     rsm, opt = b.data.surface, b.data.optimum
     names = rsm.names
     figures = "".join(
@@ -590,7 +599,7 @@ def _verification(b: _Builder) -> str:
     def render() -> str:
         s = d.verification
         t = d.target or {}
-        parts = ['<div class="row">' + b.table(T.verification_summary_table(s, d.target_aor_deg))
+        parts = ['<div class="row">' + b.table(T.verification_summary_table(s, d.lead_target))
                  + b.table(T.verification_table(s)) + "</div>"]
         rounds = T.verification_rounds_table(d.optimum, s, d.symbols)
         if rounds is not None:
@@ -598,10 +607,12 @@ def _verification(b: _Builder) -> str:
         parts += [
                  b.figure("verification", "Verification replicates, their mean ± 1 std "
                           "(blue band) and the measurement (green).",
-                          lambda: F.verification_figure(s, d.target_aor_deg, t.get("std_deg")))]
+                          lambda: F.verification_figure(
+                              s, d.lead_target,
+                              t.get("std_deg") if d.lead.is_angle else d.lead.std))]
         photos = t.get("photos") or []
         with_fig = [p for p in photos if p.get("figure")]
-        goal = d.target_aor_deg
+        goal = d.lead_target
         if with_fig and goal is not None:  # the photo closest to the target mean
             with_fig.sort(key=lambda p: abs(T._num(p.get("mean_deg")) - goal)
                           if T._num(p.get("mean_deg")) is not None else math.inf)

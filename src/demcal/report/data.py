@@ -16,7 +16,7 @@ from demcal.errors import InputError, StoreError
 from demcal.store import STAGES, STORE_NAME, RunRecord, RunStore
 from demcal.summaries import Optimum, RangeFind, Screening, Steepest, Surface, Verification
 
-__all__ = ["META_KEYS", "STAGES", "ReportData", "StageView", "load_report_data"]
+__all__ = ["META_KEYS", "STAGES", "Lead", "ReportData", "StageView", "load_report_data"]
 
 #: runs stored under another name than the stage they belong to: the steepest stage's
 #: anchor runs (the study's own test at path points; demcal.calibrate.anchor)
@@ -26,13 +26,14 @@ RUNS_OF: dict[str, str] = {"steepest_anchor": "steepest"}
 
 #: The meta keys of the store contract that the report reads.
 META_KEYS = ("study", "study_file", "study_dir", "target", "physical", "fixed_params",
-             "factors", "versions", "engine", "result")
+             "factors", "versions", "engine", "result", "lead")
 
 
 #: the JSON type each meta key must have (a crafted one was an AttributeError in the report)
 META_TYPES: dict[str, type | tuple[type, ...]] = {
     "study": dict, "study_file": str, "study_dir": str, "target": dict, "physical": dict,
-    "fixed_params": dict, "factors": list, "versions": dict, "engine": dict, "result": dict}
+    "fixed_params": dict, "factors": list, "versions": dict, "engine": dict, "result": dict,
+    "lead": dict}
 
 
 def _check_meta_types(meta: dict[str, Any], store_path: Path) -> None:
@@ -43,6 +44,34 @@ def _check_meta_types(meta: dict[str, Any], store_path: Path) -> None:
             raise StoreError(f"{store_path}: meta {key!r} is a JSON {type(value).__name__}, "
                              "not what demcal writes there; the store is damaged (`demcal "
                              "calibrate` with its study file writes the meta rows anew)")
+
+
+@dataclass(frozen=True)
+class Lead:
+    """The response a study leads with, as the report names it.
+
+    Attributes
+    ----------
+    name : str
+        The response (``aor_deg``: the angle of repose).
+    unit : str
+        Its unit (``deg`` for the angle).
+    target, std : float or None
+        Its lab value and spread (for another response than the angle; the angle's are the
+        meta ``target``).
+    n : int or None
+    """
+
+    name: str = "aor_deg"
+    unit: str = "deg"
+    target: float | None = None
+    std: float | None = None
+    n: int | None = None
+
+    @property
+    def is_angle(self) -> bool:
+        """Whether the lead is the angle of repose."""
+        return self.name == "aor_deg"
 
 
 @dataclass(frozen=True)
@@ -141,6 +170,21 @@ class ReportData:
     def target(self) -> dict[str, Any] | None:
         """The measured target (``meta["target"]``) or None."""
         return self.meta.get("target")
+
+    @property
+    def lead(self) -> Lead:
+        """The response the study leads with (the angle unless the store names another)."""
+        own = self.meta.get("lead")
+        if not own:
+            return Lead()
+        return Lead(name=str(own.get("name")), unit=own.get("unit") or "",
+                    target=None if own.get("mean") is None else float(own["mean"]),
+                    std=own.get("std"), n=own.get("n"))
+
+    @property
+    def lead_target(self) -> float | None:
+        """The lead's lab value (the target lines of the stages' figures)."""
+        return self.target_aor_deg if self.lead.is_angle else self.lead.target
 
     @property
     def target_aor_deg(self) -> float | None:

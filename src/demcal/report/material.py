@@ -20,7 +20,7 @@ from typing import Any
 
 from demcal.display import readable
 from demcal.report import responses as RS
-from demcal.report.data import ReportData
+from demcal.report.data import Lead, ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
 from demcal.summaries import Optimum, Verification
 from demcal.virtual.material_card import MaterialCard, parameter_law
@@ -30,20 +30,25 @@ __all__ = ["card_table", "material_card", "measurement_label", "measurements_tab
            "parameter_table", "verification_line", "write_material_card"]
 
 
-def verification_line(ver: Verification, target: Mapping[str, Any] | None) -> str:
-    """One sentence: verified AoR mean ± std (n) against the measurement, error, p, verdict."""
+def verification_line(ver: Verification, target: Mapping[str, Any] | None,
+                      lead: Lead | None = None) -> str:
+    """One sentence: the verified lead (the AoR) mean ± std (n) against the measurement,
+    error, p, verdict. ``lead``: the study's lead where it is not the angle (``target`` then
+    holds its lab value under the angle's keys)."""
     mean, std = _num(ver.aor_mean_deg), _num(ver.aor_std_deg)
     if mean is None:
         return ("not verified" if not ver.done else
                 f"verification formed no pile ({ver.n_piles} of {ver.n} runs)")
     t = target or {}
-    out = f"verified AoR {mean:.2f}"
-    out += f" ± {std:.2f}°" if std is not None else "°"
+    label, u = ("AoR", "°") if lead is None or lead.is_angle else (
+        lead.name, f" {lead.unit}" if lead.unit else "")
+    out = f"verified {label} {mean:.2f}"
+    out += f" ± {std:.2f}{u}" if std is not None else u
     out += f" (n = {ver.n})"
     goal = _num(t.get("aor_deg"))
     if goal is not None:
         tstd = _num(t.get("std_deg"))
-        out += f" vs measured {goal:.2f}" + (f" ± {tstd:.2f}°" if tstd is not None else "°")
+        out += f" vs measured {goal:.2f}" + (f" ± {tstd:.2f}{u}" if tstd is not None else u)
         if t.get("n"):
             out += f" (n = {t.get('n')})"
     rel = _num(ver.relative_error_percent)
@@ -111,14 +116,18 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
 def _verification_block(ver: Verification, opt: Optimum,
                         data: ReportData) -> dict[str, Any]:
     """The card's [verification]: its line, the numbers behind it, the round it is from."""
-    verification = {"line": verification_line(ver, data.target)}
+    lead = data.lead
+    target = data.target if lead.is_angle else {"aor_deg": lead.target, "std_deg": lead.std,
+                                                 "n": lead.n}
+    verification = {"line": verification_line(ver, target, lead),
+                    **({} if lead.is_angle else {"lead": lead.name})}
     for key in ("aor_mean_deg", "aor_std_deg", "n", "relative_error_percent", "p_value",
                 "consistent", "ci_low_deg", "ci_high_deg", "confirm_pi_low_deg",
                 "confirm_pi_high_deg", "confirmed", "target_in_interval"):
         if getattr(ver, key) is not None:
             verification[key] = getattr(ver, key)
-    if data.target_aor_deg is not None:
-        verification["target_aor_deg"] = data.target_aor_deg
+    if data.lead_target is not None:
+        verification["target_aor_deg"] = data.lead_target
     if opt.predicted_aor_deg is not None:
         verification["predicted_aor_deg"] = opt.predicted_aor_deg
     several = RS.responses_view(data.surface, opt, ver)

@@ -64,12 +64,13 @@ def responses_view(rsm: Surface, optimum: Optimum,
     best = optimum.best
     checks = verification.responses or {}
     rows = []
+    lead = _lead(optimum)
     for g in own.goals:
         name = g.name
         fit = fits.get(name) or ResponseModel()
         check = checks.get(name) or ResponseVerification()
         lab = check.lab or {}
-        if name == "aor_deg":  # the angle: its own model and verification
+        if name == lead:  # the lead (the angle): the surface's own model and verification
             fit = ResponseModel(model=rsm.model, adequate=rsm.adequate,
                                 adequacy=rsm.adequacy or {},
                                 equation_actual=rsm.equation_actual)
@@ -114,11 +115,18 @@ def responses_tables(view: ResponsesView) -> tuple[Table, Table]:
                   note=note))
 
 
-def _surfaces(rsm: Surface) -> dict[str, Any]:
-    """Every response's stored surface (the angle's and the others'), by name."""
+def _lead(optimum: Optimum) -> str:
+    """The study's lead response: the first goal of its optimum (the angle in a study that
+    gives one)."""
+    own = optimum.responses
+    return own.goals[0].name if own is not None and own.goals else "aor_deg"
+
+
+def _surfaces(rsm: Surface, lead: str) -> dict[str, Any]:
+    """Every response's stored surface (the lead's and the others'), by name."""
     from demcal.report.surface import StoredSurface
 
-    out = {"aor_deg": StoredSurface.from_model(rsm.factors, rsm.coefficients_coded)}
+    out = {lead: StoredSurface.from_model(rsm.factors, rsm.coefficients_coded)}
     for name, fit in (rsm.responses or {}).items():
         out[name] = StoredSurface.from_model(rsm.factors, fit.coefficients_coded)
     return out
@@ -138,20 +146,20 @@ def overlay_figure(rsm: Surface, optimum: Optimum,
 
     from demcal.doe.desirability import ResponseGoal, overall_desirability
 
-    surfaces = _surfaces(rsm)
-    aor = surfaces["aor_deg"]
+    surfaces = _surfaces(rsm, _lead(optimum))
+    lead = surfaces[_lead(optimum)]
     own = optimum.responses
     goals = [ResponseGoal(g.name, g.goal, g.low, g.high, target=g.target, weight=g.weight,
                           importance=g.importance) for g in (own.goals if own else [])]
     chosen = optimum.chosen
-    i, j = aor.index(pair[0]), aor.index(pair[1])
-    base = np.array([float(chosen[n]) for n in aor.names])
-    gi = np.linspace(aor.low[i], aor.high[i], n_grid)
-    gj = np.linspace(aor.low[j], aor.high[j], n_grid)
+    i, j = lead.index(pair[0]), lead.index(pair[1])
+    base = np.array([float(chosen[n]) for n in lead.names])
+    gi = np.linspace(lead.low[i], lead.high[i], n_grid)
+    gj = np.linspace(lead.low[j], lead.high[j], n_grid)
     xx, yy = np.meshgrid(gi, gj)
     pts = np.tile(base, (xx.size, 1))
     pts[:, i], pts[:, j] = xx.ravel(), yy.ravel()
-    coded = aor.to_coded(pts)
+    coded = lead.to_coded(pts)
     ys = {g.name: surfaces[g.name].predict_coded(coded) for g in goals}
     d = np.column_stack([g.desirability(ys[g.name]) for g in goals])
     big_d = overall_desirability(d, [g.importance for g in goals]).reshape(xx.shape)
@@ -172,9 +180,9 @@ def overlay_figure(rsm: Surface, optimum: Optimum,
         cd = ax.contour(xx, yy, big_d, levels=[0.2, 0.4, 0.6, 0.8], colors="k",
                         linewidths=0.5, linestyles="dotted")
         ax.clabel(cd, fontsize=6, fmt="D %.1f")
-    ax.plot([chosen[aor.names[i]]], [chosen[aor.names[j]]], "r*", ms=10)
-    ax.set_xlabel(aor.symbols[i] if aor.symbols[i] != aor.names[i] else aor.names[i])
-    ax.set_ylabel(aor.symbols[j] if aor.symbols[j] != aor.names[j] else aor.names[j])
+    ax.plot([chosen[lead.names[i]]], [chosen[lead.names[j]]], "r*", ms=10)
+    ax.set_xlabel(lead.symbols[i] if lead.symbols[i] != lead.names[i] else lead.names[i])
+    ax.set_ylabel(lead.symbols[j] if lead.symbols[j] != lead.names[j] else lead.names[j])
     ax.set_title("Overlay: lab values solid, limits dashed (outside them shaded), D dotted",
                  fontsize=8)
     return fig

@@ -1,0 +1,124 @@
+"""A study that leads with another response than the angle (issue 37: nothing in the stages
+names one response). Without ``[target]`` the first ``[[responses]]`` table leads: range
+finding, screening, the path, the surface and the verification follow it, the result names it
+(``lead``), and the report and the material card say it."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from demcal.calibrate import calibrate
+from demcal.cli import app
+from demcal.execute.analytic import AnalyticOptions, true_responses
+
+FACTORS = {"pp.static_friction": ("x3", 0.2, 1.0), "pp.rolling_friction": ("x4", 0.0, 0.4),
+           "pw.static_friction": ("x6", 0.3, 0.8)}
+PLANTED = {"pp.static_friction": 0.7, "pp.rolling_friction": 0.15, "pw.static_friction": 0.65}
+CENTRE = {"pp.static_friction": 0.6, "pp.rolling_friction": 0.2, "pw.static_friction": 0.55}
+#: three responses with independent gradients (the angle is reported, but not aimed at)
+RESPONSES = {
+    "drum_deg": {"base": 35.0, "noise": 0.2, "linear": {
+        "pp.static_friction": 5.0, "pp.rolling_friction": 60.0, "pw.static_friction": 1.0}},
+    "bulk_density_kg_m3": {"base": 200.0, "noise": 0.5, "linear": {
+        "pp.static_friction": -10.0, "pp.rolling_friction": 20.0, "pw.static_friction": 80.0}},
+    "shear_kpa": {"base": 4.0, "noise": 0.02, "linear": {
+        "pp.static_friction": 6.0, "pp.rolling_friction": -2.0, "pw.static_friction": 0.5}},
+}
+ANALYTIC = {"base_deg": 30.0, "centre": CENTRE, "noise_deg": 0.2,
+            "linear": {"pp.static_friction": 15.0, "pp.rolling_friction": 25.0},
+            "responses": RESPONSES}
+UNITS = {"drum_deg": "deg", "bulk_density_kg_m3": "kg/m^3", "shear_kpa": "kPa"}
+
+
+def _value(v) -> str:
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f'"{k}" = {_value(x)}' for k, x in v.items()) + " }"
+    return repr(v)
+
+
+def _study(folder: Path, *, path: bool = False, lead_goal: str = "target") -> Path:
+    truth = true_responses(PLANTED, AnalyticOptions(**ANALYTIC))
+    lines = ['name = "the drum leads"', "seed = 4", "replicates = 1", "",
+             "[material]", 'preset = "corn_stalk"', ""]
+    for name, (sym, lo, hi) in FACTORS.items():
+        lines += ["[[factors]]", f'name = "{name}"', f'symbol = "{sym}"', f"low = {lo}",
+                  f"high = {hi}", ""]
+    for i, (name, value) in enumerate(truth.items()):
+        goal = lead_goal if i == 0 else "target"
+        lines += ["[[responses]]", f'name = "{name}"', f'unit = "{UNITS[name]}"',
+                  f'goal = "{goal}"', *([f"target = {value!r}", "std = 0.5", "n = 5"]
+                                        if goal == "target" else []), ""]
+    lines += ["[test]", 'kind = "analytic"', "", "[test.analytic]"]
+    lines += [f"{k} = {_value(v)}" for k, v in ANALYTIC.items()]
+    if path:  # the paper's path: a scan, screening and the steepest path before the surface
+        lines += ["", "[stages.rangefind]", 'factors = ["x4"]', "points = 5", "",
+                  "[stages.screening]", "runs = 8", "min_factors = 3", "",
+                  "[stages.steepest]", "steps = 5"]
+    else:
+        lines += ["", "[stages.rangefind]", "enabled = false", "",
+                  "[stages.screening]", "enabled = false", "",
+                  "[stages.steepest]", "enabled = false"]
+    lines += ["", "[stages.rsm]", 'design = "bbd"', "center_points = 3", "",
+              "[stages.optimize]", "n_starts = 12", "", "[stages.verification]", "n = 4", "",
+              "[executor]", "workers = 1", ""]
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "study.toml").write_text("\n".join(lines))
+    return folder / "study.toml"
+
+
+def test_the_drum_leads_and_three_responses_land_on_the_planted_point(tmp_path: Path) -> None:
+    res = calibrate(_study(tmp_path), workers=1)
+    err = {n: abs(res["optimum"][n] - PLANTED[n]) / (hi - lo)
+           for n, (_s, lo, hi) in FACTORS.items()}
+    assert max(err.values()) < 0.03, (res["optimum"], err)
+    truth = true_responses(PLANTED, AnalyticOptions(**ANALYTIC))
+    # the keys named for the angle hold the lead's values, and the result says which
+    assert res["lead"] == {"name": "drum_deg", "unit": "deg"}
+    assert res["target_aor_deg"] == pytest.approx(truth["drum_deg"])
+    assert abs(res["verification"]["aor_mean_deg"] - truth["drum_deg"]) < 1.0
+    assert [g["name"] for g in res["responses"]["goals"]] == list(RESPONSES)
+    assert set(res["responses"]["verification"]) == {"bulk_density_kg_m3", "shear_kpa"}
+    # the report and the material card name the lead, with no figure lost
+    out = CliRunner().invoke(app, ["report", str(tmp_path)])
+    assert out.exit_code == 0, out.output
+    doc = json.loads((tmp_path / "report" / "report.json").read_text())
+    assert doc["problems"] == []
+    html = (tmp_path / "report" / "report.html").read_text()
+    assert "This study leads with <b>drum_deg</b>" in html and "Measured drum_deg" in html
+    card = (tmp_path / "report" / "material.toml").read_text()
+    assert 'line = "verified drum_deg ' in card and 'lead = "drum_deg"' in card
+
+
+def test_the_paper_s_path_follows_the_lead(tmp_path: Path) -> None:
+    res = calibrate(_study(tmp_path, path=True), workers=1)
+    scan = res["stages"]["rangefind"]["message"]
+    assert " deg lies " in scan and "the AoR" not in scan, scan
+    assert res["stages"]["steepest"]["followed"][0] == "drum_deg"
+    assert res["verification"]["consistent"] is True, res["verification"]
+
+
+def test_a_study_the_angle_leads_names_no_lead(tmp_path: Path) -> None:
+    path = _study(tmp_path)
+    path.write_text(path.read_text().replace(
+        "[[factors]]", "[target]\naor_deg = 31.0\nstd_deg = 0.5\nn = 5\n\n[[factors]]", 1))
+    res = calibrate(path, workers=1)
+    assert "lead" not in res and res["target_aor_deg"] == 31.0
+
+
+@pytest.mark.parametrize(("edit", "words"), [
+    ({"lead_goal": "maximize"}, "'drum_deg' leads the study"),
+    (None, "give [target]"),
+])
+def test_a_lead_without_a_target_is_one_line_and_exit_2(tmp_path: Path, edit, words) -> None:
+    path = _study(tmp_path, **(edit or {}))
+    if edit is None:  # no [target] and no [[responses]]
+        path.write_text(re.sub(r"\[\[responses\]\]\n(?:[^\n]+\n)*\n", "", path.read_text()))
+    out = CliRunner().invoke(app, ["calibrate", str(path), "--no-report"])
+    assert out.exit_code == 2, out.output
+    text = " ".join(out.output.split())
+    assert words in text and "Traceback" not in text, text
