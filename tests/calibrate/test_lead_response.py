@@ -90,6 +90,14 @@ def test_the_drum_leads_and_three_responses_land_on_the_planted_point(tmp_path: 
     assert doc["problems"] == []
     html = (tmp_path / "report" / "report.html").read_text()
     assert "This study leads with <b>drum_deg</b>" in html and "Measured drum_deg" in html
+    # every stage table, figure and section names the drum where a study of the angle says AoR
+    for key, table in doc["tables"].items():
+        words = json.dumps([table["title"], table["columns"], table["note"]])
+        assert "AoR" not in words and "°" not in words, (key, words)
+    page = re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "", html)
+    rsm = page[page.index('<section id="rsm">'):page.index("</section>",
+                                                           page.index('<section id="rsm">'))]
+    assert "AoR" not in rsm and "drum_deg over x3 and x4" in rsm, rsm[:500]
     card = (tmp_path / "report" / "material.toml").read_text()
     assert 'line = "verified drum_deg ' in card and 'lead = "drum_deg"' in card
 

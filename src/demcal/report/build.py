@@ -30,6 +30,7 @@ from demcal.report import responses as RS
 from demcal.report import tables as T
 from demcal.report.data import ReportData, StageView, load_report_data
 from demcal.report.html import badge, banner, figure_html, page, table_html
+from demcal.report.lead_labels import relabel_figure, relabel_html, relabel_table
 from demcal.report.surface import significant_pairs
 from demcal.safety import csv_safe, safe_filename, study_image
 from demcal.summaries import Screening, Surface
@@ -56,6 +57,7 @@ class _Builder:
         (out_dir / "figures").mkdir(parents=True, exist_ok=True)
 
     def table(self, table: T.Table) -> str:
+        table = relabel_table(table, self.data.lead)
         csv_safe(table.frame).to_csv(self.out_dir / "tables" / f"{safe_filename(table.key)}.csv",
                                      index=False)
         self.tables[table.key] = table.records()
@@ -63,7 +65,7 @@ class _Builder:
 
     def figure(self, key: str, caption: str, make: Callable[[], Figure]) -> str:
         try:
-            fig = make()
+            fig = relabel_figure(make(), self.data.lead)
             buf = io.BytesIO()
             fig.savefig(buf, format="png", dpi=DPI)
         except Exception as exc:  # a bad figure must not stop the report
@@ -162,8 +164,8 @@ def _overview(b: _Builder) -> str:
     led = ("" if lead.is_angle else
            f'<p class="warn">This study leads with <b>{escape(lead.name)}</b>'
            f"{escape(f' ({lead.unit})' if lead.unit else '')}, not the angle of repose: range "
-           "finding, screening, the path, the surface and the verification follow it, and "
-           "where a section below writes AoR or °, read this response and its unit.</p>")
+           "finding, screening, the path, the surface and the verification follow it, and the "
+           "sections below name it where a study of the angle says AoR.</p>")
     return (f"<header><h1>Calibration report: {escape(str(name))}</h1>{meta}"
             f'<div class="summary">{grid}</div>{led}</header>')
 
@@ -728,9 +730,11 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
     if b.card is None:  # no stale card from an earlier build
         for name in ("material.toml", "material.json"):
             (out / name).unlink(missing_ok=True)
-    body = "".join([_overview(b), _material(b), _stages(b), _measurement(b), _rangefind(b),
-                    _screening(b), _steepest(b), _rsm(b), _optimize(b), _verification(b),
-                    _several_responses(b), _excluded(b)])
+    lead = data.lead  # the stage sections are written for the angle: another lead's words
+    body = "".join([_overview(b), _material(b), _stages(b), _measurement(b),
+                    *(relabel_html(section(b), lead) for section in (
+                        _rangefind, _screening, _steepest, _rsm, _optimize, _verification)),
+                    _several_responses(b), relabel_html(_excluded(b), lead)])
     body += _footer(b)
     study = data.meta.get("study") or {}
     title = f"demcal calibration report: {study.get('name') or data.study_dir.name}"
