@@ -130,3 +130,57 @@ def test_a_lead_without_a_target_is_one_line_and_exit_2(tmp_path: Path, edit, wo
     assert out.exit_code == 2, out.output
     text = " ".join(out.output.split())
     assert words in text and "Traceback" not in text, text
+
+
+ENGINE = '''"""A stand-in engine of another test: reads key = value lines, writes three
+responses (no angle) to result.json."""
+import json, random, sys
+p = {}
+for line in open(sys.argv[1]):
+    k, _, v = line.partition("=")
+    if v.strip():
+        p[k.strip()] = float(v)
+rng = random.Random(int(p["seed"]))
+d3, d4, d6 = p["mu"] - 0.6, p["mur"] - 0.2, p["muw"] - 0.55
+json.dump({"shear_kpa": 4 + 6 * d3 - 2 * d4 + 0.5 * d6 + 0.02 * rng.gauss(0, 1),
+           "drum_deg": 35 + 5 * d3 + 60 * d4 + d6 + 0.2 * rng.gauss(0, 1),
+           "bulk_density_kg_m3": 200 - 10 * d3 + 20 * d4 + 80 * d6 + 0.5 * rng.gauss(0, 1)},
+          open("result.json", "w"))
+'''
+
+
+def test_the_user_s_own_engine_leads_with_its_own_response(tmp_path: Path) -> None:
+    """An external engine that measures no angle at all: its JSON's lead (shear_kpa, the
+    result's key by default) and two more responses pin the planted point."""
+    (tmp_path / "engine.py").write_text(ENGINE)
+    (tmp_path / "input.txt.template").write_text(
+        "seed = {seed}\nmu = {pp.static_friction}\nmur = {pp.rolling_friction}\n"
+        "muw = {pw.static_friction}\n")
+    d3, d4, d6 = (PLANTED[n] - CENTRE[n] for n in FACTORS)
+    truth = {"shear_kpa": 4 + 6 * d3 - 2 * d4 + 0.5 * d6,
+             "drum_deg": 35 + 5 * d3 + 60 * d4 + d6,
+             "bulk_density_kg_m3": 200 - 10 * d3 + 20 * d4 + 80 * d6}
+    text = _study(tmp_path).read_text()
+    text = text[:text.index("[[responses]]")]
+    for name, value in truth.items():
+        text += (f'[[responses]]\nname = "{name}"\nunit = "{UNITS[name]}"\n'
+                 f"target = {value!r}\nstd = 0.05\nn = 5\n\n")
+    text += ('[engine]\nkind = "template"\ntemplate = "input.txt.template"\n'
+             'command = ["{python}", "{template_dir}/engine.py", "{input}"]\ntimeout_s = 60\n'
+             '\n[engine.result]\nkind = "value"\nfile = "result.json"\n\n'
+             "[stages.rangefind]\nenabled = false\n\n[stages.screening]\nenabled = false\n\n"
+             '[stages.steepest]\nenabled = false\n\n[stages.rsm]\ndesign = "bbd"\n'
+             "center_points = 3\n\n[stages.verification]\nn = 4\n\n[executor]\nworkers = 1\n")
+    (tmp_path / "study.toml").write_text(text)
+    res = calibrate(tmp_path / "study.toml", workers=1)
+    assert res["lead"] == {"name": "shear_kpa", "unit": "kPa"}
+    err = {n: abs(res["optimum"][n] - PLANTED[n]) / (hi - lo)
+           for n, (_s, lo, hi) in FACTORS.items()}
+    assert max(err.values()) < 0.03, (res["optimum"], err)
+    assert abs(res["verification"]["aor_mean_deg"] - truth["shear_kpa"]) < 0.05
+    # a pile demcal measures gives the angle only: refused for this lead, in one line
+    (tmp_path / "study.toml").write_text(text.replace(
+        'kind = "value"\nfile = "result.json"', 'kind = "positions"\nfile = "pile.csv"'))
+    out = CliRunner().invoke(app, ["calibrate", str(tmp_path / "study.toml"), "--no-report"])
+    assert out.exit_code == 2 and "needs kind 'value'" in " ".join(out.output.split()), \
+        out.output

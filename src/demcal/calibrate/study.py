@@ -457,6 +457,7 @@ class Study(_M):
                                  "[[responses]] table, without [target]): range finding, "
                                  "screening and the path aim at its lab value, so it needs "
                                  f"goal 'target'; got {lead.goal!r}")
+            self._engine_reads(lead.name)
         elif aor is not None:
             raise ValueError(f"responses: {AOR!r} and [target] both give the angle; keep one")
         known = self.reported_responses()
@@ -481,6 +482,19 @@ class Study(_M):
         from demcal.virtual.aor import RESPONSES
 
         return {*RESPONSES, *beside}
+
+    def _engine_reads(self, lead: str) -> None:
+        """An external engine's result gives the lead: its JSON's ``key`` defaults to the
+        lead's name; demcal's measurement of the engine's spheres gives only the angle."""
+        if self.engine is None:
+            return
+        result = self.engine.result
+        if result.kind != "value":
+            raise ValueError(f"engine.result: kind {result.kind!r} is a pile demcal measures "
+                             f"(its angle); a study that leads with {lead!r} needs kind "
+                             f"'value' (the engine writes {lead} itself)")
+        if "key" not in result.model_fields_set:
+            result.key = lead
 
     @property
     def lead(self) -> str:

@@ -239,7 +239,10 @@ def read_value(run_dir: str | Path, spec: dict[str, Any]) -> dict[str, Any]:
 
     A file holding one number is a pile at that angle (deg); a JSON object gives the angle
     under ``spec["key"]``, or ``outcome`` (one of :data:`NO_PILE_OUTCOMES`, or ``pile``) and
-    an optional ``reason``; its other keys are kept under ``"engine_values"``.
+    an optional ``reason``; its other keys are kept under ``"engine_values"``. With a key
+    other than ``aor_deg`` (a study that leads with another response) the value is that
+    response's, any finite number, and joins ``engine_values`` under its key (``aor_deg``
+    None).
 
     Raises
     ------
@@ -267,8 +270,16 @@ def read_value(run_dir: str | Path, spec: dict[str, Any]) -> dict[str, Any]:
             raise ResultUnreadable(f"result file {path.name}: no {key!r} in its JSON object")
         doc = doc[key]
     if isinstance(doc, bool) or not isinstance(doc, int | float):
-        raise ResultUnreadable(f"result file {path.name}: the angle must be a number; "
+        what = "the angle" if key == "aor_deg" else repr(key)
+        raise ResultUnreadable(f"result file {path.name}: {what} must be a number; "
                                f"got {_quote(doc)}")
+    if key != "aor_deg":  # another response the study leads with: any finite number
+        value = float(doc)
+        if not math.isfinite(value):
+            raise ResultUnreadable(f"result file {path.name}: {key!r} must be a finite "
+                                   f"number; got {value!r}")
+        return {"outcome": "pile", "aor_deg": None, "reason": None,
+                "engine_values": {**extra, key: value}}
     aor = float(doc)
     if not (math.isfinite(aor) and 0 < aor < 90):
         raise ResultUnreadable(f"result file {path.name}: the angle must be in (0, 90) deg; "

@@ -118,15 +118,19 @@ class PositionsResult(_M):
 
 
 class ValueResult(_M):
-    """An angle the engine measured itself: a number, or JSON with ``key`` (deg).
+    """A value the engine measured itself: a number, or JSON with ``key``: the angle (deg,
+    ``aor_deg``, the default), or any response a study leads with (its first
+    ``[[responses]]`` table's name, in its unit).
 
     The JSON object may instead give ``outcome`` (``column``, ``plug``, ``scattered``,
-    ``unsettled``, ``unstable``) and ``reason`` for a run that formed no pile.
+    ``unsettled``, ``unstable``) and ``reason`` for a run that measured nothing; its other
+    finite numbers are responses by their keys.
     """
 
     kind: Literal["value"] = "value"
     file: Annotated[str, AfterValidator(_in_run_folder)] = Field(min_length=1)
-    key: str = Field("aor_deg", min_length=1, description="the angle's key in a JSON file")
+    key: str = Field("aor_deg", min_length=1, description="the measured value's key in a "
+                     "JSON file (default the angle's)")
 
 
 class TemplateEngine(_M):
