@@ -5,7 +5,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 from collections.abc import Mapping
-from typing import Any, Self, TypeVar
+from typing import Any, ClassVar, Self, TypeVar
 
 __all__: list[str] = []
 
@@ -82,3 +82,21 @@ def _stored(obj: Any, always: tuple[str, ...] = ()) -> dict[str, Any]:
     the same keys)."""
     return {_key(f): _plain(v) for f in dataclasses.fields(obj)
             if (v := getattr(obj, f.name)) is not None or f.name in always}
+
+
+class _Keyed:
+    """A summary stored under its fields' stored keys (:func:`stored_as`): read from any
+    release's, written with the fields named in ``ALWAYS`` even when None and the others
+    where set."""
+
+    #: the fields written even when None
+    ALWAYS: ClassVar[tuple[str, ...]] = ()
+
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any] | None) -> Self:
+        """Read the stored form."""
+        return cls(**_read(cls, summary or {}))
+
+    def to_summary(self) -> dict[str, Any]:
+        """The stored form."""
+        return _stored(self, self.ALWAYS)

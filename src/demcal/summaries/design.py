@@ -3,17 +3,16 @@ settings and its lead response over the replicates."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from demcal.summaries._stored import _read, _stored, stored_as
+from demcal.summaries._stored import _Keyed, _stored, stored_as
 
 __all__ = ["DesignRun", "design_runs"]
 
 
 @dataclass(frozen=True)
-class DesignRun:
+class DesignRun(_Keyed):
     """One design point and the lead response measured there.
 
     Attributes
@@ -43,11 +42,6 @@ class DesignRun:
     outcome: str = ""
     replicates: list[float] | None = stored_as("aor_runs_deg")
     replicate_std: float | None = stored_as("aor_std_deg")
-
-    @classmethod
-    def from_summary(cls, row: Mapping[str, Any]) -> DesignRun:
-        """Read a stored row (any release's)."""
-        return cls(**_read(cls, row))
 
     def to_summary(self) -> dict[str, Any]:
         """The stored form: ``replicates`` and ``replicate_std`` together, where the

@@ -7,13 +7,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from demcal.summaries._stored import _read, _stored, stored_as
+from demcal.summaries._stored import _Keyed, _read, _stored, stored_as
 
 __all__ = ["RangeFind", "ScanFactor", "ScanPoint"]
 
 
 @dataclass(frozen=True)
-class ScanPoint:
+class ScanPoint(_Keyed):
     """One point of a factor's scan.
 
     Attributes
@@ -30,14 +30,8 @@ class ScanPoint:
     outcome: str = ""
     response: float | None = stored_as("aor_deg")
 
-    @classmethod
-    def from_summary(cls, row: Mapping[str, Any]) -> ScanPoint:
-        """Read a stored point."""
-        return cls(**_read(cls, row))
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form: every field."""
-        return _stored(self, ("value", "outcome", "response"))
+    #: written even when None
+    ALWAYS = ("value", "outcome", "response")
 
     @property
     def measured(self) -> bool:
@@ -46,7 +40,7 @@ class ScanPoint:
 
 
 @dataclass(frozen=True)
-class ScanFactor:
+class ScanFactor(_Keyed):
     """One factor's scan and the range kept.
 
     Attributes
@@ -72,16 +66,15 @@ class ScanFactor:
     points: list[ScanPoint] = field(default_factory=list)
     reason: str | None = None
 
+    #: written even when None
+    ALWAYS = ("symbol", "reason")
+
     @classmethod
     def from_summary(cls, row: Mapping[str, Any]) -> ScanFactor:
         """Read a stored factor row."""
         items = _read(cls, row)
         items["points"] = [ScanPoint.from_summary(p) for p in items.get("points") or []]
         return cls(**items)
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form: every field."""
-        return _stored(self, ("symbol", "reason"))
 
 
 @dataclass(frozen=True)

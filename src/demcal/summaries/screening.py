@@ -7,14 +7,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from demcal.summaries._stored import _read, _stored
+from demcal.summaries._stored import _Keyed, _read, _stored
 from demcal.summaries.design import DesignRun, design_runs
 
 __all__ = ["Effect", "Screening", "ScreeningModel"]
 
 
 @dataclass(frozen=True)
-class Effect:
+class Effect(_Keyed):
     """One term's effect in the screening model, ranked.
 
     Attributes
@@ -38,18 +38,12 @@ class Effect:
     p: float | None = None
     rank: int = 0
 
-    @classmethod
-    def from_summary(cls, row: Mapping[str, Any]) -> Effect:
-        """Read a stored effect."""
-        return cls(**_read(cls, row))
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form: every field."""
-        return _stored(self, ("f", "p"))
+    #: written even when None
+    ALWAYS = ("f", "p")
 
 
 @dataclass(frozen=True)
-class ScreeningModel:
+class ScreeningModel(_Keyed):
     """Another response's main-effects model over the screening runs (a several-response
     study): which factors move it.
 
@@ -73,16 +67,15 @@ class ScreeningModel:
     excluded_points: list[int] = field(default_factory=list)
     note: str | None = None
 
+    #: written even when None
+    ALWAYS = ("note",)
+
     @classmethod
     def from_summary(cls, summary: Mapping[str, Any]) -> ScreeningModel:
         """Read a stored model."""
         items = _read(cls, summary)
         items["effects"] = [Effect.from_summary(e) for e in items.get("effects") or []]
         return cls(**items)
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form: every field."""
-        return _stored(self, ("note",))
 
 
 @dataclass(frozen=True)

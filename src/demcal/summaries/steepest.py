@@ -8,13 +8,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from demcal.summaries._stored import _read, _stored, stored_as
+from demcal.summaries._stored import _Keyed, _read, _stored, stored_as
 
 __all__ = ["Anchor", "AnchorRun", "PathStep", "Steepest"]
 
 
 @dataclass(frozen=True)
-class PathStep:
+class PathStep(_Keyed):
     """One step of the path and its (mean) lead response.
 
     Attributes
@@ -43,11 +43,6 @@ class PathStep:
     responses: dict[str, float | None] | None = None
     desirability: float | None = None
 
-    @classmethod
-    def from_summary(cls, row: Mapping[str, Any]) -> PathStep:
-        """Read a stored step."""
-        return cls(**_read(cls, row))
-
     def to_summary(self) -> dict[str, Any]:
         """The stored form; ``responses`` and ``desirability`` together, with several."""
         out = _stored(self, ("step", "actual", "value", "outcome", "relative_error_percent"))
@@ -57,7 +52,7 @@ class PathStep:
 
 
 @dataclass(frozen=True)
-class AnchorRun:
+class AnchorRun(_Keyed):
     """One run of the study's own test at a path point.
 
     Attributes
@@ -77,18 +72,12 @@ class AnchorRun:
     outcome: str = ""
     path_value: float | None = stored_as("path_aor_deg")
 
-    @classmethod
-    def from_summary(cls, row: Mapping[str, Any]) -> AnchorRun:
-        """Read a stored anchor run."""
-        return cls(**_read(cls, row))
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form: every field."""
-        return _stored(self, ("value", "path_value"))
+    #: written even when None
+    ALWAYS = ("value", "path_value")
 
 
 @dataclass(frozen=True)
-class Anchor:
+class Anchor(_Keyed):
     """The path anchored at the study's own test (:mod:`demcal.calibrate.anchor`).
 
     Attributes
@@ -112,16 +101,15 @@ class Anchor:
     offset: float | None = stored_as("offset_deg")
     message: str = ""
 
+    #: written even when None
+    ALWAYS = ("fidelity", "crossing_step", "offset")
+
     @classmethod
     def from_summary(cls, summary: Mapping[str, Any]) -> Anchor:
         """Read a stored anchor."""
         items = _read(cls, summary)
         items["runs"] = [AnchorRun.from_summary(r) for r in items.get("runs") or []]
         return cls(**items)
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form: every field."""
-        return _stored(self, ("fidelity", "crossing_step", "offset"))
 
 
 @dataclass(frozen=True)
