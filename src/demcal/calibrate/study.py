@@ -683,6 +683,8 @@ preset = "corn_stalk"     # fixed parameters (demcal.virtual presets)
 aor_deg = 44.12           # or: photos = ["pile1.jpg", ...]   or: measurements = "m.toml"
 std_deg = 1.7
 n = 5
+# without [target] the first [[responses]] table leads: another test's response, e.g. your
+# own engine's (docs/responses.md)
 
 # One [[factors]] table per calibrated parameter (names: `demcal simulate aor --help`).
 [[factors]]
