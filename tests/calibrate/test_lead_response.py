@@ -184,3 +184,13 @@ def test_the_user_s_own_engine_leads_with_its_own_response(tmp_path: Path) -> No
     out = CliRunner().invoke(app, ["calibrate", str(tmp_path / "study.toml"), "--no-report"])
     assert out.exit_code == 2 and "needs kind 'value'" in " ".join(out.output.split()), \
         out.output
+
+
+def test_run_sheets_for_another_lead_are_refused_in_one_line(tmp_path: Path) -> None:
+    """External run sheets carry the angle alone: a study that leads with another response
+    says so before any sheet is written."""
+    path = _study(tmp_path)
+    out = CliRunner().invoke(app, ["calibrate", str(path), "--external", "--no-report"])
+    assert out.exit_code == 2, out.output
+    assert "leads with 'drum_deg'" in " ".join(out.output.split())
+    assert not list(tmp_path.glob("runsheet_*.csv"))
