@@ -33,7 +33,7 @@ from demcal.report.html import badge, banner, figure_html, page, table_html
 from demcal.report.lead_labels import relabel_figure, relabel_html, relabel_table
 from demcal.report.surface import significant_pairs
 from demcal.safety import csv_safe, safe_filename, study_image
-from demcal.summaries import Screening, Surface
+from demcal.summaries import Screening, Surface, Verification
 from demcal.virtual.material_card import CONTACT_LAWS, ROLLING_LAWS, MaterialCard
 
 __all__ = ["build_report"]
@@ -123,7 +123,7 @@ def _guard(b: _Builder, view: StageView, render: Callable[[], str]) -> str:
     if view.status in ("failed", "missing", "disabled") and not any(
             k != "error" for k in view.summary):
         if view.runs:  # what the stage ran before it stopped
-            out += b.table(T.stage_runs_table(view, b.data.symbols))
+            out += b.table(T.stage_runs_table(view, b.data.symbols, b.data.lead.name))
         return out
     before = set(b.tables)
     try:
@@ -612,54 +612,9 @@ def _verification(b: _Builder) -> str:
                           lambda: F.verification_figure(
                               s, d.lead_target,
                               t.get("std_deg") if d.lead.is_angle else d.lead.std))]
-        photos = t.get("photos") or []
-        with_fig = [p for p in photos if p.get("figure")]
-        goal = d.lead_target
-        if with_fig and goal is not None:  # the photo closest to the target mean
-            with_fig.sort(key=lambda p: abs(T._num(p.get("mean_deg")) - goal)
-                          if T._num(p.get("mean_deg")) is not None else math.inf)
-        photo_fig = with_fig[0].get("figure") if with_fig else None
-        pile = s.pile_png
-
-        def resolve(p: str | None) -> Path | None:
-            if not p:
-                return None
-            return study_image(p, d.study_dir)[0]
-
-        # every verification replicate's pile beside a measured photo (cycled): both are the
-        # diagnostic figure of demcal.measure's boundary and flank-line fit
-        runs = sorted((r for r in view.runs if (r.artefacts or {}).get("pile_png")
-                       and r.params == s.params),  # the last round's piles
-                      key=lambda r: (r.point, r.replicate))
-        shown = [p for p in photos if p.get("figure")]
-        if runs:
-            parts.append("<h3>Each verification pile beside a measured photo</h3>")
-            for k, r in enumerate(runs):
-                ph = shown[k % len(shown)] if shown else {}
-                n_ph = photos.index(ph) + 1 if ph else None
-                cap = (f"Replicate {r.replicate + 1}: simulated pile, AoR "
-                       f"{_fmt(r.aor_deg, '.2f', '°')} (side view with fitted flank lines)"
-                       + (f", beside photo {n_ph} ({_fmt(ph.get('mean_deg'), '.2f', '°')}, "
-                          "boundary and fitted flank lines: the same method)" if ph else
-                          "; no photo is stored")
-                       + ".")
-                parts.append(b.figure(
-                    f"comparison_{k + 1}", cap,
-                    lambda ph=ph, r=r, n_ph=n_ph: F.comparison_figure(
-                        resolve(ph.get("figure") if ph else None),
-                        resolve(r.artefacts.get("pile_png")),
-                        (f"photo {n_ph}: {_fmt(ph.get('mean_deg'), '.2f', '°')}" if ph
-                         else "physical pile (photo)",
-                         f"replicate {r.replicate + 1}: {_fmt(r.aor_deg, '.2f', '°')}"))))
-        elif photo_fig or pile:
-            parts.append(b.figure("comparison", "Physical pile (photo with its fitted flanks) "
-                                  "next to the simulated pile (side view with fitted lines), "
-                                  "cf. Fig. 9.",
-                                  lambda: F.comparison_figure(resolve(photo_fig),
-                                                              resolve(pile))))
-        else:
-            parts.append('<p class="note">No photo or pile image is stored, so the side-by-side '
-                         "comparison is not shown.</p>")
+        parts += (_pile_comparison(b, s, view) if d.lead.is_angle else [
+            '<p class="note">The verification piles show their angle, not the response this '
+            "study leads with: no side-by-side comparison.</p>"])
         params = s.params
         if params:
             parts.append(b.table(T.Table("verification_params",
@@ -670,6 +625,63 @@ def _verification(b: _Builder) -> str:
         return "".join(parts)
 
     return _section("verification", "Verification", view.status, _guard(b, view, render))
+
+
+def _pile_comparison(b: _Builder, s: Verification, view: StageView) -> list[str]:
+    """Each verification pile beside a measured photo (or the one pile and photo stored): the
+    same boundary and flank-line fit on both, cf. the paper's Fig. 9."""
+    d = b.data
+    t = d.target or {}
+    parts: list[str] = []
+    photos = t.get("photos") or []
+    with_fig = [p for p in photos if p.get("figure")]
+    goal = d.lead_target
+    if with_fig and goal is not None:  # the photo closest to the target mean
+        with_fig.sort(key=lambda p: abs(T._num(p.get("mean_deg")) - goal)
+                      if T._num(p.get("mean_deg")) is not None else math.inf)
+    photo_fig = with_fig[0].get("figure") if with_fig else None
+    pile = s.pile_png
+
+    def resolve(p: str | None) -> Path | None:
+        if not p:
+            return None
+        return study_image(p, d.study_dir)[0]
+
+    # every verification replicate's pile beside a measured photo (cycled): both are the
+    # diagnostic figure of demcal.measure's boundary and flank-line fit
+    runs = sorted((r for r in view.runs if (r.artefacts or {}).get("pile_png")
+                   and r.params == s.params),  # the last round's piles
+                  key=lambda r: (r.point, r.replicate))
+    shown = [p for p in photos if p.get("figure")]
+    if runs:
+        parts.append("<h3>Each verification pile beside a measured photo</h3>")
+        for k, r in enumerate(runs):
+            ph = shown[k % len(shown)] if shown else {}
+            n_ph = photos.index(ph) + 1 if ph else None
+            cap = (f"Replicate {r.replicate + 1}: simulated pile, AoR "
+                   f"{_fmt(r.aor_deg, '.2f', '°')} (side view with fitted flank lines)"
+                   + (f", beside photo {n_ph} ({_fmt(ph.get('mean_deg'), '.2f', '°')}, "
+                      "boundary and fitted flank lines: the same method)" if ph else
+                      "; no photo is stored")
+                   + ".")
+            parts.append(b.figure(
+                f"comparison_{k + 1}", cap,
+                lambda ph=ph, r=r, n_ph=n_ph: F.comparison_figure(
+                    resolve(ph.get("figure") if ph else None),
+                    resolve(r.artefacts.get("pile_png")),
+                    (f"photo {n_ph}: {_fmt(ph.get('mean_deg'), '.2f', '°')}" if ph
+                     else "physical pile (photo)",
+                     f"replicate {r.replicate + 1}: {_fmt(r.aor_deg, '.2f', '°')}"))))
+    elif photo_fig or pile:
+        parts.append(b.figure("comparison", "Physical pile (photo with its fitted flanks) "
+                              "next to the simulated pile (side view with fitted lines), "
+                              "cf. Fig. 9.",
+                              lambda: F.comparison_figure(resolve(photo_fig),
+                                                          resolve(pile))))
+    else:
+        parts.append('<p class="note">No photo or pile image is stored, so the side-by-side '
+                     "comparison is not shown.</p>")
+    return parts
 
 
 def _excluded(b: _Builder) -> str:

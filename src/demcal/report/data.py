@@ -210,9 +210,11 @@ class ReportData:
         return self.symbols.get(name, name)
 
     def excluded_runs(self) -> list[RunRecord]:
-        """Runs without a usable angle: failed, or an outcome other than a pile."""
-        return [r for r in self.runs
-                if r.status != "done" or (r.outcome not in (None, "pile")) or r.aor_deg is None]
+        """Runs without a usable value of the lead (the angle): failed, or an outcome other
+        than a pile."""
+        lead = self.lead.name
+        return [r for r in self.runs if r.status != "done"
+                or (r.outcome not in (None, "pile")) or r.response(lead) is None]
 
 
 def load_report_data(study_dir: str | Path) -> ReportData:

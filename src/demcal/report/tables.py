@@ -526,9 +526,10 @@ def excluded_table(data: ReportData) -> Table:
                  _frame(rows, ["stage", "point", "replicate", "status", "outcome", "reason"]))
 
 
-def stage_runs_table(view: StageView, symbols: Mapping[str, str]) -> Table:
+def stage_runs_table(view: StageView, symbols: Mapping[str, str], lead: str = "aor_deg"
+                     ) -> Table:
     """The runs a stage stored (for a failed or unfinished stage): the parameters that vary
-    between them, the outcome and the AoR (deg)."""
+    between them, the outcome and the lead response (the AoR, deg)."""
     runs = view.runs
     names = sorted({k for r in runs for k in r.params})
     varying = [n for n in names if len({repr(r.params.get(n)) for r in runs}) > 1]
@@ -538,7 +539,7 @@ def stage_runs_table(view: StageView, symbols: Mapping[str, str]) -> Table:
         row: dict[str, Any] = {"point": r.point, "replicate": r.replicate}
         for n in varying:
             row[symbols.get(n, n)] = _num(r.params.get(n))
-        row.update({"status": r.status, "outcome": r.outcome or "", "AoR (deg)": r.aor_deg,
+        row.update({"status": r.status, "outcome": r.outcome or "", "AoR (deg)": r.response(lead),
                     "reason": r.reason or ""})
         rows.append(row)
     cols = ["point", "replicate", *(symbols.get(n, n) for n in varying), "status", "outcome",
