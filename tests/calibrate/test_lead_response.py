@@ -178,6 +178,11 @@ def test_the_user_s_own_engine_leads_with_its_own_response(tmp_path: Path) -> No
            for n, (_s, lo, hi) in FACTORS.items()}
     assert max(err.values()) < 0.03, (res["optimum"], err)
     assert abs(res["verification"]["aor_mean_deg"] - truth["shear_kpa"]) < 0.05
+    # no run measured an angle, and none is excluded for it
+    out = CliRunner().invoke(app, ["report", str(tmp_path)])
+    assert out.exit_code == 0, out.output
+    doc = json.loads((tmp_path / "report" / "report.json").read_text())
+    assert doc["problems"] == [] and doc["tables"]["excluded_runs"]["rows"] == []
     # a pile demcal measures gives the angle only: refused for this lead, in one line
     (tmp_path / "study.toml").write_text(text.replace(
         'kind = "value"\nfile = "result.json"', 'kind = "positions"\nfile = "pile.csv"'))
