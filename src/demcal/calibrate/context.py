@@ -74,7 +74,8 @@ class Context:
     ``target``, ``target_std``, ``target_n``: the lead response's lab mean, spread and count
     (std and count when known); ``responses``: every response aimed at, the lead first (the
     one range finding, screening, the path's relative error and the anchor follow: the
-    study's angle today, :func:`demcal.calibrate.pipeline.open_study`).
+    study's angle where it gives ``[target]``, else its first ``[[responses]]`` table;
+    :func:`demcal.calibrate.pipeline.open_study`).
     """
 
     study: Study
