@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from demcal import doe
-from demcal.calibrate.responses import LabValue, ResponseSpec
+from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
 from demcal.calibrate.rounds import Rounds
 from demcal.calibrate.runner import Point, Runner
 from demcal.calibrate.study import Study
@@ -113,14 +113,14 @@ class Context:
     @property
     def lead_words(self) -> str:
         """The lead as the stages' messages name it: ``the AoR`` for the angle."""
-        return "the AoR" if self.lead.name == "aor_deg" else self.lead.name
+        return "the AoR" if self.lead.name == AOR else self.lead.name
 
     def lead_keys(self) -> dict[str, Any]:
         """The result JSON's ``lead`` (name and unit) where the lead is not the angle: its
         keys named for the angle (``target_aor_deg``, ``predicted_aor_deg``,
         ``verification.aor_mean_deg``, ...) then hold the lead's values. Nothing for the
         angle, whose result is what it always was."""
-        if self.lead.name == "aor_deg":
+        if self.lead.name == AOR:
             return {}
         return {"lead": {"name": self.lead.name, "unit": self.lead.unit}}
 

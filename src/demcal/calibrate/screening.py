@@ -10,7 +10,6 @@ from dataclasses import replace
 import numpy as np
 
 from demcal import doe
-from demcal.calibrate import several
 from demcal.calibrate.context import (
     Context,
     design_points,
@@ -88,8 +87,7 @@ def _other_models(ctx: Context, design: doe.Design, recs: Sequence[RunRecord]
     there is none (it did not vary; too few design points reported it)."""
     out = {}
     for spec in ctx.responses[1:]:
-        runs = several.point_values(recs, design.n_runs, spec.name)
-        y = np.array([float(np.mean(r)) if r else math.nan for r in runs])
+        y, _, runs = point_runs(recs, design.n_runs, spec.name)
         excluded = [i for i, r in enumerate(runs) if not r]
         try:
             if (flat := no_variation(y, unit="")) is not None:

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from demcal import doe
+from demcal.calibrate.context import point_runs
 from demcal.calibrate.responses import LabValue, ResponseSpec
 from demcal.calibrate.surface_fit import choose_model, fit_rows, replicated
 from demcal.calibrate.verify import compare_to_target
@@ -124,17 +125,9 @@ class ResponseCheck:
 
 def point_values(recs: Sequence[RunRecord], n_points: int, name: str) -> list[list[float]]:
     """Per design point, the replicates' values of response ``name`` in replicate order; empty
-    for a point where a replicate formed no pile or did not report it."""
-    by: dict[int, list[RunRecord]] = {}
-    for r in recs:
-        by.setdefault(r.point, []).append(r)
-    out: list[list[float]] = []
-    for i in range(n_points):
-        rs = sorted(by.get(i, []), key=lambda r: r.replicate)
-        vals = [r.response(name) for r in rs if r.outcome == "pile"]
-        ok = rs and len(vals) == len(rs) and all(v is not None for v in vals)
-        out.append([float(v) for v in vals] if ok else [])  # type: ignore[arg-type]
-    return out
+    for a point where a replicate formed no pile or did not report it
+    (:func:`demcal.calibrate.context.point_runs`'s replicates)."""
+    return point_runs(recs, n_points, name)[2]
 
 
 #: Half the central difference of the desirability's gradient at the design centre, coded.
