@@ -40,18 +40,18 @@ OPTS = {"n_solutions": 5, "n_starts": 8, "min_p_pile": 0.5}
 
 def _surface_optimum(**extra) -> Optimum:
     """As :func:`demcal.calibrate.stages.optimize` builds it."""
-    cands = [Candidate(params=dict(X), predicted_aor_deg=40.0, pi_low_deg=38.9,
-                       pi_high_deg=41.1, p_pile=0.98, desirability=1.0),
-             Candidate(params={k: v + 0.01 for k, v in X.items()}, predicted_aor_deg=40.0,
-                       pi_low_deg=None, pi_high_deg=None, p_pile=0.97, desirability=0.99)]
-    return Optimum(target_aor_deg=40.0, candidates=cands, chosen=cands[0].params,
-                   predicted_aor_deg=40.0, classifier={"n_runs": 37, "constant": None},
+    cands = [Candidate(params=dict(X), predicted_lead=40.0, pi_low=38.9,
+                       pi_high=41.1, p_pile=0.98, desirability=1.0),
+             Candidate(params={k: v + 0.01 for k, v in X.items()}, predicted_lead=40.0,
+                       pi_low=None, pi_high=None, p_pile=0.97, desirability=0.99)]
+    return Optimum(target=40.0, candidates=cands, chosen=cands[0].params,
+                   predicted_lead=40.0, classifier={"n_runs": 37, "constant": None},
                    opts=dict(OPTS), **extra)
 
 
 def _several_optimum(unmet: list[str]) -> Optimum:
     """As :func:`demcal.calibrate.several.optimize_summary` builds it."""
-    cand = Candidate(params=dict(X), predicted_aor_deg=30.4, pi_low_deg=30.0, pi_high_deg=30.8,
+    cand = Candidate(params=dict(X), predicted_lead=30.4, pi_low=30.0, pi_high=30.8,
                      p_pile=1.0, desirability=0.97,
                      predicted={"aor_deg": 30.4, "drum_deg": 32.6},
                      individual={"aor_deg": 0.98, "drum_deg": 0.96})
@@ -59,8 +59,8 @@ def _several_optimum(unmet: list[str]) -> Optimum:
                   weight=1.0, importance=3),
              Goal(name="drum_deg", goal="target", low=30.0, high=35.0, target=32.6, weight=1.0,
                   importance=3)]
-    return Optimum(target_aor_deg=30.45, candidates=[cand], chosen=cand.params,
-                   predicted_aor_deg=30.4, classifier={"n_runs": 15}, opts=dict(OPTS),
+    return Optimum(target=30.45, candidates=[cand], chosen=cand.params,
+                   predicted_lead=30.4, classifier={"n_runs": 15}, opts=dict(OPTS),
                    responses=ResponsesOptimum(goals=goals, desirability=0.97,
                                               reachable=not unmet, unmet=unmet),
                    warnings=[f"no setting meets the limits of {u}" for u in unmet])
@@ -68,9 +68,9 @@ def _several_optimum(unmet: list[str]) -> Optimum:
 
 def _posterior_optimum() -> Optimum:
     """As :mod:`demcal.calibrate.bayes_strategy` builds it."""
-    return Optimum(target_aor_deg=30.45, chosen=dict(X), predicted_aor_deg=30.46,
-                   candidates=[Candidate(params=dict(X), predicted_aor_deg=30.46,
-                                         pi_low_deg=None, pi_high_deg=None, p_pile=None)],
+    return Optimum(target=30.45, chosen=dict(X), predicted_lead=30.46,
+                   candidates=[Candidate(params=dict(X), predicted_lead=30.46,
+                                         pi_low=None, pi_high=None, p_pile=None)],
                    opts="bayes", source="the posterior's best sample (strategy bayes)")
 
 
@@ -85,8 +85,8 @@ def test_the_angle_s_optimum_stores_the_keys_it_always_stored():
 
 def test_a_refinement_round_stores_its_offset_and_the_earlier_rounds():
     first = _surface_optimum()
-    second = _surface_optimum(round=2, surface_offset_deg=-0.7, offset_from_rounds=[1],
-                              measured_offset_deg=-1.0, offset_weight=0.7)
+    second = _surface_optimum(round=2, surface_offset=-0.7, offset_from_rounds=[1],
+                              measured_offset=-1.0, offset_weight=0.7)
     stored = second.in_round([first.in_round([])]).to_summary()
     assert list(stored) == SURFACE_KEYS + ROUND_KEYS
     assert list(stored["rounds"][0]) == SURFACE_KEYS  # round 1 as it was stored

@@ -80,13 +80,13 @@ def test_one_round_by_default_and_none_when_the_verification_agrees(study_file, 
 
 
 def test_a_verification_without_every_pile_is_no_reason_for_a_round():
-    base = Verification(aor_deg=[40.0, 41.0, 39.0], n_piles=3, confirmed=False,
+    base = Verification(values=[40.0, 41.0, 39.0], n_piles=3, confirmed=False,
                         target_in_interval=True)
     assert needs_another_round(base)
     assert needs_another_round(replace(base, confirmed=True, target_in_interval=False))
     assert not needs_another_round(replace(base, confirmed=True))
     assert not needs_another_round(replace(base, confirmed=None, target_in_interval=None))
-    assert not needs_another_round(replace(base, aor_deg=[40.0, None, 39.0], n_piles=2))
+    assert not needs_another_round(replace(base, values=[40.0, None, 39.0], n_piles=2))
     agreed = replace(base, confirmed=True, relative_error_percent=2.5)
     assert needs_another_round(agreed, tolerance_percent=2.0)
     assert not needs_another_round(agreed, tolerance_percent=3.0)

@@ -1,6 +1,7 @@
 """The verification's comparison with the measurement, against hand-computed t statistics."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,10 +18,10 @@ def test_welch_against_the_measurement_by_hand():
     t = (m - 44.12) / math.sqrt(se2)
     dof = se2**2 / ((s**2 / n) ** 2 / (n - 1) + (1.74**2 / 5) ** 2 / 4)  # Welch-Satterthwaite
     p = 2 * stats.t.sf(abs(t), dof)
-    assert out["p_value"] == pytest.approx(p, rel=1e-10)
-    assert out["consistent"] is True and "Welch" in out["test"]
+    assert out.p_value == pytest.approx(p, rel=1e-10)
+    assert out.consistent is True and "Welch" in out.test
     half = stats.t.ppf(0.975, 2) * s / math.sqrt(3)
-    assert out["ci_low_deg"] == pytest.approx(m - half) and out["ci_high_deg"] == pytest.approx(
+    assert out.ci_low == pytest.approx(m - half) and out.ci_high == pytest.approx(
         m + half)
 
 
@@ -28,13 +29,13 @@ def test_one_sample_without_a_spread_and_a_clear_miss():
     sim = np.array([60.0, 61.0, 59.5, 60.5])
     out = compare_to_target(sim, 44.12)
     t = (sim.mean() - 44.12) / (sim.std(ddof=1) / 2)
-    assert out["p_value"] == pytest.approx(2 * stats.t.sf(abs(t), 3), rel=1e-10)
-    assert out["consistent"] is False and "one-sample" in out["test"]
+    assert out.p_value == pytest.approx(2 * stats.t.sf(abs(t), 3), rel=1e-10)
+    assert out.consistent is False and "one-sample" in out.test
 
 
 def test_too_few_replicates_give_no_verdict():
     out = compare_to_target(np.array([44.0]), 44.12, 1.74, 5)
-    assert out["p_value"] is None and out["consistent"] is None and out["ci_low_deg"] is None
+    assert out.p_value is None and out.consistent is None and out.ci_low is None
 
 
 def _surface():
@@ -62,26 +63,26 @@ def test_confirmation_is_design_experts_interval_for_the_mean_of_n_runs():
     yhat = float(ref["mean"].iloc[0])
     close = np.array([-0.5, 0.5, -0.2, 0.2, 0.1, -0.1]) + yhat
     out = confirmation(rs, chosen, close)
-    assert out["confirm_pi_low_deg"] == pytest.approx(float(ref["obs_ci_lower"].iloc[0]))
-    assert out["confirm_pi_high_deg"] == pytest.approx(float(ref["obs_ci_upper"].iloc[0]))
-    assert out["confirmed"] is True
+    assert out.confirm_pi_low == pytest.approx(float(ref["obs_ci_lower"].iloc[0]))
+    assert out.confirm_pi_high == pytest.approx(float(ref["obs_ci_upper"].iloc[0]))
+    assert out.confirmed is True
     # the target far outside the piles' interval: the surface kept its promise, the target not
-    assert compare_to_target(close, yhat + 5.0)["target_in_interval"] is False
-    far = close + (out["confirm_pi_high_deg"] - yhat) + 0.5  # the mean just above the interval
+    assert compare_to_target(close, yhat + 5.0).target_in_interval is False
+    far = close + (out.confirm_pi_high - yhat) + 0.5  # the mean just above the interval
     out = confirmation(rs, chosen, far)
-    assert out["confirmed"] is False
-    assert compare_to_target(far, float(far.mean()) + 0.1)["target_in_interval"] is True
+    assert out.confirmed is False
+    assert compare_to_target(far, float(far.mean()) + 0.1).target_in_interval is True
 
 
 def test_confirmation_without_a_surface_or_an_interval():
-    from demcal.calibrate.verify import confirmation
+    from demcal.calibrate.verify import Confirmation, confirmation
 
     out = confirmation(None, {}, np.array([44.0]))
-    assert out == {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None, "confirmed": None}
-    assert compare_to_target(np.array([44.0]), 44.12)["target_in_interval"] is None
+    assert out == Confirmation(confirm_pi_low=None, confirm_pi_high=None, confirmed=None)
+    assert compare_to_target(np.array([44.0]), 44.12).target_in_interval is None
     out = confirmation(None, {}, np.array([44.0, 45.0]))
-    assert out["confirmed"] is None
-    assert compare_to_target(np.array([44.0, 45.0]), 44.12)["target_in_interval"] is True
+    assert out.confirmed is None
+    assert compare_to_target(np.array([44.0, 45.0]), 44.12).target_in_interval is True
 
 
 @pytest.mark.parametrize("c", [1.0, 0.4])
@@ -109,11 +110,11 @@ def test_a_refinement_rounds_confirmation_carries_the_offsets_error(c):
     piles = np.full(n, pred) + np.array([-0.3, 0.3, -0.1, 0.1, 0.2, -0.2])
     measured = Offset(offset, earlier, [1, 2], weight=c)
     out = confirmation(rs, chosen, piles, offset=measured)
-    assert out["confirm_pi_low_deg"] == pytest.approx(pred - half, rel=1e-10)
-    assert out["confirm_pi_high_deg"] == pytest.approx(pred + half, rel=1e-10)
-    assert out["confirmed"] is True
+    assert out.confirm_pi_low == pytest.approx(pred - half, rel=1e-10)
+    assert out.confirm_pi_high == pytest.approx(pred + half, rel=1e-10)
+    assert out.confirmed is True
     out = confirmation(rs, chosen, piles + half + 0.1, offset=measured)
-    assert out["confirmed"] is False
+    assert out.confirmed is False
 
 
 ROUND_OPTIMA = [{"a": 0.6, "b": 1.1, "c": 0.3}, {"a": 0.7, "b": 0.9, "c": 0.6}]
@@ -123,18 +124,19 @@ def _two_rounds(rs, pts, *, first_confirmed):
     """Rounds 1 and 2 at ``pts[0]``, ``pts[1]`` (12 and 4 piles) whose means read 2 and 1
     deg below the surface; round 2 confirmed."""
     from demcal.calibrate.rounds import Rounds
-    from demcal.summaries import Optimum
+    from demcal.summaries import Optimum, Verification
 
     pred = rs.predict({k: [p[k] for p in pts[:2]] for k in "abc"}, units="actual")
     return Rounds(optimize=[Optimum(chosen=p) for p in pts],
-                  verification=[{"aor_mean_deg": float(pred[0]) - 2.0, "n_piles": 12,
-                                 "confirmed": first_confirmed, "round": 1},
-                                {"aor_mean_deg": float(pred[1]) - 1.0, "n_piles": 4,
-                                 "confirmed": True, "round": 2}])
+                  verification=[Verification(mean=float(pred[0]) - 2.0, n_piles=12,
+                                             confirmed=first_confirmed, round=1),
+                                Verification(mean=float(pred[1]) - 1.0, n_piles=4,
+                                             confirmed=True, round=2)])
 
 
 def test_the_offset_pools_the_rounds_that_agreed_and_restarts_after_one_that_did_not():
     from demcal.calibrate.rounds import Rounds
+    from demcal.summaries import Verification
 
     rs, _, _ = _surface()
     pts = [*ROUND_OPTIMA, {"a": 0.65, "b": 0.8, "c": 0.5}]
@@ -142,10 +144,10 @@ def test_the_offset_pools_the_rounds_that_agreed_and_restarts_after_one_that_did
     pred = rs.predict({k: [p[k] for p in pts] for k in "abc"}, units="actual")
     both = rounds.offset(rs)
     assert both.rounds == [1, 2] and both.deg == pytest.approx((12 * -2.0 + 4 * -1.0) / 16)
-    rounds.verification[1]["confirmed"] = False  # round 2 disagreed: its offset alone
+    rounds.verification[1] = replace(rounds.verification[1], confirmed=False)  # disagreed
     assert rounds.offset(rs).rounds == [2] and rounds.offset(rs).deg == pytest.approx(-1.0)
-    rounds.verification.append({"aor_mean_deg": float(pred[2]) + 0.5, "n_piles": 6,
-                                "confirmed": True, "round": 3})
+    rounds.verification.append(Verification(mean=float(pred[2]) + 0.5, n_piles=6,
+                                            confirmed=True, round=3))
     three = rounds.offset(rs)
     assert three.rounds == [2, 3] and three.deg == pytest.approx((4 * -1.0 + 6 * 0.5) / 10)
     assert Rounds().offset(rs).at == []
@@ -186,7 +188,7 @@ def test_a_round_applies_a_confirmed_offset_by_its_weight_and_an_unconfirmed_one
     both = rounds.offset(rs)
     w = offset_weight(rs, [(pts[0], 12), (pts[1], 4)])
     assert both.weight == pytest.approx(w) and both.applied == pytest.approx(w * both.deg)
-    rounds.verification[0]["confirmed"] = False  # round 1 disagreed: the surface is off
+    rounds.verification[0] = replace(rounds.verification[0], confirmed=False)  # off
     assert rounds.offset(rs).weight == 1.0 and rounds.offset(rs).applied == rounds.offset(rs).deg
 
 

@@ -10,6 +10,7 @@ invented test data, the paper has none.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Iterable
 from pathlib import Path
@@ -22,6 +23,7 @@ from matplotlib.figure import Figure
 from demcal import doe
 from demcal.calibrate.verify import compare_to_target
 from demcal.store import RunRecord, RunStore, run_key
+from demcal.summaries import Verification, stored_key
 
 DATA = Path(__file__).resolve().parents[2] / "examples" / "corn_stalk"
 TARGET = 44.12
@@ -231,12 +233,13 @@ def build_paper_store(study_dir: Path, stages: Iterable[str] = ALL_STAGES,
     for i, a in enumerate(VERIFY):
         _record(store, "verification", 0, vparams, a, replicate=i)
     mean = float(np.mean(VERIFY))
+    cmp = dataclasses.asdict(compare_to_target(np.array(VERIFY), TARGET))
     put("verification", {"params": vparams, "aor_deg": VERIFY, "outcomes": ["pile"] * 5,
                          "aor_mean_deg": mean, "aor_std_deg": float(np.std(VERIFY, ddof=1)),
                          "relative_error_percent": 100 * abs(mean - TARGET) / TARGET, "n": 5,
                          "pile_png": _png(study_dir / "pile_side.png", "simulated pile",
                                           mean) if photos else None,
-                         **compare_to_target(np.array(VERIFY), TARGET)})
+                         **{stored_key(Verification, k): v for k, v in cmp.items()}})
     store.close()
     return study_dir
 

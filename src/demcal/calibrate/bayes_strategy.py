@@ -278,7 +278,7 @@ def _slices(res: bayes.BayesResult) -> dict[str, dict[str, dict[str, list[float]
 
 
 def _verify(ctx: st.Context, res: bayes.BayesResult,
-            predicted: Mapping[str, Mapping[str, float]]) -> dict[str, Any]:
+            predicted: Mapping[str, Mapping[str, float]]) -> Verification:
     """The verification stage at the best point (the DOE path's rules and seeds).
 
     The stage reads the optimum from ``ctx.results.optimize``; without a response surface
@@ -289,9 +289,8 @@ def _verify(ctx: st.Context, res: bayes.BayesResult,
     pile = predicted.get(PILE, {}).get("mean")
     best = res.best_point_actual
     optimum = Optimum(
-        target_aor_deg=ctx.target, chosen=best, predicted_aor_deg=aor,
-        candidates=[Candidate(params=best, predicted_aor_deg=aor, pi_low_deg=None,
-                              pi_high_deg=None,
+        target=ctx.target, chosen=best, predicted_lead=aor,
+        candidates=[Candidate(params=best, predicted_lead=aor, pi_low=None, pi_high=None,
                               p_pile=None if pile is None else min(1.0, max(0.0, pile)))],
         # never taken for a DOE optimum if the study goes back to kind "doe"
         opts=STAGE, source="the posterior's best sample (strategy bayes)")
@@ -299,13 +298,6 @@ def _verify(ctx: st.Context, res: bayes.BayesResult,
     ctx.store.set_stage("optimize", "done", optimum.to_summary())
     ctx.results.optimize = optimum
     return st.verification(ctx)
-
-
-VERIFICATION_KEYS = (
-    "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg", "ci_high_deg",
-    "p_value", "consistent", "test", "half_width_deg", "half_width_goal_deg",
-    "half_width_reached", "confirm_pi_low_deg", "confirm_pi_high_deg", "confirmed",
-    "target_in_interval", "tolerance_percent", "within_tolerance", "aor_deg")
 
 
 def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequence[str],
@@ -376,16 +368,15 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     return _result(ctx, summary, ver)
 
 
-def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> dict[str, Any]:
+def _result(ctx: st.Context, summary: dict[str, Any], ver: Verification) -> dict[str, Any]:
     opt: Optimum = ctx.results.optimize
-    typed = Verification.from_summary(ver)
     aor = summary["predicted"].get(ctx.lead.name, {}).get("mean")
     result = {
         "study": ctx.study.name, "strategy": STAGE, **summary,
-        "optimum_full": typed.params, "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
+        "optimum_full": ver.params, "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
         **ctx.lead_keys(),
-        "verification": {k: getattr(typed, k) for k in VERIFICATION_KEYS},
-        "rounds": [refine.round_row(opt, typed)],
+        "verification": ver.in_result(),
+        "rounds": [refine.round_row(opt, ver)],
         # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
         "n_runs": ctx.store.count(), "n_runs_strategy": summary["n_runs"],
         "n_runs_executed": ctx.runner.executed,
@@ -395,6 +386,7 @@ def _result(ctx: st.Context, summary: dict[str, Any], ver: dict[str, Any]) -> di
         result["responses"] = {
             "predicted": {name: p.get("mean") for name, p in summary["predicted"].items()
                           if name not in (ctx.lead.name, PILE)},
-            "verification": ver.get("responses")}
+            "verification": None if ver.responses is None else {
+                name: r.to_summary() for name, r in ver.responses.items()}}
     ctx.store.set_meta("result", result)
     return result

@@ -16,7 +16,15 @@ from demcal.calibrate.rounds import Rounds
 from demcal.calibrate.runner import Point, Runner
 from demcal.calibrate.study import Study
 from demcal.store import RunRecord, RunStore, params_hash
-from demcal.summaries import DesignRun, Optimum, RangeFind, Screening, Steepest, Surface
+from demcal.summaries import (
+    DesignRun,
+    Optimum,
+    RangeFind,
+    Screening,
+    Steepest,
+    Surface,
+    Verification,
+)
 from demcal.virtual import PARAMETERS
 
 if TYPE_CHECKING:  # several imports nothing of this module's; its fits are only named here
@@ -36,9 +44,9 @@ class StageResults:
     ----------
     rangefind, screening, steepest, rsm, optimize : typed summary or None
         Each stage's summary (:mod:`demcal.summaries`), as stored.
-    verification : dict or None
-        The verification stage's stored summary, with the earlier rounds'
-        (:func:`demcal.calibrate.rounds.with_rounds`).
+    verification : Verification or None
+        The verification stage's summary, with the earlier rounds'
+        (:meth:`Verification.in_round`).
     screening_model : ResponseSurface or None
         The lead's main-effects model over the screening runs (the path's direction).
     screening_runs : (Design, list of RunRecord) or None
@@ -56,7 +64,7 @@ class StageResults:
     steepest: Steepest | None = None
     rsm: Surface | None = None
     optimize: Optimum | None = None
-    verification: dict[str, Any] | None = None
+    verification: Verification | None = None
     screening_model: doe.ResponseSurface | None = None
     screening_runs: tuple[doe.Design, list[RunRecord]] | None = None
     rsm_model: doe.ResponseSurface | None = None

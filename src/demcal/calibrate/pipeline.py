@@ -27,7 +27,15 @@ from demcal.execute.local import GPU_CHUNK, default_chunk, default_workers
 from demcal.execute.tasks import TestDef
 from demcal.store import STAGES as STAGE_TITLES
 from demcal.store import RunStore
-from demcal.summaries import DesignRun, Optimum, Screening, Steepest, Surface, Verification
+from demcal.summaries import (
+    DesignRun,
+    Optimum,
+    Screening,
+    Steepest,
+    Surface,
+    Verification,
+    by_key,
+)
 
 __all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def"]
 
@@ -259,7 +267,7 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
             out[name] = {"candidates": [c.to_summary() for c in s.candidates]}
             continue
         elif name == "verification":  # no fidelity of its own
-            out[name] = {"aor_deg": s["aor_deg"], "outcomes": s["outcomes"]}
+            out[name] = by_key(s, ("values", "outcomes"))
             continue
         if name in out and s.fidelity is not None:  # the stage ran at its own fidelity
             out[name]["fidelity"] = s.fidelity
@@ -314,23 +322,17 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
     refine.run_rounds(ctx)
     opt: Optimum = ctx.results.optimize
     surface: Surface = ctx.results.rsm
-    ver_summary = ctx.results.verification
-    ver = Verification.from_summary(ver_summary)
+    ver: Verification = ctx.results.verification
     rounds = [refine.round_row(o, v) for o, v in zip(
         [*opt.rounds, opt], [*ver.rounds, ver], strict=True)]
     result = {
         "study": ctx.study.name,
         "optimum": opt.chosen,
         "optimum_full": ver.params,
-        "predicted_aor_deg": opt.predicted_aor_deg,
+        "predicted_aor_deg": opt.predicted_lead,
         "target_aor_deg": ctx.target,
         **ctx.lead_keys(),
-        "verification": {k: getattr(ver, k) for k in (
-            "aor_mean_deg", "aor_std_deg", "relative_error_percent", "n", "ci_low_deg",
-            "ci_high_deg", "p_value", "consistent", "test", "half_width_deg",
-            "half_width_goal_deg", "half_width_reached", "confirm_pi_low_deg",
-            "confirm_pi_high_deg", "confirmed", "target_in_interval", "tolerance_percent",
-            "within_tolerance", "aor_deg")},
+        "verification": ver.in_result(),
         "rounds": rounds,
         "n_runs": ctx.store.count(),
         # the runs this study's stages used: a reused store may hold others (another study's,
@@ -348,6 +350,6 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         result["responses"] = {
             "goals": [g.to_summary() for g in opt.responses.goals],
             "desirability": opt.responses.desirability, "predicted": opt.best.predicted,
-            "verification": ver_summary["responses"]}
+            "verification": {name: r.to_summary() for name, r in (ver.responses or {}).items()}}
     ctx.store.set_meta("result", result)
     return result

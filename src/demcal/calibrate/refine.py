@@ -24,7 +24,7 @@ from __future__ import annotations
 from typing import Any
 
 from demcal.calibrate import stages as st
-from demcal.summaries import Optimum, Verification
+from demcal.summaries import Optimum, Verification, by_key
 
 __all__ = ["needs_another_round", "round_row", "run_rounds"]
 
@@ -39,7 +39,7 @@ def needs_another_round(verification: Verification,
     ``tolerance_percent`` (the study's acceptance criterion, when it sets one). Runs without a
     pile are a problem of the region, not of the surface: no round.
     """
-    if verification.n_piles < len(verification.aor_deg):
+    if verification.n_piles < len(verification.values):
         return False
     rel = verification.relative_error_percent
     missed = tolerance_percent is not None and rel is not None and rel > tolerance_percent
@@ -49,18 +49,16 @@ def needs_another_round(verification: Verification,
 def round_row(optimum: Optimum, verification: Verification) -> dict[str, Any]:
     """One round in a few numbers: its optimum, prediction, the offset it was aimed by (a
     refinement round) and verification (deg)."""
-    keys = ("n_piles", "aor_mean_deg", "aor_std_deg", "relative_error_percent",
-            "half_width_deg", "ci_low_deg", "ci_high_deg", "confirm_pi_low_deg",
-            "confirm_pi_high_deg", "confirmed", "target_in_interval", "within_tolerance",
-            "p_value")
-    aimed = ("surface_offset_deg", "measured_offset_deg", "offset_weight")
+    verified = ("n_piles", "mean", "std", "relative_error_percent", "half_width", "ci_low",
+                "ci_high", "confirm_pi_low", "confirm_pi_high", "confirmed",
+                "target_in_interval", "within_tolerance", "p_value")
+    aimed = [k for k in ("surface_offset", "measured_offset", "offset_weight")
+             if getattr(optimum, k) is not None]
     return {"round": verification.round_number, "optimum": optimum.chosen,
-            "predicted_aor_deg": optimum.predicted_aor_deg,
-            **{k: getattr(optimum, k) for k in aimed if getattr(optimum, k) is not None},
-            **{k: getattr(verification, k) for k in keys}}
+            **by_key(optimum, ("predicted_lead", *aimed)), **by_key(verification, verified)}
 
 
-def run_rounds(ctx: st.Context) -> dict[str, Any]:
+def run_rounds(ctx: st.Context) -> Verification:
     """Optimize and verify, then refine while :func:`needs_another_round` and the study's
     ``stages.verification.max_rounds`` allow; returns the last verification summary.
 
@@ -74,7 +72,7 @@ def run_rounds(ctx: st.Context) -> dict[str, Any]:
         st.optimize(ctx)
         ver = st.verification(ctx)
         if ctx.rounds.number >= opts.max_rounds or \
-                not needs_another_round(Verification.from_summary(ver), opts.tolerance_percent):
+                not needs_another_round(ver, opts.tolerance_percent):
             return ver
         ctx.rounds.optimize.append(ctx.results.optimize)  # their history is dropped
         ctx.rounds.verification.append(ver)                 # when they are stored again

@@ -10,10 +10,10 @@ from typing import Any
 import numpy as np
 
 from demcal import doe
-from demcal.summaries import Optimum
+from demcal.summaries import Optimum, Verification
 
 __all__ = ["Offset", "Rounds", "model_rows", "offset_weight", "pile_mean_row",
-           "stored_rounds", "with_rounds"]
+           "stored_rounds"]
 
 
 @dataclass
@@ -28,7 +28,7 @@ class Rounds:
 
     number: int = 1
     optimize: list[Optimum] = field(default_factory=list)
-    verification: list[dict[str, Any]] = field(default_factory=list)
+    verification: list[Verification] = field(default_factory=list)
     stored: dict[int, Optimum] | None = None
 
     def offset(self, model: Any) -> Offset:
@@ -51,21 +51,21 @@ class Rounds:
         of the surface's error there (s^2 cancels).
         """
         pool: list[int] = []
-        for j in range(len(self.verification) - 1, -1, -1):
+        verified = self.verification
+        for j in range(len(verified) - 1, -1, -1):
             pool.insert(0, j)
-            if self.verification[j].get("confirmed") is not True:
+            if verified[j].confirmed is not True:
                 break
-        at = [(dict(self.optimize[j].chosen), int(self.verification[j]["n_piles"]))
-              for j in pool]
+        at = [(dict(self.optimize[j].chosen), int(verified[j].n_piles)) for j in pool]
         if not at:
             return Offset()
-        y = np.array([float(self.verification[j]["aor_mean_deg"]) for j in pool])
+        y = np.array([float(verified[j].mean) for j in pool])
         x = {n: [p[n] for p, _ in at] for n in model.names}
         pred = np.asarray(model.predict(x, units="actual"), dtype=float)
         w = np.array([n for _, n in at], dtype=float)
-        confirmed = all(self.verification[j].get("confirmed") is True for j in pool)
+        confirmed = all(verified[j].confirmed is True for j in pool)
         return Offset(float(np.sum(w * (y - pred)) / w.sum()), at,
-                      [int(self.verification[j].get("round", 1)) for j in pool],
+                      [verified[j].round_number for j in pool],
                       weight=offset_weight(model, at) if confirmed else 1.0)
 
 
@@ -138,12 +138,3 @@ def stored_rounds(record: Any) -> dict[int, Optimum]:
         return {}
     last = Optimum.from_summary(record.summary)
     return {o.round_number: replace(o, rounds=[]) for o in [*last.rounds, last]}
-
-
-def with_rounds(summary: dict[str, Any], earlier: list[dict[str, Any]]) -> dict[str, Any]:
-    """``summary`` of the current round as stored (any history it carried dropped) and, when
-    there were earlier rounds, their summaries (without their own history)."""
-    out = {k: v for k, v in summary.items() if k != "rounds"}
-    if earlier:
-        out["rounds"] = [{k: v for k, v in e.items() if k != "rounds"} for e in earlier]
-    return out

@@ -15,6 +15,7 @@ are as they were.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -24,16 +25,22 @@ import numpy as np
 
 from demcal import doe
 from demcal.calibrate.context import point_runs
-from demcal.calibrate.responses import LabValue, ResponseSpec
+from demcal.calibrate.responses import ResponseSpec
 from demcal.calibrate.surface_fit import choose_model, fit_rows, replicated
 from demcal.calibrate.verify import compare_to_target
 from demcal.errors import StudyError
 from demcal.store import RunRecord
-from demcal.summaries import Candidate, Goal, Optimum, ResponseModel, ResponsesOptimum
+from demcal.summaries import (
+    Candidate,
+    Goal,
+    Optimum,
+    ResponseModel,
+    ResponsesOptimum,
+    ResponseVerification,
+)
 
 __all__ = [
     "PathClimb",
-    "ResponseCheck",
     "ResponseFit",
     "check_responses",
     "fit_responses",
@@ -82,45 +89,6 @@ class ResponseFit:
             anova=list(self.anova),
             coefficients_coded={k: float(v) for k, v in self.model.coefficients_coded.items()},
             equation_actual=self.model.equation(units="actual"))
-
-
-@dataclass(frozen=True)
-class ResponseCheck:
-    """One response verified at the optimum against its lab value.
-
-    Attributes
-    ----------
-    name : str
-    values : tuple of float
-        The verification runs' values (runs that reported it).
-    mean, std : float or None
-    lab : LabValue or None
-        What the lab measured (None for a goal without a lab value).
-    relative_error_percent : float or None
-        ``|mean - lab| / |lab|`` in percent.
-    comparison : dict
-        :func:`demcal.calibrate.stages.compare_to_target`'s keys (interval, test, p,
-        consistent), None without a lab value.
-    desirability : float or None
-        The goal's desirability of the verified mean.
-    """
-
-    name: str
-    values: tuple[float, ...]
-    mean: float | None
-    std: float | None
-    lab: LabValue | None
-    relative_error_percent: float | None
-    comparison: dict[str, Any] | None
-    desirability: float | None
-
-    def to_dict(self) -> dict[str, Any]:
-        """The verification summary's ``responses[name]``."""
-        return {"values": list(self.values), "mean": self.mean, "std": self.std,
-                "n": len(self.values),
-                "lab": None if self.lab is None else self.lab.model_dump(),
-                "relative_error_percent": self.relative_error_percent,
-                **(self.comparison or {}), "desirability": self.desirability}
 
 
 def point_values(recs: Sequence[RunRecord], n_points: int, name: str) -> list[list[float]]:
@@ -339,9 +307,9 @@ def _search(ctx: Any, model: doe.ResponseSurface, predictors: Mapping[str, Any],
         to_actual=space.to_actual)
 
 
-def check_responses(ctx: Any, recs: Sequence[RunRecord]) -> dict[str, ResponseCheck]:
+def check_responses(ctx: Any, recs: Sequence[RunRecord]) -> dict[str, ResponseVerification]:
     """Each response of the verification runs against its lab value (every response but the
-    angle, whose verification is the stage's own)."""
+    lead, whose verification is the stage's own)."""
     goals = {g.name: g for g in ctx.results.goals}
     out = {}
     for spec in ctx.responses[1:]:
@@ -356,8 +324,10 @@ def check_responses(ctx: Any, recs: Sequence[RunRecord]) -> dict[str, ResponseCh
         cmp = None if lab is None else compare_to_target(vals, lab.mean, lab.std, lab.n)
         goal = goals.get(spec.name)
         d = None if goal is None or mean is None else float(goal.desirability(mean))
-        out[spec.name] = ResponseCheck(spec.name, tuple(vals.tolist()), mean, std, lab, rel,
-                                       cmp, d)
+        out[spec.name] = ResponseVerification(
+            values=vals.tolist(), mean=mean, std=std, n=int(vals.size),
+            lab=None if lab is None else lab.model_dump(), relative_error_percent=rel,
+            **({} if cmp is None else dataclasses.asdict(cmp)), desirability=d)
     return out
 
 
@@ -398,16 +368,16 @@ def optimize_summary(ctx: Any, clf: Any, constraint: Callable[[np.ndarray], np.n
         iv = model.predict_interval(at, units="actual")
         cands.append(Candidate(
             params={n: float(actual[n]) for n in model.names},
-            predicted_aor_deg=float(s.predicted[ctx.lead.name]),
-            pi_low_deg=float(iv["pi_low"].iloc[0]) + offset,
-            pi_high_deg=float(iv["pi_high"].iloc[0]) + offset,
+            predicted_lead=float(s.predicted[ctx.lead.name]),
+            pi_low=float(iv["pi_low"].iloc[0]) + offset,
+            pi_high=float(iv["pi_high"].iloc[0]) + offset,
             p_pile=float(clf.p_pile([ctx.full(actual)])[0]),
             desirability=float(s.desirability),
             predicted=dict(s.predicted), individual=dict(s.individual)))
     unmet = res.unmet()
     return Optimum(
-        target_aor_deg=ctx.target, candidates=cands, chosen=cands[0].params,
-        predicted_aor_deg=cands[0].predicted_aor_deg, classifier=clf.describe(),
+        target=ctx.target, candidates=cands, chosen=cands[0].params,
+        predicted_lead=cands[0].predicted_lead, classifier=clf.describe(),
         opts=opts.model_dump(mode="json"),
         responses=ResponsesOptimum(
             goals=[Goal.from_summary(g) for g in goals_json(goals)],

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import asdict, replace
 from typing import Any
 
 import numpy as np
@@ -33,7 +33,6 @@ from demcal.calibrate.rangefind import rangefind
 from demcal.calibrate.rounds import (
     Offset,
     stored_rounds,
-    with_rounds,
 )
 from demcal.calibrate.runner import Point
 from demcal.calibrate.screening import screening
@@ -59,7 +58,6 @@ from demcal.summaries import (
     Candidate,
     Optimum,
     ResponseModel,
-    ResponseVerification,
     Surface,
     Verification,
 )
@@ -231,12 +229,12 @@ def optimize(ctx: Context) -> Optimum:
         full = ctx.full(s.actual or {})
         cands.append(Candidate(
             params={n: float(s.actual[n]) for n in names},  # type: ignore[index]
-            predicted_aor_deg=float(s.predicted) + offset,
-            pi_low_deg=float(s.pi[0]) + offset if math.isfinite(s.pi[0]) else None,
-            pi_high_deg=float(s.pi[1]) + offset if math.isfinite(s.pi[1]) else None,
+            predicted_lead=float(s.predicted) + offset,
+            pi_low=float(s.pi[0]) + offset if math.isfinite(s.pi[0]) else None,
+            pi_high=float(s.pi[1]) + offset if math.isfinite(s.pi[1]) else None,
             p_pile=float(clf.p_pile([full])[0]), desirability=float(s.desirability)))
-    found = Optimum(target_aor_deg=ctx.target, candidates=cands, chosen=cands[0].params,
-                    predicted_aor_deg=cands[0].predicted_aor_deg, classifier=clf.describe(),
+    found = Optimum(target=ctx.target, candidates=cands, chosen=cands[0].params,
+                    predicted_lead=cands[0].predicted_lead, classifier=clf.describe(),
                     opts=opts_json)
     return _store_optimum(ctx, _in_round(found, k, measured), h)
 
@@ -246,8 +244,8 @@ def _in_round(found: Optimum, k: int, measured: Offset) -> Optimum:
     it was aimed by (round 1 stores what it always did)."""
     if k == 1:
         return found
-    return replace(found, round=k, surface_offset_deg=measured.applied,
-                   offset_from_rounds=measured.rounds, measured_offset_deg=measured.deg,
+    return replace(found, round=k, surface_offset=measured.applied,
+                   offset_from_rounds=measured.rounds, measured_offset=measured.deg,
                    offset_weight=measured.weight)
 
 
@@ -279,7 +277,7 @@ def _stored_optimum(prior: Optimum | None, target: tuple[float, float], model: A
     """
     if prior is None:
         return None
-    if (prior.target_aor_deg != target[0] or (prior.opts is not None and prior.opts != opts)
+    if (prior.target != target[0] or (prior.opts is not None and prior.opts != opts)
             or set(prior.chosen) != set(model.names) or prior.responses is not None):
         # (responses: the optimum of a study that aimed at several: not this one's)
         return None
@@ -290,7 +288,7 @@ def _stored_optimum(prior: Optimum | None, target: tuple[float, float], model: A
 
 
 # ------------------------------------------------------------------------------ verification
-def verification(ctx: Context) -> dict[str, Any]:
+def verification(ctx: Context) -> Verification:
     """Replicate runs at the chosen optimum, on fresh seeds: mean, spread, error to the target.
 
     Starts with ``stages.verification.n`` runs; while the 95 % interval of the mean is wider
@@ -325,21 +323,19 @@ def verification(ctx: Context) -> dict[str, Any]:
     tol = opts.tolerance_percent
     checks = several.check_responses(ctx, recs) if ctx.several else None
     ver = Verification(
-        params=params, aor_deg=values, outcomes=[r.outcome for r in recs], aor_mean_deg=mean,
-        aor_std_deg=std, relative_error_percent=rel, n=n, n_piles=int(vals.size),
-        pile_png=png, half_width_deg=hw if math.isfinite(hw) else None,
-        half_width_goal_deg=opts.half_width_deg,
+        params=params, values=values, outcomes=[r.outcome for r in recs], mean=mean, std=std,
+        relative_error_percent=rel, n=n, n_piles=int(vals.size),
+        pile_png=png, half_width=hw if math.isfinite(hw) else None,
+        half_width_goal=opts.half_width_deg,
         half_width_reached=bool(opts.half_width_deg is not None and hw <= opts.half_width_deg),
-        sized_with_std_deg=sigma, sized_with_df=sigma_df,
-        **compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n),
+        sized_with_std=sigma, sized_with_df=sigma_df,
+        **asdict(compare_to_target(vals, ctx.target, ctx.target_std, ctx.target_n)),
         tolerance_percent=tol,
         within_tolerance=None if tol is None or rel is None else bool(rel <= tol),
-        **confirmation(model, ctx.results.optimize.chosen, vals,
-                       offset=ctx.rounds.offset(model)),
-        responses=None if checks is None else {
-            name: ResponseVerification.from_summary(c.to_dict()) for name, c in checks.items()},
-        round=k if k > 1 else None)
-    summary = with_rounds(ver.to_summary(), ctx.rounds.verification)
-    ctx.store.set_stage("verification", "done", summary, inputs_hash=h)
-    ctx.results.verification = summary
-    return summary
+        **asdict(confirmation(model, ctx.results.optimize.chosen, vals,
+                              offset=ctx.rounds.offset(model))),
+        responses=checks, round=k if k > 1 else None)
+    ver = ver.in_round(ctx.rounds.verification)
+    ctx.store.set_stage("verification", "done", ver.to_summary(), inputs_hash=h)
+    ctx.results.verification = ver
+    return ver

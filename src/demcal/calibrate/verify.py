@@ -6,59 +6,99 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from demcal.calibrate.rounds import Offset, model_rows, pile_mean_row
 
-__all__ = ["compare_to_target", "confirmation", "interval_half_width", "pure_error_std",
-           "verification_seed", "verification_size"]
+__all__ = ["Confirmation", "TargetComparison", "compare_to_target", "confirmation",
+           "interval_half_width", "pure_error_std", "verification_seed", "verification_size"]
+
+
+@dataclass(frozen=True)
+class TargetComparison:
+    """The simulated mean against the lab's (:func:`compare_to_target`); every field None with
+    fewer than two runs.
+
+    Attributes
+    ----------
+    ci_low, ci_high : float or None
+        The (1 - alpha) t-interval of the simulated mean, the response's unit.
+    target_in_interval : bool or None
+        The lab value inside that interval.
+    p_value : float or None
+        The t-test's p (None also when both spreads are zero).
+    test : str or None
+        Which t-test.
+    consistent : bool or None
+        p >= alpha.
+    """
+
+    ci_low: float | None = None
+    ci_high: float | None = None
+    target_in_interval: bool | None = None
+    p_value: float | None = None
+    test: str | None = None
+    consistent: bool | None = None
+
+
+@dataclass(frozen=True)
+class Confirmation:
+    """Design-Expert's confirmation (:func:`confirmation`); every field None without a surface
+    or a run that gave a value.
+
+    Attributes
+    ----------
+    confirm_pi_low, confirm_pi_high : float or None
+        The surface's (1 - alpha) prediction interval for the mean of the n runs.
+    confirmed : bool or None
+        The runs' mean inside it.
+    """
+
+    confirm_pi_low: float | None = None
+    confirm_pi_high: float | None = None
+    confirmed: bool | None = None
 
 
 def compare_to_target(values: np.ndarray, target: float, target_std: float | None = None,
-                      target_n: int | None = None, alpha: float = 0.05) -> dict[str, Any]:
-    """Is the simulated mean AoR consistent with the measured one? (angles in degrees)
+                      target_n: int | None = None, alpha: float = 0.05) -> TargetComparison:
+    """Is the simulated mean consistent with the measured one? (the response's unit)
 
     With the measurement's spread and count known, Welch's two-sample t-test of the
     replicates against the measurement (scipy ``ttest_ind_from_stats``); otherwise a one-sample
     t-test against the target value. Also the (1 - alpha) t-interval of the simulated mean.
-    Keys: ``ci_low_deg``, ``ci_high_deg``, ``target_in_interval`` (the target inside that
-    interval), ``p_value``, ``test`` and ``consistent`` (p >= alpha), all None with fewer than
-    two replicates.
     """
     from scipy import stats
 
-    out: dict[str, Any] = {"ci_low_deg": None, "ci_high_deg": None, "target_in_interval": None,
-                           "p_value": None, "test": None, "consistent": None}
     if values.size < 2:
-        return out
+        return TargetComparison()
     mean, sd, n = float(values.mean()), float(values.std(ddof=1)), int(values.size)
     half = interval_half_width(values, alpha)
-    out.update(ci_low_deg=mean - half, ci_high_deg=mean + half,
-               target_in_interval=bool(abs(mean - target) <= half))
+    interval = {"ci_low": mean - half, "ci_high": mean + half,
+                "target_in_interval": bool(abs(mean - target) <= half)}
     if sd == 0.0 and not target_std:
-        return out
+        return TargetComparison(**interval)
     if target_std is not None and target_n is not None and target_n >= 2:
         res = stats.ttest_ind_from_stats(mean, sd, n, target, target_std, target_n,
                                          equal_var=False)
-        out["test"] = f"Welch t-test against the measurement (n = {target_n})"
+        test = f"Welch t-test against the measurement (n = {target_n})"
     else:
         res = stats.ttest_1samp(values, target)
-        out["test"] = "one-sample t-test against the target value"
-    out["p_value"] = float(res.pvalue)
-    out["consistent"] = bool(res.pvalue >= alpha)
-    return out
+        test = "one-sample t-test against the target value"
+    return TargetComparison(**interval, p_value=float(res.pvalue), test=test,
+                            consistent=bool(res.pvalue >= alpha))
 
 
 def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
-                 alpha: float = 0.05, offset: Offset | None = None) -> dict[str, Any]:
-    """Did the optimum give what the response surface promised? (deg)
+                 alpha: float = 0.05, offset: Offset | None = None) -> Confirmation:
+    """Did the optimum give what the response surface promised? (the response's unit)
 
     Design-Expert's confirmation: the mean of the n verification piles against the surface's
     (1 - alpha) prediction interval for the mean of n new runs at the chosen settings
-    (``predict_interval(..., n_new=n)``). Keys ``confirm_pi_low_deg``, ``confirm_pi_high_deg``
-    and ``confirmed`` (the mean inside that interval); None without a surface or a pile.
+    (``predict_interval(..., n_new=n)``), and whether the mean lies inside it; None without a
+    surface or a pile.
 
     In a refinement round the promise is the surface corrected by ``offset``: b = sum_j w_j
     (ybar_j - yhat(x_j)) over earlier optima x_j with n_j piles (w_j = n_j / N), of which the
@@ -67,10 +107,8 @@ def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
     the w-weighted rows at the x_j (the predictions share their coefficients' error; s^2 the
     residual mean square, t on its df).
     """
-    out: dict[str, Any] = {"confirm_pi_low_deg": None, "confirm_pi_high_deg": None,
-                           "confirmed": None}
     if model is None or values.size == 0 or model.df_resid <= 0:
-        return out
+        return Confirmation()
     at = {n: [chosen[n]] for n in model.names}
     if offset is None or not offset.at:
         iv = model.predict_interval(at, units="actual", alpha=alpha, n_new=int(values.size))
@@ -86,9 +124,8 @@ def confirmation(model: Any, chosen: Mapping[str, float], values: np.ndarray, *,
         pred = float(model.predict(at, units="actual")[0]) + offset.applied
         half = float(stats.t.ppf(1 - alpha / 2, model.df_resid)) * math.sqrt(var)
         lo, hi = pred - half, pred + half
-    out.update(confirm_pi_low_deg=lo, confirm_pi_high_deg=hi,
-               confirmed=bool(lo <= float(values.mean()) <= hi))
-    return out
+    return Confirmation(confirm_pi_low=lo, confirm_pi_high=hi,
+                        confirmed=bool(lo <= float(values.mean()) <= hi))
 
 
 def interval_half_width(values: np.ndarray, alpha: float = 0.05) -> float:

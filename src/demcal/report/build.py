@@ -148,9 +148,9 @@ def _overview(b: _Builder) -> str:
     cards = [(f"Measured {label}", _fmt(t.get("aor_deg"), ".2f", u)
               + (f" ± {_fmt(t.get('std_deg'), '.2f')}{u}" if t.get("std_deg") is not None
                  else "")),
-             ("Predicted at optimum", _fmt(opt.predicted_aor_deg, ".2f", u)),
-             (f"Verified {label}", _fmt(ver.aor_mean_deg, ".2f", u)
-              + (f" ± {_fmt(ver.aor_std_deg, '.2f')}{u}" if ver.aor_std_deg is not None
+             ("Predicted at optimum", _fmt(opt.predicted_lead, ".2f", u)),
+             (f"Verified {label}", _fmt(ver.mean, ".2f", u)
+              + (f" ± {_fmt(ver.std, '.2f')}{u}" if ver.std is not None
                  else "")),
              ("Relative error", _fmt(ver.relative_error_percent, ".2f", " %"))]
     cards += [(f"{d.symbol(k)} ({k})", _fmt(v, ".4g")) for k, v in opt.chosen.items()]
@@ -547,9 +547,9 @@ def _optimize(b: _Builder) -> str:
     def render() -> str:
         opt = d.optimum
         chosen = ", ".join(f"{d.symbol(k)} = {_fmt(v, '.4g')}" for k, v in opt.chosen.items())
-        return (f"<p>Target {_fmt(opt.target_aor_deg)}°. <b>Chosen:</b> "
+        return (f"<p>Target {_fmt(opt.target)}°. <b>Chosen:</b> "
                 f"{escape(chosen or '—')}, predicted AoR "
-                f"{_fmt(opt.predicted_aor_deg)}°.</p>"
+                f"{_fmt(opt.predicted_lead)}°.</p>"
                 + b.table(T.candidates_table(opt, d.symbols)))
 
     return _section("optimize", "Optimum and alternatives", view.status, _guard(b, view, render))

@@ -8,7 +8,7 @@ are in degrees; factor values in their own units.
 >>> fig = steepest_figure(Steepest(factors=["a"], steps=[
 ...     PathStep(step=1, actual={"a": 0.1}, value=30.0, relative_error_percent=10.0),
 ...     PathStep(step=2, actual={"a": 0.2}, value=33.0, relative_error_percent=1.0)],
-...     best_step=2), target_aor_deg=33.3)
+...     best_step=2), target=33.3)
 >>> len(fig.axes)
 2
 """
@@ -87,7 +87,7 @@ def measurement_figure(target: Mapping[str, Any]) -> Figure:
 
 
 # -------------------------------------------------------------------------------- range finding
-def rangefind_figure(found: RangeFind, target_aor_deg: float | None = None,
+def rangefind_figure(found: RangeFind, target: float | None = None,
                      symbols: Mapping[str, str] | None = None) -> Figure:
     """One small plot per factor: AoR vs value, no-pile points marked, kept range shaded."""
     factors = found.factors
@@ -114,8 +114,8 @@ def rangefind_figure(found: RangeFind, target_aor_deg: float | None = None,
             y0 = finite.min() if finite.size else 0.0
             ax.plot(v[~pile], np.full((~pile).sum(), y0), "x", color=_NOPILE, ms=8, mew=2,
                     label="no pile")
-        if target_aor_deg is not None:
-            ax.axhline(target_aor_deg, color=_TARGET, lw=1, ls="--", label="target")
+        if target is not None:
+            ax.axhline(target, color=_TARGET, lw=1, ls="--", label="target")
         sym = f.symbol or _sym(f.name, symbols)
         ax.set_title(f"{sym}: {f.name}", fontsize=8)
         ax.set_xlabel("value", fontsize=8)
@@ -154,7 +154,7 @@ def pareto_figure(effects: Sequence[Effect],
 
 
 # ------------------------------------------------------------------------------------- steepest
-def steepest_figure(path: Steepest, target_aor_deg: float | None = None,
+def steepest_figure(path: Steepest, target: float | None = None,
                     symbols: Mapping[str, str] | None = None) -> Figure:
     """AoR (deg, left axis) and relative error (%, right axis) per step of the path."""
     steps = path.steps or []
@@ -173,8 +173,8 @@ def steepest_figure(path: Steepest, target_aor_deg: float | None = None,
     if bad.any():
         ax.plot(s[bad], np.full(bad.sum(), np.nanmin(a) if np.isfinite(a).any() else 0), "x",
                 color=_NOPILE, ms=8, mew=2, label="no pile")
-    if target_aor_deg is not None:
-        ax.axhline(target_aor_deg, color=_TARGET, ls="--", label=f"target {target_aor_deg:.2f}°")
+    if target is not None:
+        ax.axhline(target, color=_TARGET, ls="--", label=f"target {target:.2f}°")
     best = path.best_step
     if best is not None and best in list(s):
         i = list(s).index(best)
@@ -254,10 +254,10 @@ def predicted_actual_figure(summary: Mapping[str, Any]) -> Figure:
 
 
 # -------------------------------------------------------------------------------- verification
-def verification_figure(ver: Verification, target_aor_deg: float | None = None,
-                        target_std_deg: float | None = None) -> Figure:
+def verification_figure(ver: Verification, target: float | None = None,
+                        target_std: float | None = None) -> Figure:
     """Verification replicates (deg) with their mean ± std and the measured target."""
-    aors = np.array([_num(a) for a in ver.aor_deg])
+    aors = np.array([_num(a) for a in ver.values])
     fig = _figure(6.5, 3.0)
     ax = fig.add_subplot()
     x = np.arange(1, len(aors) + 1)
@@ -266,15 +266,15 @@ def verification_figure(ver: Verification, target_aor_deg: float | None = None,
     if (~ok).any():
         ax.plot(x[~ok], np.full((~ok).sum(), np.nanmin(aors) if ok.any() else 0.0), "x",
                 color=_NOPILE, ms=8, mew=2, label="no pile")
-    mean, std = _num(ver.aor_mean_deg), _num(ver.aor_std_deg)
+    mean, std = _num(ver.mean), _num(ver.std)
     if math.isfinite(mean):
         ax.axhline(mean, color=_PILE, lw=1, label=f"simulated mean {mean:.2f}°")
         if math.isfinite(std):
             ax.axhspan(mean - std, mean + std, color=_PILE, alpha=0.12)
-    if target_aor_deg is not None:
-        ax.axhline(target_aor_deg, color=_TARGET, ls="--", label=f"measured {target_aor_deg:.2f}°")
-        if target_std_deg is not None and math.isfinite(target_std_deg):
-            ax.axhspan(target_aor_deg - target_std_deg, target_aor_deg + target_std_deg,
+    if target is not None:
+        ax.axhline(target, color=_TARGET, ls="--", label=f"measured {target:.2f}°")
+        if target_std is not None and math.isfinite(target_std):
+            ax.axhspan(target - target_std, target + target_std,
                        color=_TARGET, alpha=0.10)
     ax.set_xticks(x if len(x) else [1])
     ax.set_xlabel("replicate")

@@ -22,7 +22,7 @@ from demcal.display import readable
 from demcal.report import responses as RS
 from demcal.report.data import Lead, ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
-from demcal.summaries import Optimum, Verification
+from demcal.summaries import Optimum, Verification, by_key, stored_key
 from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
@@ -35,7 +35,7 @@ def verification_line(ver: Verification, target: Mapping[str, Any] | None,
     """One sentence: the verified lead (the AoR) mean ± std (n) against the measurement,
     error, p, verdict. ``lead``: the study's lead where it is not the angle (``target`` then
     holds its lab value under the angle's keys)."""
-    mean, std = _num(ver.aor_mean_deg), _num(ver.aor_std_deg)
+    mean, std = _num(ver.mean), _num(ver.std)
     if mean is None:
         return ("not verified" if not ver.done else
                 f"verification formed no pile ({ver.n_piles} of {ver.n} runs)")
@@ -121,15 +121,14 @@ def _verification_block(ver: Verification, opt: Optimum,
                                                  "n": lead.n}
     verification = {"line": verification_line(ver, target, lead),
                     **({} if lead.is_angle else {"lead": lead.name})}
-    for key in ("aor_mean_deg", "aor_std_deg", "n", "relative_error_percent", "p_value",
-                "consistent", "ci_low_deg", "ci_high_deg", "confirm_pi_low_deg",
-                "confirm_pi_high_deg", "confirmed", "target_in_interval"):
-        if getattr(ver, key) is not None:
-            verification[key] = getattr(ver, key)
+    verification.update((k, v) for k, v in by_key(ver, (
+        "mean", "std", "n", "relative_error_percent", "p_value", "consistent", "ci_low",
+        "ci_high", "confirm_pi_low", "confirm_pi_high", "confirmed", "target_in_interval",
+    )).items() if v is not None)
     if data.lead_target is not None:
-        verification["target_aor_deg"] = data.lead_target
-    if opt.predicted_aor_deg is not None:
-        verification["predicted_aor_deg"] = opt.predicted_aor_deg
+        verification[stored_key(Optimum, "target")] = data.lead_target
+    if opt.predicted_lead is not None:
+        verification.update(by_key(opt, ("predicted_lead",)))
     several = RS.responses_view(data.surface, opt, ver)
     if several is not None:  # every response at the optimum and verified
         verification["desirability"] = several.desirability
@@ -140,9 +139,8 @@ def _verification_block(ver: Verification, opt: Optimum,
             ("consistent", r.consistent)) if v is not None} for r in several.rows}
     if ver.round_number > 1:  # a refinement round's (demcal.calibrate.refine)
         verification["round"] = ver.round_number
-        for key in ("surface_offset_deg", "measured_offset_deg", "offset_weight"):
-            if getattr(opt, key) is not None:
-                verification[key] = getattr(opt, key)
+        verification.update((k, v) for k, v in by_key(
+            opt, ("surface_offset", "measured_offset", "offset_weight")).items() if v is not None)
     return verification
 
 

@@ -159,7 +159,7 @@ def _reference(surf: StoredSurface, hold: Mapping[str, float] | None) -> np.ndar
 
 
 def perturbation_figure(summary: Mapping[str, Any], hold: Mapping[str, float] | None = None,
-                        target_aor_deg: float | None = None) -> Figure:
+                        target: float | None = None) -> Figure:
     """Perturbation plot: AoR (deg) as each factor moves over its coded range (-1 to +1)
     through the reference point (``hold``, actual units; default the centre), the others held
     there; x is the deviation from the reference in coded units (Design-Expert's plot), so
@@ -174,8 +174,8 @@ def perturbation_figure(summary: Mapping[str, Any], hold: Mapping[str, float] | 
         pts[:, i] = dev
         ax.plot(dev - base[i], surf.predict_coded(pts), label=sym)
     ax.plot([0.0], surf.predict_coded(base[None, :]), "k.", ms=8)
-    if target_aor_deg is not None:
-        ax.axhline(target_aor_deg, color=_TARGET, ls="--", lw=1, label="target")
+    if target is not None:
+        ax.axhline(target, color=_TARGET, ls="--", lw=1, label="target")
     ax.axvline(0, color="0.6", lw=0.6)
     ax.set_xlabel("deviation from the reference point (coded units)")
     ax.set_ylabel("predicted AoR (°)")
@@ -185,16 +185,16 @@ def perturbation_figure(summary: Mapping[str, Any], hold: Mapping[str, float] | 
 
 
 def target_reached(summary: Mapping[str, Any], pair: tuple[str, str],
-                   hold: Mapping[str, float] | None, target_aor_deg: float | None,
+                   hold: Mapping[str, float] | None, target: float | None,
                    n_grid: int = 40) -> bool:
     """True when the model's AoR crosses the target over the pair's region (others held)."""
-    if target_aor_deg is None:
+    if target is None:
         return False
     try:
         _, _, zz, _, _ = _grid(StoredSurface.from_summary(summary), pair, hold, n_grid)
     except Exception:
         return False
-    return bool(np.nanmin(zz) <= target_aor_deg <= np.nanmax(zz))
+    return bool(np.nanmin(zz) <= target <= np.nanmax(zz))
 
 
 def _grid(surf: StoredSurface, pair, hold, n_grid):
@@ -211,7 +211,7 @@ def _grid(surf: StoredSurface, pair, hold, n_grid):
 
 def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
                         hold: Mapping[str, float] | None = None,
-                        target_aor_deg: float | None = None, n_grid: int = 40) -> Figure:
+                        target: float | None = None, n_grid: int = 40) -> Figure:
     """3-D surface and contour of AoR (deg) over one factor pair with the target contour.
 
     Parameters
@@ -222,19 +222,19 @@ def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
         Factor names or symbols (x and y axes, actual units).
     hold : dict, optional
         Actual values of the other factors (default their centres).
-    target_aor_deg : float, optional
+    target : float, optional
         Target AoR, deg: drawn as a red contour where the surface reaches it.
     n_grid : int
         Grid points per axis.
     """
     surf = StoredSurface.from_summary(summary)
     xx, yy, zz, (i, j), base = _grid(surf, pair, hold, n_grid)
-    reached = target_aor_deg is not None and np.nanmin(zz) <= target_aor_deg <= np.nanmax(zz)
+    reached = target is not None and np.nanmin(zz) <= target <= np.nanmax(zz)
     fig = _figure(9.5, 3.9)
     ax3 = fig.add_subplot(1, 2, 1, projection="3d")
     ax3.plot_surface(xx, yy, zz, cmap="viridis", edgecolor="none", alpha=0.85)
     if reached:
-        ax3.contour(xx, yy, zz, levels=[target_aor_deg], colors=_TARGET, linewidths=2)
+        ax3.contour(xx, yy, zz, levels=[target], colors=_TARGET, linewidths=2)
     ax3.set_xlabel(surf.symbols[i])
     ax3.set_ylabel(surf.symbols[j])
     ax3.set_zlabel("AoR (°)")
@@ -246,8 +246,8 @@ def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
     ax.clabel(lines, fontsize=7, fmt="%.1f")
     fig.colorbar(cs, ax=ax, label="AoR (°)")
     if reached:
-        tl = ax.contour(xx, yy, zz, levels=[target_aor_deg], colors=_TARGET, linewidths=2)
-        ax.clabel(tl, fontsize=7, fmt=f"target {target_aor_deg:.2f}°")
+        tl = ax.contour(xx, yy, zz, levels=[target], colors=_TARGET, linewidths=2)
+        ax.clabel(tl, fontsize=7, fmt=f"target {target:.2f}°")
     runs = summary.get("runs") or []
     px = [float((r.get("actual") or {}).get(surf.names[i], math.nan)) for r in runs]
     py = [float((r.get("actual") or {}).get(surf.names[j], math.nan)) for r in runs]
@@ -256,7 +256,7 @@ def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
     ax.set_xlabel(f"{surf.symbols[i]} ({surf.names[i]})")
     ax.set_ylabel(f"{surf.symbols[j]} ({surf.names[j]})")
     others = [f"{surf.symbols[k]} = {base[k]:.4g}" for k in range(len(base)) if k not in (i, j)]
-    state = ("" if target_aor_deg is None else
+    state = ("" if target is None else
              "; target reached (red)" if reached else "; target not reached here")
     fig.suptitle(f"AoR over {surf.symbols[i]} and {surf.symbols[j]}"
                  + (f" ({', '.join(others)})" if others else "") + state, fontsize=10)
@@ -265,7 +265,7 @@ def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
 
 def pair_contours_figure(summary: Mapping[str, Any], pairs: list[tuple[str, str]],
                          hold: Mapping[str, float] | None = None,
-                         target_aor_deg: float | None = None, n_grid: int = 30) -> Figure:
+                         target: float | None = None, n_grid: int = 30) -> Figure:
     """Contour plots of AoR (deg) over several factor pairs in one figure (small multiples),
     each with the target contour in red where it is reached; for the screening model.
 
@@ -277,7 +277,7 @@ def pair_contours_figure(summary: Mapping[str, Any], pairs: list[tuple[str, str]
         Factor pairs (names or symbols), at most 6 are drawn.
     hold : dict, optional
         Actual values of the other factors (default their centres).
-    target_aor_deg : float, optional
+    target : float, optional
         Target AoR, deg.
     n_grid : int
         Grid points per axis.
@@ -292,8 +292,8 @@ def pair_contours_figure(summary: Mapping[str, Any], pairs: list[tuple[str, str]
         xx, yy, zz, (i, j), _ = _grid(surf, pair, hold, n_grid)
         cs = ax.contourf(xx, yy, zz, levels=10, cmap="viridis")
         fig.colorbar(cs, ax=ax, label="AoR (°)")
-        if target_aor_deg is not None and np.nanmin(zz) <= target_aor_deg <= np.nanmax(zz):
-            ax.contour(xx, yy, zz, levels=[target_aor_deg], colors=_TARGET, linewidths=2)
+        if target is not None and np.nanmin(zz) <= target <= np.nanmax(zz):
+            ax.contour(xx, yy, zz, levels=[target], colors=_TARGET, linewidths=2)
         ax.set_xlabel(surf.symbols[i])
         ax.set_ylabel(surf.symbols[j])
     if not pairs:

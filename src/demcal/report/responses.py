@@ -75,7 +75,7 @@ def responses_view(rsm: Surface, optimum: Optimum,
                                 adequacy=rsm.adequacy or {},
                                 equation_actual=rsm.equation_actual)
             check = ResponseVerification(
-                mean=verification.aor_mean_deg, std=verification.aor_std_deg,
+                mean=verification.mean, std=verification.std,
                 n=verification.n_piles,
                 relative_error_percent=verification.relative_error_percent,
                 p_value=verification.p_value, consistent=verification.consistent)

@@ -432,9 +432,9 @@ def candidates_table(optimum: Optimum, symbols: Mapping[str, str]) -> Table:
         row: dict[str, Any] = {"rank": i + 1}
         for n in names:
             row[symbols.get(n, n)] = _num(c.params.get(n))
-        row["predicted AoR (deg)"] = _num(c.predicted_aor_deg)
-        row["PI low (deg)"] = _num(c.pi_low_deg)
-        row["PI high (deg)"] = _num(c.pi_high_deg)
+        row["predicted AoR (deg)"] = _num(c.predicted_lead)
+        row["PI low (deg)"] = _num(c.pi_low)
+        row["PI high (deg)"] = _num(c.pi_high)
         row["P(pile)"] = _num(c.p_pile)
         rows.append(row)
     cols = ["rank", *(symbols.get(n, n) for n in names), "predicted AoR (deg)", "PI low (deg)",
@@ -444,7 +444,7 @@ def candidates_table(optimum: Optimum, symbols: Mapping[str, str]) -> Table:
 
 def verification_table(ver: Verification) -> Table:
     """Each verification replicate: AoR (deg) and outcome."""
-    aors: list[float | None] = list(ver.aor_deg)
+    aors: list[float | None] = list(ver.values)
     outs = list(ver.outcomes)
     n = max(len(aors), len(outs))
     aors += [None] * (n - len(aors))
@@ -460,11 +460,11 @@ def verification_summary_table(ver: Verification, target: float | None) -> Table
     measurement and the t-test's p and verdict (see demcal.calibrate.verify.compare_to_target),
     and Design-Expert's confirmation: the surface's prediction interval for the mean of the n
     runs and whether the mean lies inside it (demcal.calibrate.verify.confirmation)."""
-    lo, hi = ver.ci_low_deg, ver.ci_high_deg
-    plo, phi = ver.confirm_pi_low_deg, ver.confirm_pi_high_deg
+    lo, hi = ver.ci_low, ver.ci_high
+    plo, phi = ver.confirm_pi_low, ver.confirm_pi_high
     ok, confirmed = ver.consistent, ver.confirmed
-    rows = [{"n": ver.n, "mean AoR (deg)": _num(ver.aor_mean_deg),
-             "std (deg)": _num(ver.aor_std_deg),
+    rows = [{"n": ver.n, "mean AoR (deg)": _num(ver.mean),
+             "std (deg)": _num(ver.std),
              "95 % interval (deg)": "" if lo is None else f"{lo:.2f}-{hi:.2f}",
              "measured AoR (deg)": target,
              "relative error %": _num(ver.relative_error_percent),
@@ -495,15 +495,15 @@ def verification_rounds_table(optimum: Optimum, verification: Verification,
     for o, v in zip(opts, vers, strict=True):
         conf = v.confirmed
         # round 1 was aimed by no offset: 0, all of it applied
-        surface = 0.0 if o.surface_offset_deg is None else o.surface_offset_deg
+        surface = 0.0 if o.surface_offset is None else o.surface_offset
         rows.append({"round": v.round_number,
                      **{symbols.get(n, n): _num(o.chosen.get(n)) for n in names},
-                     "measured offset (deg)": _num(surface if o.measured_offset_deg is None
-                                                   else o.measured_offset_deg),
+                     "measured offset (deg)": _num(surface if o.measured_offset is None
+                                                   else o.measured_offset),
                      "share applied": _num(1.0 if o.offset_weight is None else o.offset_weight),
                      "surface offset (deg)": _num(surface),
-                     "piles": v.n_piles, "mean AoR (deg)": _num(v.aor_mean_deg),
-                     "std (deg)": _num(v.aor_std_deg),
+                     "piles": v.n_piles, "mean AoR (deg)": _num(v.mean),
+                     "std (deg)": _num(v.std),
                      "relative error %": _num(v.relative_error_percent),
                      "confirmation": "" if conf is None else
                      ("confirmed" if conf else "not confirmed")})

@@ -8,9 +8,13 @@ A stage's summary lives in the run store as JSON. ``from_summary``
 release (a key it lacks takes its default, as older stores lack the newer keys; keys it does
 not know are left out), and ``to_summary`` writes this release's keys in a fixed order.
 Readers use the attributes, so renaming a field breaks the code that reads it and its tests,
-not a cell of the report.
+not a cell of the report. Fields have the response's generic names (``value``, ``mean``,
+``predicted_lead``); a field whose stored key keeps the angle's name (``aor_mean_deg``)
+declares it once (``stored_as``), and :func:`by_key` gives fields under those keys for the
+file formats built from them (the result JSON).
 """
 
+from demcal.summaries._stored import by_key, stored_key
 from demcal.summaries.design import DesignRun
 from demcal.summaries.optimum import Candidate, Goal, Optimum, ResponsesOptimum
 from demcal.summaries.rangefind import RangeFind, ScanFactor, ScanPoint
@@ -22,5 +26,4 @@ from demcal.summaries.verification import ResponseVerification, Verification
 __all__ = ["Anchor", "AnchorRun", "Candidate", "DesignRun", "Effect", "Goal", "Optimum",
            "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
            "ResponsesOptimum", "ScanFactor", "ScanPoint", "Screening", "ScreeningModel", "Steepest",
-           "Surface",
-           "Verification"]
+           "Surface", "Verification", "by_key", "stored_key"]

@@ -32,14 +32,6 @@ class _Flat:
         return dataclasses.asdict(self)  # type: ignore[call-overload]
 
 
-def _written(obj: Any, always: tuple[str, ...]) -> dict[str, Any]:
-    """The stored form of the flat dataclass ``obj``: its fields in order, those not named in
-    ``always`` only where they hold a value (a key a producer does not write stays out, so
-    the summary it stored reads back to the same keys)."""
-    return {f.name: copy.deepcopy(v) for f in dataclasses.fields(obj)
-            if (v := getattr(obj, f.name)) is not None or f.name in always}
-
-
 def _plain(value: Any) -> Any:
     """``value`` as JSON: a typed summary by its ``to_summary``, lists and dicts item by item,
     anything else copied (the stored form shares nothing with the object)."""
@@ -52,20 +44,34 @@ def _plain(value: Any) -> Any:
     return copy.deepcopy(value)
 
 
-def stored_as(key: str, default: Any = None) -> Any:
+def stored_as(key: str, default: Any = None, *, factory: Any = None) -> Any:
     """A field stored under ``key`` instead of its own name.
 
     The store's keys are a file format: summaries written when the angle was the only
     response name their response values ``aor_deg`` and stores of every release must read
     back. A field with a generic name (``value``) keeps that key here, in its declaration,
-    and nowhere else.
+    and nowhere else. ``factory`` makes a mutable default (a list).
     """
+    if factory is not None:
+        return dataclasses.field(default_factory=factory, metadata={"key": key})
     return dataclasses.field(default=default, metadata={"key": key})
 
 
 def _key(f: dataclasses.Field) -> str:
     """The stored key of the field ``f``."""
     return f.metadata.get("key", f.name)
+
+
+def stored_key(cls: Any, name: str) -> str:
+    """The stored key of the field ``name`` of the dataclass ``cls`` (a class or an instance)."""
+    return next(_key(f) for f in dataclasses.fields(cls) if f.name == name)
+
+
+def by_key(obj: Any, names: tuple[str, ...] | list[str]) -> dict[str, Any]:
+    """The fields ``names`` of the dataclass ``obj`` under their stored keys, in that order
+    (a file format built from a summary's fields: the result JSON)."""
+    keys = {f.name: _key(f) for f in dataclasses.fields(obj)}
+    return {keys[name]: getattr(obj, name) for name in names}
 
 
 def _read(cls: type[_T], summary: Mapping[str, Any]) -> dict[str, Any]:

@@ -8,24 +8,25 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from demcal.summaries._stored import _Flat, _known, _plain, _written
+from demcal.summaries._stored import _Flat, _key, _Keyed, _known, _plain, _read, stored_as
 
 __all__ = ["Candidate", "Goal", "Optimum", "ResponsesOptimum"]
 
 
 @dataclass(frozen=True)
-class Candidate(_Flat):
+class Candidate(_Keyed):
     """One setting the optimize stage proposes, ranked best first.
 
     Attributes
     ----------
     params : dict str -> float
         The factors' values, SI.
-    predicted_aor_deg : float or None
-        The angle the surface predicts there (corrected by a refinement round's offset; the
-        Bayesian strategy: its surrogate's mean), deg.
-    pi_low_deg, pi_high_deg : float or None
-        The surface's 95 % prediction interval there, deg (None: no surface, or unbounded).
+    predicted_lead : float or None
+        The lead response the surface predicts there (corrected by a refinement round's
+        offset; the Bayesian strategy: its surrogate's mean), the lead's unit (the angle: deg).
+    pi_low, pi_high : float or None
+        The surface's 95 % prediction interval there, the lead's unit (None: no surface, or
+        unbounded).
     p_pile : float or None
         The pile region's probability of a pile there.
     desirability : float or None
@@ -36,21 +37,17 @@ class Candidate(_Flat):
     """
 
     params: dict[str, float] = field(default_factory=dict)
-    predicted_aor_deg: float | None = None
-    pi_low_deg: float | None = None
-    pi_high_deg: float | None = None
+    predicted_lead: float | None = stored_as("predicted_aor_deg")
+    pi_low: float | None = stored_as("pi_low_deg")
+    pi_high: float | None = stored_as("pi_high_deg")
     p_pile: float | None = None
     desirability: float | None = None
     predicted: dict[str, float] | None = None
     individual: dict[str, float] | None = None
 
-    #: the keys every producer writes, None or not
-    ALWAYS = ("params", "predicted_aor_deg", "pi_low_deg", "pi_high_deg", "p_pile")
-
-    def to_summary(self) -> dict[str, Any]:
-        """The stored form (``desirability``, ``predicted`` and ``individual`` only where
-        set)."""
-        return _written(self, self.ALWAYS)
+    #: the fields every producer writes, None or not (``desirability``, ``predicted`` and
+    #: ``individual`` only where set)
+    ALWAYS = ("params", "predicted_lead", "pi_low", "pi_high", "p_pile")
 
 
 @dataclass(frozen=True)
@@ -132,14 +129,14 @@ class Optimum:
 
     Attributes
     ----------
-    target_aor_deg : float or None
-        The lab angle aimed at, deg.
+    target : float or None
+        The lab value of the lead response aimed at, its unit (the angle: deg).
     candidates : list of Candidate
         Ranked, best first.
     chosen : dict str -> float
         The best candidate's factors (what the verification runs).
-    predicted_aor_deg : float or None
-        The angle predicted there, deg.
+    predicted_lead : float or None
+        The lead response predicted there, its unit.
     classifier : dict or None
         The pile region's description (:meth:`PileClassifier.describe`).
     opts : dict or str or None
@@ -152,48 +149,48 @@ class Optimum:
     warnings : list of str
     round : int or None
         The refinement round (:mod:`demcal.calibrate.refine`; None: the first).
-    surface_offset_deg : float or None
+    surface_offset : float or None
         In a refinement round, the correction applied: the surface was aimed at the target
-        less it, deg.
+        less it, the lead's unit.
     offset_from_rounds : list of int or None
         The earlier rounds whose offsets were pooled.
-    measured_offset_deg : float or None
-        Their piles' means less the surface there, pooled, deg.
+    measured_offset : float or None
+        Their piles' means less the surface there, pooled, the lead's unit.
     offset_weight : float or None
         The share of it applied.
     rounds : list of Optimum
         The earlier rounds' optima, oldest first (each without its own history).
     """
 
-    target_aor_deg: float | None = None
+    target: float | None = stored_as("target_aor_deg")
     candidates: list[Candidate] = field(default_factory=list)
     chosen: dict[str, float] = field(default_factory=dict)
-    predicted_aor_deg: float | None = None
+    predicted_lead: float | None = stored_as("predicted_aor_deg")
     classifier: dict[str, Any] | None = None
     opts: dict[str, Any] | str | None = None
     source: str | None = None
     responses: ResponsesOptimum | None = None
     warnings: list[str] = field(default_factory=list)
     round: int | None = None
-    surface_offset_deg: float | None = None
+    surface_offset: float | None = stored_as("surface_offset_deg")
     offset_from_rounds: list[int] | None = None
-    measured_offset_deg: float | None = None
+    measured_offset: float | None = stored_as("measured_offset_deg")
     offset_weight: float | None = None
     rounds: list[Optimum] = field(default_factory=list)
 
     #: the keys every producer writes, None or not
-    ALWAYS = ("target_aor_deg", "candidates", "chosen", "predicted_aor_deg")
+    ALWAYS = ("target", "candidates", "chosen", "predicted_lead")
     #: the lists written only when they hold something (the others: when not None)
     WHEN_FILLED = ("warnings", "rounds")
     #: the Bayesian strategy's summary (``source`` set) has always begun with these, in this
     #: order; the store keeps a summary's key order, so it still does
-    POSTERIOR_FIRST = ("target_aor_deg", "chosen", "predicted_aor_deg", "candidates")
+    POSTERIOR_FIRST = ("target", "chosen", "predicted_lead", "candidates")
 
     @classmethod
     def from_summary(cls, summary: Mapping[str, Any] | None) -> Optimum:
         """Read a stored optimize summary (any release's and producer's; empty, or a failed
         stage's ``{"error": ...}``: no optimum)."""
-        items = _known(cls, summary or {})
+        items = _read(cls, summary or {})
         items["candidates"] = [Candidate.from_summary(c) for c in items.get("candidates") or []]
         items["chosen"] = items.get("chosen") or {}
         # an empty "responses" reads as none, as the report always took it
@@ -234,6 +231,7 @@ class Optimum:
             value = getattr(self, f.name)
             unset = value is None or (f.name in self.WHEN_FILLED and not value)
             if f.name in self.ALWAYS or not unset:
-                out[f.name] = _plain(value)
+                out[f.name] = value
         first = self.POSTERIOR_FIRST if self.source is not None else ()
-        return {k: out[k] for k in [*first, *(k for k in out if k not in first)]}
+        keys = {f.name: _key(f) for f in dataclasses.fields(self)}
+        return {keys[k]: _plain(out[k]) for k in [*first, *(k for k in out if k not in first)]}

@@ -8,13 +8,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from demcal.summaries._stored import _Flat, _known
+from demcal.summaries._stored import _key, _Keyed, _read, by_key, stored_as
 
 __all__ = ["ResponseVerification", "Verification"]
 
 
 @dataclass(frozen=True)
-class ResponseVerification(_Flat):
+class ResponseVerification(_Keyed):
     """One response of a several-response study at the verification (its lab comparison).
 
     Attributes
@@ -29,9 +29,8 @@ class ResponseVerification(_Flat):
         The lab value as the study gave it (``mean``, ``std``, ``n``, ``unit``...).
     relative_error_percent : float or None
         ``|mean - lab| / |lab|``, %.
-    ci_low_deg, ci_high_deg : float or None
-        The 95 % t-interval of the mean, in the response's unit (the keys keep the angle's
-        names for the store's sake).
+    ci_low, ci_high : float or None
+        The 95 % t-interval of the mean, in the response's unit.
     target_in_interval, consistent : bool or None
         The lab mean inside that interval; the t-test's p >= 0.05.
     p_value : float or None
@@ -47,13 +46,18 @@ class ResponseVerification(_Flat):
     n: int = 0
     lab: dict[str, Any] | None = None
     relative_error_percent: float | None = None
-    ci_low_deg: float | None = None
-    ci_high_deg: float | None = None
+    ci_low: float | None = stored_as("ci_low_deg")
+    ci_high: float | None = stored_as("ci_high_deg")
     target_in_interval: bool | None = None
     p_value: float | None = None
     test: str | None = None
     consistent: bool | None = None
     desirability: float | None = None
+
+    #: every field is written, None or not
+    ALWAYS = ("values", "mean", "std", "n", "lab", "relative_error_percent", "ci_low",
+              "ci_high", "target_in_interval", "p_value", "test", "consistent",
+              "desirability")
 
 
 @dataclass(frozen=True)
@@ -65,29 +69,29 @@ class Verification:
     ----------
     params : dict str -> float
         The full parameter set run, SI.
-    aor_deg : list of float or None
-        Each run's angle, deg (None: no pile).
+    values : list of float or None
+        Each run's value of the lead response, its unit (the angle: deg; None: no pile).
     outcomes : list of str
         Each run's outcome.
-    aor_mean_deg, aor_std_deg : float or None
-        Mean and sample standard deviation of the piles' angles, deg.
+    mean, std : float or None
+        Mean and sample standard deviation of the runs' values.
     relative_error_percent : float or None
         ``|mean - target| / target``, %.
     n, n_piles : int
-        Runs made and piles formed.
+        Runs made and runs that gave a value (piles formed).
     pile_png : str or None
         A side view of one verification pile.
-    half_width_deg, half_width_goal_deg : float or None
-        The 95 % interval's half width reached and the study's goal for it, deg.
+    half_width, half_width_goal : float or None
+        The 95 % interval's half width reached and the study's goal for it.
     half_width_reached : bool
-    sized_with_std_deg : float or None
-        The pure-error standard deviation the run count was sized with, deg.
+    sized_with_std : float or None
+        The pure-error standard deviation the run count was sized with.
     sized_with_df : int or float or None
         Its degrees of freedom.
-    ci_low_deg, ci_high_deg : float or None
-        The 95 % t-interval of the mean, deg.
+    ci_low, ci_high : float or None
+        The 95 % t-interval of the mean.
     target_in_interval : bool or None
-        The lab angle inside it.
+        The lab value inside it.
     p_value : float or None
         The t-test against the lab (:func:`demcal.calibrate.verify.compare_to_target`).
     test : str or None
@@ -97,9 +101,9 @@ class Verification:
     tolerance_percent : float or None
         The study's tolerance on the relative error, %.
     within_tolerance : bool or None
-    confirm_pi_low_deg, confirm_pi_high_deg : float or None
+    confirm_pi_low, confirm_pi_high : float or None
         The surface's 95 % prediction interval for the mean of n runs (Design-Expert's
-        confirmation), deg.
+        confirmation).
     confirmed : bool or None
         The mean inside it.
     responses : dict str -> ResponseVerification or None
@@ -108,32 +112,35 @@ class Verification:
         The refinement round (None: the first and only).
     rounds : list of Verification
         The earlier rounds' verifications, oldest first (each without its own history).
+
+    The units are the lead response's (the angle: deg); the stored keys keep the angle's
+    names (``aor_mean_deg``...), a file format every release reads.
     """
 
     params: dict[str, float] = field(default_factory=dict)
-    aor_deg: list[float | None] = field(default_factory=list)
+    values: list[float | None] = stored_as("aor_deg", factory=list)
     outcomes: list[str] = field(default_factory=list)
-    aor_mean_deg: float | None = None
-    aor_std_deg: float | None = None
+    mean: float | None = stored_as("aor_mean_deg")
+    std: float | None = stored_as("aor_std_deg")
     relative_error_percent: float | None = None
     n: int = 0
     n_piles: int = 0
     pile_png: str | None = None
-    half_width_deg: float | None = None
-    half_width_goal_deg: float | None = None
+    half_width: float | None = stored_as("half_width_deg")
+    half_width_goal: float | None = stored_as("half_width_goal_deg")
     half_width_reached: bool = False
-    sized_with_std_deg: float | None = None
+    sized_with_std: float | None = stored_as("sized_with_std_deg")
     sized_with_df: int | float | None = None
-    ci_low_deg: float | None = None
-    ci_high_deg: float | None = None
+    ci_low: float | None = stored_as("ci_low_deg")
+    ci_high: float | None = stored_as("ci_high_deg")
     target_in_interval: bool | None = None
     p_value: float | None = None
     test: str | None = None
     consistent: bool | None = None
     tolerance_percent: float | None = None
     within_tolerance: bool | None = None
-    confirm_pi_low_deg: float | None = None
-    confirm_pi_high_deg: float | None = None
+    confirm_pi_low: float | None = stored_as("confirm_pi_low_deg")
+    confirm_pi_high: float | None = stored_as("confirm_pi_high_deg")
     confirmed: bool | None = None
     responses: dict[str, ResponseVerification] | None = None
     round: int | None = None
@@ -142,12 +149,23 @@ class Verification:
     @classmethod
     def from_summary(cls, summary: Mapping[str, Any] | None) -> Verification:
         """Read a stored verification summary (any release's; empty: not verified)."""
-        items = _known(cls, summary or {})
+        items = _read(cls, summary or {})
         if items.get("responses") is not None:
             items["responses"] = {name: ResponseVerification.from_summary(r)
                                   for name, r in items["responses"].items()}
         items["rounds"] = [cls.from_summary(r) for r in items.get("rounds") or []]
         return cls(**items)
+
+    #: the fields the result JSON's ``verification`` holds, in its order
+    IN_RESULT = ("mean", "std", "relative_error_percent", "n", "ci_low", "ci_high", "p_value",
+                 "consistent", "test", "half_width", "half_width_goal", "half_width_reached",
+                 "confirm_pi_low", "confirm_pi_high", "confirmed", "target_in_interval",
+                 "tolerance_percent", "within_tolerance", "values")
+
+    def in_result(self) -> dict[str, Any]:
+        """The result JSON's ``verification``: the fields of :attr:`IN_RESULT` under their
+        stored keys (the file formats share them)."""
+        return by_key(self, self.IN_RESULT)
 
     @property
     def done(self) -> bool:
@@ -158,6 +176,12 @@ class Verification:
     def round_number(self) -> int:
         """The refinement round, 1 for the first."""
         return self.round or 1
+
+    def in_round(self, earlier: list[Verification]) -> Verification:
+        """This verification as stored in its round: with the ``earlier`` rounds' as its
+        history (each without its own), and any history it carried dropped."""
+        return dataclasses.replace(
+            self, rounds=[dataclasses.replace(e, rounds=[]) for e in earlier])
 
     def to_summary(self) -> dict[str, Any]:
         """The stored form: every field, less ``responses``, ``round`` and ``rounds`` where
@@ -172,5 +196,5 @@ class Verification:
                 if value:
                     out["rounds"] = [r.to_summary() for r in value]
             elif f.name != "round" or value is not None:
-                out[f.name] = value
+                out[_key(f)] = value
         return out
