@@ -1,6 +1,7 @@
 """Range finding: each factor scanned at the others' centre, the part of its range kept
 where the test measures, ranges moved within hard limits toward the target, and a target out
-of every reach said after the scan (its runs kept)."""
+of every reach said after the scan (its runs kept). With several responses, each other
+response's span over the scans is said beside the lead's."""
 
 from __future__ import annotations
 
@@ -12,7 +13,8 @@ import numpy as np
 from demcal.calibrate.context import Context, point_means
 from demcal.calibrate.runner import Point
 from demcal.errors import StudyError
-from demcal.summaries import RangeFind, ScanFactor, ScanPoint
+from demcal.store import RunRecord
+from demcal.summaries import RangeFind, ScanFactor, ScanPoint, ScanReach
 
 __all__ = ["rangefind"]
 
@@ -56,7 +58,7 @@ def rangefind(ctx: Context) -> RangeFind:
     may_move = bool(hard) if opts.move_ranges is None else opts.move_ranges
     moves: list[str] = []
     for attempt in range(opts.max_moves + 1):
-        scans, lines = _scan(ctx, names)
+        scans, lines, others = _scan(ctx, names)
         seen = [p.response for f in scans for p in f.points if p.response is not None]
         if not seen:
             _no_pile_anywhere(ctx, scans)
@@ -73,8 +75,11 @@ def rangefind(ctx: Context) -> RangeFind:
     msg = _scan_message(ctx, (lo, hi), slopes)
     if moves:
         msg += "; ranges moved within hard limits: " + "; ".join(moves)
+    if others is not None:
+        msg += "; " + _others_message(others)
     found = RangeFind(fidelity=ctx.own_fidelity("rangefind").get("fidelity"), factors=scans,
-                      response_min=lo, response_max=hi, target_in_range=inside, message=msg)
+                      response_min=lo, response_max=hi, target_in_range=inside, message=msg,
+                      responses=others)
     if not inside:
         _refuse_out_of_reach(ctx, found, _reach(ctx, scans, lines, hard))
     ctx.store.set_stage("rangefind", "done", found.to_summary(),
@@ -84,10 +89,11 @@ def rangefind(ctx: Context) -> RangeFind:
 
 
 def _scan(ctx: Context, names: list[str]
-          ) -> tuple[list[ScanFactor], dict[str, tuple[float, float]]]:
+          ) -> tuple[list[ScanFactor], dict[str, tuple[float, float]], list[ScanReach] | None]:
     """Run every factor's scan at the others' centre: each factor's points, the range kept
-    (the longest contiguous run of piles) and why it was cut; and each factor's scan line
-    (slope, intercept) over its piles, where it formed two or more."""
+    (the longest contiguous run of piles) and why it was cut; each factor's scan line
+    (slope, intercept) over its piles, where it formed two or more; and every other
+    response's span over the scans (None with one response)."""
     opts = ctx.study.stages.rangefind
     points, index = [], []
     for fi, name in enumerate(names):
@@ -97,8 +103,8 @@ def _scan(ctx: Context, names: list[str]
             for r in range(ctx.reps("rangefind")):
                 points.append(Point(pt, r, ctx.full({name: float(v)}), ctx.seed(pt, r, 0)))
             index.append((name, float(v), pt))
-    y, outcomes = point_means(ctx.run("rangefind", points), 100 * len(names),
-                              ctx.lead.name)
+    recs = ctx.run("rangefind", points)
+    y, outcomes = point_means(recs, 100 * len(names), ctx.lead.name)
     scans, lines = [], {}
     for name in names:
         f = ctx.factor(name)
@@ -126,7 +132,44 @@ def _scan(ctx: Context, names: list[str]
             points=[ScanPoint(value=float(v), outcome=outcomes[pt],
                               response=None if np.isnan(y[pt]) else float(y[pt]))
                     for v, pt in pts]))
-    return scans, lines
+    return scans, lines, _other_responses(ctx, recs, 100 * len(names))
+
+
+def _other_responses(ctx: Context, recs: Sequence[RunRecord], n_points: int
+                     ) -> list[ScanReach] | None:
+    """Every response but the lead over the scans' points: the span measured and whether
+    the lab value lies in it (None for a study of one response). The ranges follow the
+    lead alone; this says which other lab value the scans did not reach."""
+    if not ctx.several:
+        return None
+    out = []
+    for spec in ctx.responses[1:]:
+        y, _ = point_means(recs, n_points, spec.name)
+        seen = y[~np.isnan(y)]
+        lab = ctx.labs.get(spec.name)
+        target = None if lab is None else float(lab.mean)
+        low, high = (float(seen.min()), float(seen.max())) if seen.size else (None, None)
+        inside = None if target is None or low is None else bool(low <= target <= high)
+        out.append(ScanReach(name=spec.name, low=low, high=high, lab=target,
+                             in_range=inside))
+    return out
+
+
+def _others_message(others: Sequence[ScanReach]) -> str:
+    """The other responses' spans in a clause of the stage's message."""
+    parts = []
+    for r in others:
+        if r.low is None or r.high is None:
+            parts.append(f"{r.name} not measured by the scans")
+            continue
+        span = f"{r.name} {r.low:.2f}..{r.high:.2f}"
+        if r.lab is None:
+            parts.append(span + " (no lab value)")
+        elif r.in_range:
+            parts.append(span + f" (lab {r.lab:g} inside)")
+        else:
+            parts.append(span + f" (lab {r.lab:g} outside: no scan reached it)")
+    return "the other responses over the scans: " + ", ".join(parts)
 
 
 def _no_pile_anywhere(ctx: Context, scans: list[ScanFactor]) -> None:

@@ -291,6 +291,9 @@ def _rangefind(b: _Builder) -> str:
                          f"{_fmt(s.response_max)}°; target "
                          f"{'inside' if s.target_in_range else 'outside'} this range.</p>")
         parts.append(b.table(T.rangefind_table(s, d.symbols)))
+        others = T.rangefind_responses_table(s)
+        if others is not None:  # several responses: which lab value the scans reached
+            parts.append(b.table(others))
         parts.append(b.figure("rangefind", "AoR against each factor's value; × = no pile; "
                               "shaded = range kept; dashed = target.",
                               lambda: F.rangefind_figure(s, d.lead_target, d.symbols)))

@@ -223,6 +223,20 @@ def rangefind_points_table(found: RangeFind, symbols: Mapping[str, str]) -> Tabl
                  _frame(rows, ["symbol", "value", "outcome", "AoR (deg)"]))
 
 
+def rangefind_responses_table(found: RangeFind) -> Table | None:
+    """Every other response over the scans (several responses): the span measured, its lab
+    value and whether the scans reached it; None with one response."""
+    if not found.responses:
+        return None
+    rows = [{"response": r.name, "lowest seen": _num(r.low), "highest seen": _num(r.high),
+             "lab value": _num(r.lab),
+             "lab inside": "" if r.in_range is None else ("yes" if r.in_range else "no")}
+            for r in found.responses]
+    return Table("rangefind_responses", "Range-finding scan: the other responses",
+                 _frame(rows, ["response", "lowest seen", "highest seen", "lab value",
+                               "lab inside"]))
+
+
 # ------------------------------------------------------------------------------------ screening
 def _factor_symbols(factors: Sequence[Mapping[str, Any]], symbols: Mapping[str, str]
                    ) -> list[tuple]:

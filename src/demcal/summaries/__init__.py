@@ -17,7 +17,7 @@ file formats built from them (the result JSON).
 from demcal.summaries._stored import by_key, stored_key
 from demcal.summaries.design import DesignRun
 from demcal.summaries.optimum import Candidate, Goal, Optimum, ResponsesOptimum
-from demcal.summaries.rangefind import RangeFind, ScanFactor, ScanPoint
+from demcal.summaries.rangefind import RangeFind, ScanFactor, ScanPoint, ScanReach
 from demcal.summaries.screening import Effect, Screening, ScreeningModel
 from demcal.summaries.steepest import Anchor, AnchorRun, PathStep, Steepest
 from demcal.summaries.surface import ResponseModel, Surface
@@ -25,5 +25,5 @@ from demcal.summaries.verification import ResponseVerification, Verification
 
 __all__ = ["Anchor", "AnchorRun", "Candidate", "DesignRun", "Effect", "Goal", "Optimum",
            "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
-           "ResponsesOptimum", "ScanFactor", "ScanPoint", "Screening", "ScreeningModel", "Steepest",
-           "Surface", "Verification", "by_key", "stored_key"]
+           "ResponsesOptimum", "ScanFactor", "ScanPoint", "ScanReach", "Screening",
+           "ScreeningModel", "Steepest", "Surface", "Verification", "by_key", "stored_key"]

@@ -9,7 +9,7 @@ from typing import Any
 
 from demcal.summaries._stored import _Keyed, _read, _stored, stored_as
 
-__all__ = ["RangeFind", "ScanFactor", "ScanPoint"]
+__all__ = ["RangeFind", "ScanFactor", "ScanPoint", "ScanReach"]
 
 
 @dataclass(frozen=True)
@@ -78,6 +78,33 @@ class ScanFactor(_Keyed):
 
 
 @dataclass(frozen=True)
+class ScanReach(_Keyed):
+    """Another response than the lead over the scans (a several-response study): the span
+    the scans measured and whether its lab value lies in it.
+
+    Attributes
+    ----------
+    name : str
+        The response.
+    low, high : float or None
+        The smallest and largest value the scans' points measured, its unit (None: none).
+    lab : float or None
+        Its lab value (None: a goal without one).
+    in_range : bool or None
+        The lab value between them (None without a lab value or a measured point).
+    """
+
+    name: str = ""
+    low: float | None = None
+    high: float | None = None
+    lab: float | None = None
+    in_range: bool | None = None
+
+    #: written even when None
+    ALWAYS = ("name", "low", "high", "lab", "in_range")
+
+
+@dataclass(frozen=True)
 class RangeFind:
     """The range-finding stage.
 
@@ -98,6 +125,8 @@ class RangeFind:
         ``reach_deg``).
     error : str or None
         Why the stage failed.
+    responses : list of ScanReach or None
+        Every other response over the scans (several responses); None with one.
     """
 
     fidelity: str | None = None
@@ -108,6 +137,7 @@ class RangeFind:
     message: str = ""
     reach: list[float] | None = stored_as("reach_deg")
     error: str | None = None
+    responses: list[ScanReach] | None = None
 
     #: written even when None (no measured point); the others: when not None
     ALWAYS = ("factors", "response_min", "response_max", "target_in_range", "message")
@@ -117,11 +147,13 @@ class RangeFind:
         """Read a stored summary (any release's; empty: not run)."""
         items = _read(cls, summary or {})
         items["factors"] = [ScanFactor.from_summary(f) for f in items.get("factors") or []]
+        if items.get("responses") is not None:
+            items["responses"] = [ScanReach.from_summary(r) for r in items["responses"]]
         return cls(**items)
 
     def to_summary(self) -> dict[str, Any]:
-        """The stored form: the fields in order, ``fidelity``, ``reach`` and ``error`` only
-        where set."""
+        """The stored form: the fields in order, ``fidelity``, ``reach``, ``error`` and
+        ``responses`` only where set."""
         return _stored(self, self.ALWAYS)
 
     @property
