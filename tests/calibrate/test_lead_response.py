@@ -191,11 +191,65 @@ def test_the_user_s_own_engine_leads_with_its_own_response(tmp_path: Path) -> No
         out.output
 
 
-def test_run_sheets_for_another_lead_are_refused_in_one_line(tmp_path: Path) -> None:
-    """External run sheets carry the angle alone: a study that leads with another response
-    says so before any sheet is written."""
+def test_run_sheets_carry_every_response_and_reach_the_same_result(tmp_path: Path) -> None:
+    """External mode for a study of three responses led by the drum: each run sheet has a
+    column per response (the lead first), the runs done 'outside' (the stand-in) are
+    imported, and the study ends where it ends run inside demcal."""
+    import pandas as pd
+
+    from demcal.execute.analytic import analytic_aor
+    from demcal.virtual import PARAMETERS
+
+    inside = calibrate(_study(tmp_path / "inside"), workers=1)
+    path = _study(tmp_path / "outside")
+    options = AnalyticOptions(**ANALYTIC)
+    names = list(RESPONSES)
+    cli, stages = CliRunner(), []
+    for _ in range(6):
+        out = cli.invoke(app, ["calibrate", str(path), "--external", "--no-report"])
+        assert out.exit_code == 0, out.output
+        if "runs to do externally" not in out.output:
+            break
+        stage = out.output.split(":")[0].strip()
+        stages.append(stage)
+        assert f"fill {', '.join(names)} (or outcome)" in " ".join(out.output.split())
+        sheet = path.parent / f"runsheet_{stage}.csv"
+        frame = pd.read_csv(sheet)
+        assert [c for c in frame.columns if c in names or c == "outcome"] == [*names, "outcome"]
+        runs = [analytic_aor({n: float(row[n]) for n in PARAMETERS if n in frame.columns},
+                             int(row["seed"]), options) for _, row in frame.iterrows()]
+        frame["outcome"] = [r["outcome"] for r in runs]
+        for n in names:
+            frame[n] = [r["responses"][n] for r in runs]
+        frame.to_csv(sheet, index=False)
+        out = cli.invoke(app, ["import", str(sheet), "--study", str(path)])
+        assert out.exit_code == 0 and "stored" in out.output, out.output
+    assert stages == ["rsm", "verification"]
+    outside = _result(path)
+    assert outside["optimum"] == inside["optimum"]
+    assert outside["verification"] == inside["verification"]
+    assert outside["lead"] == {"name": "drum_deg", "unit": "deg"}
+
+
+def _result(path: Path) -> dict:
+    """The result a study's store holds."""
+    from demcal.calibrate.study import study_folder
+    from demcal.store import RunStore
+
+    with RunStore(study_folder(path)) as store:
+        return store.meta("result")
+
+
+def test_a_sheet_row_without_the_lead_is_refused_in_one_line(tmp_path: Path) -> None:
     path = _study(tmp_path)
     out = CliRunner().invoke(app, ["calibrate", str(path), "--external", "--no-report"])
+    assert out.exit_code == 0, out.output
+    sheet = path.parent / "runsheet_rsm.csv"
+    text = sheet.read_text().splitlines()
+    head = text[0].split(",")
+    row = text[1].split(",")
+    row[head.index("bulk_density_kg_m3")] = "206.0"  # another response, the lead left empty
+    sheet.write_text("\n".join([text[0], ",".join(row)]) + "\n")
+    out = CliRunner().invoke(app, ["import", str(sheet), "--study", str(path)])
     assert out.exit_code == 2, out.output
-    assert "leads with 'drum_deg'" in " ".join(out.output.split())
-    assert not list(tmp_path.glob("runsheet_*.csv"))
+    assert "bulk_density_kg_m3 given without drum_deg" in " ".join(out.output.split())

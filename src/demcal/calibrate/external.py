@@ -2,15 +2,17 @@
 
 ``demcal calibrate --external`` stops at the first stage with runs missing and writes its run
 sheet ``<study dir>/runsheet_<stage>.csv``: one row per run with ``key``, ``stage``, ``point``,
-``replicate``, ``seed``, every parameter (SI) and empty ``aor_deg`` and ``outcome`` columns.
-Fill ``aor_deg`` (deg) for each run that formed a pile, or ``outcome`` (column, plug,
-unsettled, unstable) for one that did not, and ``demcal import`` the sheet; the next
-``demcal calibrate`` goes on.
+``replicate``, ``seed``, every parameter (SI), an empty column per response the study aims at
+(its lead first: ``aor_deg`` for a study of the angle) and an empty ``outcome``. Fill the
+responses for each run that measured them (the lead's is needed; another response left
+empty was not measured), or ``outcome`` (column, plug, unsettled, unstable) for one that
+did not, and ``demcal import`` the sheet; the next ``demcal calibrate`` goes on.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
@@ -24,29 +26,36 @@ from demcal.virtual import PARAMETERS
 __all__ = ["OUTCOMES", "import_results", "write_run_sheet"]
 
 OUTCOMES = ("pile", "column", "plug", "scattered", "unsettled", "unstable")
+#: the angle's name: a value of it must be an angle
+_ANGLE = "aor_deg"
 
 
-def write_run_sheet(pending: ExternalPending, runner: Runner, folder: str | Path) -> Path:
-    """Write the pending runs of a stage as CSV; return its path."""
+def write_run_sheet(pending: ExternalPending, runner: Runner, folder: str | Path,
+                    responses: Sequence[str] = (_ANGLE,)) -> Path:
+    """Write the pending runs of a stage as CSV, a column per name in ``responses`` (the
+    study's, its lead first); return its path."""
     rows = []
     for p in pending.points:
         row = {"key": runner.key(pending.stage, p), "stage": pending.stage, "point": p.point,
                "replicate": p.replicate, "seed": p.seed}
         row.update({n: p.params[n] for n in PARAMETERS if n in p.params})
-        row.update(aor_deg=None, outcome=None)
+        row.update({name: None for name in responses}, outcome=None)
         rows.append(row)
     path = Path(folder) / f"runsheet_{pending.stage}.csv"
     pd.DataFrame(rows).to_csv(path, index=False)  # repr floats: exact round trip
     return path
 
 
-def import_results(csv: str | Path, runner: Runner) -> int:
+def import_results(csv: str | Path, runner: Runner, responses: Sequence[str] = (_ANGLE,)
+                   ) -> int:
     """Store the runs of a filled run sheet; return how many were stored.
 
-    A row needs ``aor_deg`` (then the outcome defaults to ``pile``) or an ``outcome`` other
-    than pile. The row's key is recomputed from its stage, parameters and seed and must match
-    (the sheet belongs to this study and test). Every row is checked first and the runs are
-    stored in one transaction: a bad row (or a run given twice) stores nothing.
+    ``responses``: the study's, its lead first (the sheet's response columns). A row needs
+    the lead's value (then the outcome defaults to ``pile``) or an ``outcome`` other than
+    pile; another response left empty was not measured. The row's key is recomputed from its
+    stage, parameters and seed and must match (the sheet belongs to this study and test).
+    Every row is checked first and the runs are stored in one transaction: a bad row (or a
+    run given twice) stores nothing.
     """
     path = Path(csv)
     if not path.is_file():
@@ -65,7 +74,7 @@ def import_results(csv: str | Path, runner: Runner) -> int:
             from None
     except (pd.errors.ParserError, ValueError) as exc:
         raise InputError(f"{path}: not a readable CSV run sheet ({one_line(exc)})") from None
-    need = {"key", "stage", "point", "replicate", "seed", "aor_deg", "outcome"}
+    need = {"key", "stage", "point", "replicate", "seed", *responses, "outcome"}
     if missing := need - set(frame.columns):
         raise InputError(f"{path}: missing column(s) {', '.join(sorted(missing))}")
     # every row is checked before any is stored; then all are stored in one transaction
@@ -88,10 +97,10 @@ def import_results(csv: str | Path, runner: Runner) -> int:
             raise InputError(f"{where}: the same run (key {row['key']}) as row "
                              f"{seen[row['key']]}; give each run once")
         seen[row["key"]] = line
-        if (response := _response(row, where)) is None:
+        if (response := _response(row, where, responses)) is None:
             continue  # not done yet
-        outcome, aor = response
-        todo.append((stage, p, _imported(runner.key(stage, p), outcome, aor, path),
+        outcome, values = response
+        todo.append((stage, p, _imported(runner.key(stage, p), outcome, values, path),
                      2 if outcome in ("unstable", "unsettled") else 1))
     with runner.store.batch():
         for stage, p, res, attempts in todo:
@@ -99,36 +108,53 @@ def import_results(csv: str | Path, runner: Runner) -> int:
     return len(todo)
 
 
-def _imported(key: str, outcome: str, aor: float | None, path: Path) -> RunResult:
-    """An imported row as a run result: a pile's angle, or an outcome that measured nothing."""
+def _imported(key: str, outcome: str, values: dict[str, float], path: Path) -> RunResult:
+    """An imported row as a run result: a pile's responses, or an outcome that measured
+    nothing."""
     pile = outcome == "pile"
-    return RunResult(key, outcome, responses={"aor_deg": aor} if pile else {},
+    return RunResult(key, outcome, responses=values if pile else {},
                      reason=None if pile else "imported", detail={"imported_from": str(path)})
 
 
-def _response(row: pd.Series, where: str) -> tuple[str, float | None] | None:
-    """A row's ``(outcome, aor_deg)``; None when both cells are empty (not done yet)."""
-    aor = row["aor_deg"]
+def _value(cell: object, name: str, where: str) -> float | None:
+    """A response cell: None when empty, else a finite number (an angle: in (0, 90))."""
+    if cell is None or (isinstance(cell, float) and math.isnan(cell)):
+        return None
     try:
-        aor = None if aor is None or (isinstance(aor, float) and math.isnan(aor)) \
-            else float(aor)
-    except ValueError:
-        raise InputError(f"{where}: aor_deg must be a number; got {aor!r}") from None
+        value = float(cell)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: {name} must be a number; got {cell!r}") from None
+    if name == _ANGLE and not 0 < value < 90:
+        raise InputError(f"{where}: {name} must be in (0, 90) for a pile; got {value!r}")
+    if not math.isfinite(value):
+        raise InputError(f"{where}: {name} must be a finite number; got {cell!r}")
+    return value
+
+
+def _response(row: pd.Series, where: str, responses: Sequence[str]
+              ) -> tuple[str, dict[str, float]] | None:
+    """A row's ``(outcome, {response: value})``; None when the lead's cell and the outcome are
+    empty (not done yet)."""
+    lead = responses[0]
+    values = {n: v for n in responses if (v := _value(row[n], n, where)) is not None}
     outcome = row["outcome"]
     outcome = None if not isinstance(outcome, str) or not outcome.strip() else outcome.strip()
-    if outcome is None and aor is None:
+    if outcome is None and lead not in values:
+        if values:
+            raise InputError(f"{where}: {', '.join(values)} given without {lead}, the "
+                             f"response the study leads with; give {lead} (or an outcome)")
         return None
-    if outcome not in (None, "pile") and aor is not None:
-        raise InputError(f"{where}: aor_deg {aor!r} given for a run whose outcome is "
-                         f"{outcome!r}; give an angle for a pile, or an outcome without an "
-                         "angle")
+    if outcome not in (None, "pile") and values:
+        given = ", ".join(f"{n} {v!r}" for n, v in values.items())
+        raise InputError(f"{where}: {given} given for a run whose outcome is {outcome!r}; "
+                         "give the responses for a pile, or an outcome without them")
     outcome = outcome or "pile"
     if outcome not in OUTCOMES:
         raise InputError(f"{where}: outcome must be one of {', '.join(OUTCOMES)}; got "
                          f"{outcome!r}")
-    if outcome == "pile" and (aor is None or not 0 < aor < 90):
-        raise InputError(f"{where}: aor_deg must be in (0, 90) for a pile; got {aor!r}")
-    return outcome, aor
+    if outcome == "pile" and lead not in values:
+        raise InputError(f"{where}: {lead} must be given for a pile; got {row[lead]!r}")
+    return outcome, values
 
 
 def _int(value: object, name: str) -> int:

@@ -154,9 +154,6 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     """
     path = Path(study_file).resolve()
     study = load_study(path)
-    if external and study.lead != AOR:
-        raise InputError(f"--external: the run sheets take the angle (aor_deg) alone; a study "
-                         f"that leads with {study.lead!r} runs in demcal or through [engine]")
     if external and study.tests.drum is not None:
         raise InputError("--external: the runs are made outside demcal, but [tests.drum] runs "
                          "inside demcal (its engine or LAMMPS); calibrate without --external, "

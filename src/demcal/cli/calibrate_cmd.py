@@ -307,10 +307,12 @@ def calibrate_cmd(
             raise typer.Exit(EXIT_INTERRUPTED) from None
         except ExternalPending as pending:
             progress.stop()
-            path = write_run_sheet(pending, ctx.runner, study_dir)
+            names = [r.name for r in ctx.responses]
+            path = write_run_sheet(pending, ctx.runner, study_dir, names)
             console.print(f"{pending.stage}: {len(pending.points)} runs to do externally; run "
-                          f"sheet: {path}\nfill aor_deg (or outcome) and run `demcal import "
-                          f"{path.name} --study {study}`, then `demcal calibrate` again")
+                          f"sheet: {path}\nfill {', '.join(names)} (or outcome) and run "
+                          f"`demcal import {path.name} --study {study}`, then `demcal "
+                          "calibrate` again")
             return
         finally:
             ctx.store.close()
@@ -388,7 +390,7 @@ def import_cmd(
                          f"{study} --external` first, it writes the run sheets")
     ctx = open_study(study, external=True, break_lock=break_lock)
     try:
-        n = import_results(results, ctx.runner)
+        n = import_results(results, ctx.runner, [r.name for r in ctx.responses])
     finally:
         ctx.store.close()
     console.print(f"stored {n} runs from {results}")
