@@ -184,3 +184,39 @@ def test_lammps_result_reports_the_mass_the_cylinder_kept(tmp_path):
     res = lr._result(case, cfg, wall=1.0, plot_path=None, failure=None)
     assert res.outcome == "plug"
     assert res.mass_left_kg == pytest.approx(3e-4, rel=1e-12)
+
+
+def test_lammps_result_reports_the_fill_s_bulk_density(tmp_path):
+    """The LAMMPS engine reads the settled fill's dump (``filled.dump``, written before the
+    lift) as demcal reads its own fill: the level is the mean top over the interior cells,
+    the bulk density the fill's mass over pi R^2 level. Here a fill built with every interior
+    cell's top at 0.06 m, its mass known."""
+    from demcal.virtual.lammps_aor import FILLED, FINAL, LIFTED, LammpsCase
+
+    cfg = fidelity_config("quick")
+    d, r_tube = cfg.particle.diameter, 0.5 * cfg.geometry.cylinder_inner_diameter
+    level = 0.06
+    reach = 0.8 * r_tube
+    n_side = int(np.ceil(2 * reach / d))
+    centres = [(-reach + (i + 0.5) * d, -reach + (j + 0.5) * d)
+               for i in range(n_side) for j in range(n_side)]
+    centres = [(x, y) for x, y in centres if np.hypot(x, y) <= reach]
+    rows = [(1e-5, x, y, z) for x, y in centres for z in (level - 0.001, 0.5 * level)]
+    rows.append((3e-5, 0.98 * r_tube, 0.0, 0.2))  # by the wall: its mass counts, not its top
+    (tmp_path / "log.lammps").write_text(
+        "DEMCAL start 0 100\nDEMCAL filled 0.5 0.2\nDEMCAL lifted 0.9 0.3\n"
+        "DEMCAL settled 1.2\nDEMCAL end 1.2\n")
+    _dump(tmp_path / FILLED, rows)
+    _dump(tmp_path / LIFTED, rows)
+    _dump(tmp_path / FINAL, rows)
+    case = LammpsCase(tmp_path, n_clumps=len(rows), n_spheres=len(rows), time_step_s=1e-5,
+                      seed=1, params={})
+    res = lr._result(case, cfg, wall=1.0, plot_path=None, failure=None)
+    mass = 1e-5 * 2 * len(centres) + 3e-5
+    assert res.fill_level_m == pytest.approx(level, rel=1e-12)
+    assert res.bulk_density_kg_m3 == pytest.approx(mass / (np.pi * r_tube**2 * level),
+                                                    rel=1e-12)
+    # a case written before the fill was dumped (an older run folder) reports none
+    (tmp_path / FILLED).unlink()
+    assert lr._result(case, cfg, wall=1.0, plot_path=None, failure=None).bulk_density_kg_m3 \
+        is None

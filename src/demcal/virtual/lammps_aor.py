@@ -15,7 +15,8 @@ engines the same initial clumps; the same time step, lift speed, settle rules an
   ``check_interval`` the settle criterion of :mod:`demcal.virtual.settle` is evaluated from
   the clumps' centre-of-mass speeds (over the clumps that touch another clump when more than
   half do), the tube stops once it clears the material, and the script prints one
-  ``DEMCAL <event> ...`` line per phase change and dumps the lifted and the final spheres.
+  ``DEMCAL <event> ...`` line per phase change and dumps the settled fill's, the lifted and
+  the final spheres.
 
 Only the ``packing`` fill is written (the quick, standard and large fidelities); the factory
 fill of the paper fidelity is not (an :class:`~demcal.errors.InputError` says so).
@@ -39,6 +40,8 @@ __all__ = ["LammpsCase", "write_case"]
 
 #: files of a case
 DATA, BODIES, INPUT, LIFTED, FINAL = "aor.data", "bodies.txt", "in.aor", "lifted.dump", "final.dump"
+#: the settled fill before the lift: its level and bulk density are read from it
+FILLED = "filled.dump"
 
 
 @dataclass(frozen=True)
@@ -166,6 +169,7 @@ if "$(time - v_tp) > {_fmt(ph.fill_settle_max_time)}" then &
 jump SELF fill_loop
 label fill_done
 print "DEMCAL filled $(time) ${{top}}"
+write_dump all custom {FILLED} id mol mass radius x y z modify sort id
 variable tl equal $(time)
 variable dz equal "{_fmt(ph.lift_speed)}*(time - v_tl)"
 label lift_loop

@@ -34,7 +34,8 @@ from demcal.engine_guard import engine_watchdog, kill_group
 from demcal.errors import InputError
 from demcal.virtual.aor import AoRResult
 from demcal.virtual.config import AoRTestConfig
-from demcal.virtual.lammps_aor import FINAL, INPUT, LIFTED, LammpsCase, write_case
+from demcal.virtual.fill import bulk_density, fill_level
+from demcal.virtual.lammps_aor import FILLED, FINAL, INPUT, LIFTED, LammpsCase, write_case
 from demcal.virtual.lammps_options import LammpsOptions
 from demcal.virtual.outcome import (
     Outcome,
@@ -215,6 +216,12 @@ def _result(case: LammpsCase, config: AoRTestConfig, wall: float,
         sim_time_s=t_end, wall_time_s=wall, seed=case.seed, params=dict(case.params),
         sphere_steps=round(t_end / case.time_step_s) * case.n_spheres,
         phase_times_s=phase_times)
+    if "filled" in ev and (folder / FILLED).is_file():  # read as demcal's own fill is
+        centres, radii, _, mass = _clumps(read_dump(folder / FILLED))
+        r_tube = 0.5 * g.cylinder_inner_diameter
+        level = fill_level(centres, radii, cell=config.particle.diameter, tube_radius=r_tube)
+        base["fill_level_m"] = level
+        base["bulk_density_kg_m3"] = bulk_density(float(mass.sum()), level, r_tube)
     if failure is not None or "end" not in ev:
         tail = "\n".join(text.splitlines()[-5:])
         return AoRResult(outcome=Outcome.UNSTABLE.value, reason=f"LAMMPS failed: "
