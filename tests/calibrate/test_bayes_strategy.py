@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pandas as pd
 import pytest
 from test_several_responses import ANALYTIC, FACTORS, PLANTED, write_study
 from typer.testing import CliRunner
@@ -261,7 +260,7 @@ def test_switching_strategy_keeps_each_path_to_itself(tmp_path: Path) -> None:
 def test_external_round_trip_gives_the_internal_result(tmp_path: Path) -> None:
     """--external: the loop's runs go out as run sheets (the start, then each batch), come
     back through `demcal import`, and the study ends where the internal one does."""
-    from test_external import _fill
+    from test_external import _fill, run_externally
 
     from demcal.calibrate import load_study
 
@@ -271,18 +270,7 @@ def test_external_round_trip_gives_the_internal_result(tmp_path: Path) -> None:
                                      strategy=strategy), workers=1)
     study = bayes_study(tmp_path, responses=False, strategy=strategy)
     options = load_study(study).test.analytic
-    cli, sheets = CliRunner(), []
-    for _ in range(8):
-        out = cli.invoke(app, ["calibrate", str(study), "--external", "--no-report"])
-        assert out.exit_code == 0, out.output
-        if "runs to do externally" not in out.output:
-            break
-        stage = out.output.split(":")[0].strip()
-        sheet = tmp_path / f"runsheet_{stage}.csv"
-        sheets.append((stage, len(pd.read_csv(sheet))))
-        _fill(sheet, options)
-        out = cli.invoke(app, ["import", str(sheet), "--study", str(study)])
-        assert out.exit_code == 0, out.output
+    sheets = [s[:2] for s in run_externally(study, lambda sheet: _fill(sheet, options), 8)]
     assert sheets[:2] == [("bayes", 27), ("bayes", 6)] and sheets[2][0] == "verification"
     with RunStore(tmp_path) as store:
         result = store.meta("result")

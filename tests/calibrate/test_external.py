@@ -28,6 +28,25 @@ def _fill(sheet, options) -> None:
     frame.to_csv(sheet, index=False)
 
 
+def run_externally(study, fill, rounds: int = 10) -> list[tuple[str, int, str]]:
+    """Calibrate ``study`` by run sheets: each stage's sheet written, ``fill(sheet)`` done
+    'outside', imported, until the study ends; returns (stage, rows, the calibrate command's
+    output) per sheet, in order."""
+    cli, done = CliRunner(), []
+    for _ in range(rounds):
+        out = cli.invoke(app, ["calibrate", str(study), "--external", "--no-report"])
+        assert out.exit_code == 0, out.output
+        if "runs to do externally" not in out.output:
+            return done
+        stage = out.output.split(":")[0].strip()
+        sheet = study.parent / f"runsheet_{stage}.csv"
+        done.append((stage, len(pd.read_csv(sheet)), out.output))
+        fill(sheet)
+        out = cli.invoke(app, ["import", str(sheet), "--study", str(study)])
+        assert out.exit_code == 0 and "stored" in out.output, out.output
+    raise AssertionError(f"the study did not end in {rounds} sheets: {[d[:2] for d in done]}")
+
+
 def test_external_round_trip_matches_internal(study_file, tmp_path):
     other = tmp_path / "internal"
     other.mkdir()
@@ -35,23 +54,9 @@ def test_external_round_trip_matches_internal(study_file, tmp_path):
     expected = calibrate(other / "study.toml")
 
     options = load_study(study_file).test.analytic
-    cli = CliRunner()
-    stages_seen = []
-    for _ in range(10):
-        res = cli.invoke(app, ["calibrate", str(study_file), "--external", "--no-report"])
-        assert res.exit_code == 0, res.output
-        sheets = sorted(study_file.parent.glob("runsheet_*.csv"))
-        if "runs to do externally" not in res.output:
-            break
-        stage = res.output.split(":")[0].strip()
-        stages_seen.append(stage)
-        sheet = study_file.parent / f"runsheet_{stage}.csv"
-        assert sheet in sheets
-        _fill(sheet, options)
-        res = cli.invoke(app, ["import", str(sheet), "--study", str(study_file)])
-        assert res.exit_code == 0, res.output
-        assert "stored" in res.output
-    assert stages_seen == ["rangefind", "screening", "steepest", "rsm", "verification"]
+    sheets = run_externally(study_file, lambda sheet: _fill(sheet, options))
+    assert [s[0] for s in sheets] == ["rangefind", "screening", "steepest", "rsm",
+                                      "verification"]
     with RunStore(study_file.parent) as store:
         result = store.meta("result")
         assert store.count() == expected["n_runs"]

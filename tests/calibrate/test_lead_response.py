@@ -196,6 +196,7 @@ def test_run_sheets_carry_every_response_and_reach_the_same_result(tmp_path: Pat
     column per response (the lead first), the runs done 'outside' (the stand-in) are
     imported, and the study ends where it ends run inside demcal."""
     import pandas as pd
+    from test_external import run_externally
 
     from demcal.execute.analytic import analytic_aor
     from demcal.virtual import PARAMETERS
@@ -204,16 +205,8 @@ def test_run_sheets_carry_every_response_and_reach_the_same_result(tmp_path: Pat
     path = _study(tmp_path / "outside")
     options = AnalyticOptions(**ANALYTIC)
     names = list(RESPONSES)
-    cli, stages = CliRunner(), []
-    for _ in range(6):
-        out = cli.invoke(app, ["calibrate", str(path), "--external", "--no-report"])
-        assert out.exit_code == 0, out.output
-        if "runs to do externally" not in out.output:
-            break
-        stage = out.output.split(":")[0].strip()
-        stages.append(stage)
-        assert f"fill {', '.join(names)} (or outcome)" in " ".join(out.output.split())
-        sheet = path.parent / f"runsheet_{stage}.csv"
+
+    def fill(sheet: Path) -> None:  # the runs 'outside': the stand-in's every response
         frame = pd.read_csv(sheet)
         assert [c for c in frame.columns if c in names or c == "outcome"] == [*names, "outcome"]
         runs = [analytic_aor({n: float(row[n]) for n in PARAMETERS if n in frame.columns},
@@ -222,9 +215,11 @@ def test_run_sheets_carry_every_response_and_reach_the_same_result(tmp_path: Pat
         for n in names:
             frame[n] = [r["responses"][n] for r in runs]
         frame.to_csv(sheet, index=False)
-        out = cli.invoke(app, ["import", str(sheet), "--study", str(path)])
-        assert out.exit_code == 0 and "stored" in out.output, out.output
-    assert stages == ["rsm", "verification"]
+
+    sheets = run_externally(path, fill, 6)
+    assert [s[0] for s in sheets] == ["rsm", "verification"]
+    assert all(f"fill {', '.join(names)} (or outcome)" in " ".join(s[2].split())
+               for s in sheets)
     outside = _result(path)
     assert outside["optimum"] == inside["optimum"]
     assert outside["verification"] == inside["verification"]
