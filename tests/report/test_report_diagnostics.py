@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -22,6 +23,8 @@ from demcal.report.model_figures import (
     residual_figure,
     target_reached,
 )
+from demcal.report.surface import StoredSurface
+from demcal.summaries import Screening, Surface
 
 
 def _bbd(y_of, seed=0, noise=0.3):
@@ -66,7 +69,11 @@ def test_box_cox_recommends_log_for_a_multiplicative_response_and_none_for_addit
     assert diag.boxcox_low <= 1.0 <= diag.boxcox_high and diag.recommended == "none"
 
 
-def _summary(d, y, rs, **fit):
+def _summary(d, y, rs, **fit) -> Surface:
+    return Surface.from_summary(_stored(d, y, rs, **fit))
+
+
+def _stored(d, y, rs, **fit):
     return {"factors": [{"name": n, "symbol": n, "low": -1.0, "high": 1.0} for n in d.names],
             "runs": [{"point": i, "coded": dict(zip(d.names, map(float, row), strict=True)),
                       "actual": dict(zip(d.names, map(float, row), strict=True)),
@@ -84,15 +91,15 @@ def test_refit_rebuilds_the_stored_model_and_the_checks_decide_the_verdict():
     assert np.allclose(again.fitted, rs.fitted) and again.term_names == rs.term_names
     checks = adequacy_checks(s, again, model_diagnostics(again))
     assert verdict(checks)
-    bad = adequacy_checks({**s, "fit": {**s["fit"], "pred_r2": 0.06}}, again,
+    bad = adequacy_checks(replace(s, fit={**s.fit, "pred_r2": 0.06}), again,
                           model_diagnostics(again))
     assert not verdict(bad)
     assert [c.name for c in bad if c.result == "FAIL"] == ["predicted R²"]
     # the stage's stored statistics of the means take precedence over the rows' fit
-    means = adequacy_checks({**s, "adequacy": {"pred_r2": -0.3}}, again,
+    means = adequacy_checks(replace(s, adequacy={"pred_r2": -0.3}), again,
                             model_diagnostics(again))
     assert [c.name for c in means if c.result == "FAIL"] == ["predicted R²"]
-    lof = adequacy_checks({**s, "lack_of_fit_p": 0.01}, again, model_diagnostics(again))
+    lof = adequacy_checks(replace(s, lack_of_fit_p=0.01), again, model_diagnostics(again))
     assert not verdict(lof)
 
 
@@ -104,7 +111,7 @@ def test_screening_refit_is_the_linear_main_effects_model():
                    "aor_deg": float(v)} for i, (r, v) in enumerate(zip(d.coded, y,
                                                                       strict=True))]}
     s["runs"][2]["aor_deg"] = None  # no pile: excluded
-    rs = refit(s, "screening")
+    rs = refit(Screening.from_summary(s), "screening")
     assert rs.n_params == 6 and rs.n_runs == d.n_runs - 1
     assert list(model_diagnostics(rs).labels) == [i for i in range(d.n_runs) if i != 2]
 
@@ -112,7 +119,7 @@ def test_screening_refit_is_the_linear_main_effects_model():
 def test_figures_draw_and_the_target_contour_is_only_drawn_when_reached():
     d, y = _bbd(lambda x: 40 + 2 * x[:, 0] + x[:, 1])
     rs = doe.fit(d, y, model="quadratic")
-    s = _summary(d, y, rs)
+    s = StoredSurface.from_surface(_summary(d, y, rs))
     diag = model_diagnostics(rs)
     assert len(residual_figure(diag).axes) == 6
     assert len(boxcox_figure(diag).axes) == 1

@@ -16,7 +16,7 @@ from scipy import stats
 
 from demcal import report
 from demcal.store import RunStore
-from demcal.summaries import RangeFind, Screening, Steepest, Verification
+from demcal.summaries import RangeFind, Screening, Steepest, Surface, Verification
 
 
 def _number(cell: str) -> float | None:
@@ -216,7 +216,8 @@ def test_stored_surface_reproduces_the_fit(paper_report):
                                  for k, v in s["coefficients_coded"].items()}
     np.testing.assert_allclose(report.StoredSurface.from_summary(sym).predict_coded(pts),
                                surf.predict_coded(pts), rtol=1e-14)
-    assert report.significant_pairs(s) == [("pp.static_friction", "pp.rolling_friction")]
+    assert report.significant_pairs(Surface.from_summary(s)) == [
+        ("pp.static_friction", "pp.rolling_friction")]
 
 
 def test_figures_are_callable_from_python(paper_report):
@@ -226,8 +227,8 @@ def test_figures_are_callable_from_python(paper_report):
             report.rangefind_figure(RangeFind.from_summary(summ["rangefind"]), 44.12),
             report.pareto_figure(Screening.from_summary(summ["screening"]).effects or []),
             report.steepest_figure(Steepest.from_summary(summ["steepest"]), 44.12),
-            report.surface_figure(summ["rsm"], ("x3", "x4")),
-            report.predicted_actual_figure(summ["rsm"]),
+            report.surface_figure(Surface.from_summary(summ["rsm"]), ("x3", "x4")),
+            report.predicted_actual_figure(Surface.from_summary(summ["rsm"])),
             report.verification_figure(Verification.from_summary(summ["verification"]), 44.12),
             report.comparison_figure(None, summ["verification"]["pile_png"])]
     assert all(isinstance(f, Figure) and f.axes for f in figs)

@@ -6,9 +6,9 @@ Typical use::
 
     path = report.build_report("studies/corn")          # -> studies/corn/report/report.html
     data = report.load_report_data("studies/corn")      # the same numbers, for a notebook
-    fig = report.pareto_figure(data.stage("screening").summary["effects"], data.symbols)
+    fig = report.pareto_figure(data.screening.effects or [], data.symbols)
     card = report.material_card(data)                   # the calibrated material
-    rs = report.diagnostics.refit(data.stage("rsm").summary, "rsm")   # Design-Expert's checks
+    rs = report.diagnostics.refit(data.surface, "rsm")  # Design-Expert's checks
 
 ``build_report`` also writes the material card (``material.toml``, ``material.json``; see
 ``demcal.virtual.material_card``) and the model diagnostics (``report.diagnostics``).

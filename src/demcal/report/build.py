@@ -21,6 +21,7 @@ from typing import Any
 
 from matplotlib.figure import Figure
 
+from demcal.errors import InputError
 from demcal.report import bayes_section as BS
 from demcal.report import diagnostics as D
 from demcal.report import figures as F
@@ -31,7 +32,7 @@ from demcal.report import tables as T
 from demcal.report.data import ReportData, StageView, load_report_data
 from demcal.report.html import badge, banner, figure_html, page, table_html
 from demcal.report.lead_labels import relabel_figure, relabel_html, relabel_table
-from demcal.report.surface import significant_pairs
+from demcal.report.surface import StoredSurface, significant_pairs
 from demcal.safety import csv_safe, safe_filename, study_image
 from demcal.summaries import Screening, Surface, Verification
 from demcal.virtual.material_card import CONTACT_LAWS, ROLLING_LAWS, MaterialCard
@@ -304,26 +305,27 @@ def _rangefind(b: _Builder) -> str:
     return _section("rangefind", "Range-finding scan", view.status, _guard(b, view, render))
 
 
-def _fitted_summary(summary: dict[str, Any], rs: Any) -> dict[str, Any]:
-    """The summary with the refitted model's coded coefficients (for screening's plots)."""
-    return {**summary, "coefficients_coded": {str(k): float(v) for k, v in
-                                              rs.coefficients_coded.items()}}
+def _fitted(found: Screening | Surface, rs: Any) -> StoredSurface:
+    """The refitted model as a surface to draw (its coded coefficients over the stage's
+    factors)."""
+    return StoredSurface.from_model(found.factors or [], {
+        str(k): float(v) for k, v in rs.coefficients_coded.items()})
 
 
-def _diagnostics(b: _Builder, stage: str, summary: dict[str, Any],
+def _diagnostics(b: _Builder, stage: str, found: Screening | Surface,
                  hold: dict[str, float] | None) -> tuple[str, bool | None]:
     """Design-Expert's diagnostics of a stage's model: the adequacy checks, the residual
     plots, Box-Cox and the perturbation plot. Returns the HTML and the verdict (None when
     the model cannot be refitted)."""
     d = b.data
     try:
-        rs = D.refit(summary, stage)
+        rs = D.refit(found, stage)
         diag = D.model_diagnostics(rs)
     except Exception as exc:
         msg = f"{stage}: diagnostics not computed ({type(exc).__name__}: {exc})"
         b.problems.append(msg)
         return f'<p class="warn">{escape(msg)}</p>', None
-    checks = D.adequacy_checks(summary, rs, diag)
+    checks = D.adequacy_checks(found, rs, diag)
     ok = D.verdict(checks)
     b.diagnostics[stage] = {**diag.to_dict(), "checks": [
         {"check": c.name, "value": c.value, "rule": c.rule, "ok": c.ok, "binding": c.binding}
@@ -347,14 +349,14 @@ def _diagnostics(b: _Builder, stage: str, summary: dict[str, Any],
              b.figure(f"{stage}_perturbation", "Perturbation: predicted AoR as each factor "
                       "moves from -1 to +1 (coded) through "
                       f"{'the optimum' if hold else 'the centre'}; dashed = target.",
-                      lambda: MF.perturbation_figure(_fitted_summary(summary, rs), hold,
+                      lambda: MF.perturbation_figure(_fitted(found, rs), hold,
                                                      d.lead_target)),
              "</div>",
              f'<p class="verdict"><b>Diagnostics verdict:</b> '
              f"{'adequate' if ok else 'not adequate'}"
              + (f" (fails: {escape(', '.join(c.name for c in checks if c.result == 'FAIL'))})"
                 if not ok else "") + ".</p>"]
-    stored = summary.get("adequate")
+    stored = found.adequate if isinstance(found, Surface) else None
     if stored is not None and bool(stored) != ok:
         parts.append(f'<p class="warn">The stage stored "adequate = '
                      f"{'yes' if stored else 'no'}\" but the diagnostics above say "
@@ -367,8 +369,7 @@ def _screening(b: _Builder) -> str:
     d, view = b.data, b.data.stage("screening")
 
     def render() -> str:
-        # the typed summary; the model helpers shared with the surface read the stored one
-        s, stored = d.screening, view.summary
+        s = d.screening
         parts = []
         info = (f"{(s.design or '').replace('_', '-').title()} design, "
                 f"{s.n_runs if s.n_runs is not None else len(s.runs or [])} runs, "
@@ -398,17 +399,17 @@ def _screening(b: _Builder) -> str:
         if s.message:
             parts.append(f"<p>{escape(s.message)}</p>")
         if s.runs and s.anova:
-            parts += _screening_model(b, s, stored)
+            parts += _screening_model(b, s)
         return "".join(parts)
 
     return _section("screening", "Screening", view.status, _guard(b, view, render))
 
 
-def _screening_model(b: _Builder, s: Screening, stored: dict[str, Any]) -> list[str]:
-    """The screening model's diagnostics and its contours over the selected factors' pairs
-    (the model helpers, shared with the response surface, read the stored summary)."""
+def _screening_model(b: _Builder, s: Screening) -> list[str]:
+    """The screening model's diagnostics and its contours over the selected factors'
+    pairs."""
     d = b.data
-    parts = [_diagnostics(b, "screening", stored, None)[0]]
+    parts = [_diagnostics(b, "screening", s, None)[0]]
     sel = [n for n in s.selected if n in s.names]
     if len(sel) >= 2:
         goal = d.lead_target
@@ -418,7 +419,7 @@ def _screening_model(b: _Builder, s: Screening, stored: dict[str, Any]) -> list[
             + ("" if goal is None else f"; red = the target {goal:.2f}° where reached")
             + ".",
             lambda: MF.pair_contours_figure(
-                _fitted_summary(stored, D.refit(stored, "screening")),
+                _fitted(s, D.refit(s, "screening")),
                 list(itertools.combinations(sel, 2)), None, goal)))
     return parts
 
@@ -482,8 +483,7 @@ def _rsm(b: _Builder) -> str:
     d, view = b.data, b.data.stage("rsm")
 
     def render() -> str:
-        # the typed summary; the model helpers shared with screening read the stored one
-        s, stored = d.surface, view.summary
+        s = d.surface
         parts = [b.table(T.rsm_design_table(s, d.symbols))]
         parts += _rsm_anova_tables(b, s)
         for w in s.warnings:
@@ -498,12 +498,12 @@ def _rsm(b: _Builder) -> str:
                              f"{escape(_equation(coefs, d.symbols))}</div>")
         hold = d.optimum.chosen or None
         if s.runs and s.coefficients_coded:
-            parts.append(_diagnostics(b, "rsm", stored, hold)[0])
+            parts.append(_diagnostics(b, "rsm", s, hold)[0])
             if s.adequate is not None:
                 parts.append(f"<p><b>Model adequate (stored by the stage):</b> "
                              f"{'yes' if s.adequate else 'no'}.</p>")
         if s.coefficients_coded and len(s.factors) >= 2:
-            parts += _rsm_pair_figures(b, s, stored, hold)
+            parts += _rsm_pair_figures(b, s, hold)
         if s.excluded_points:
             parts.append(f"<p>Excluded design points (no pile): "
                          f"{escape(', '.join(map(str, s.excluded_points)))}.</p>")
@@ -512,13 +512,16 @@ def _rsm(b: _Builder) -> str:
     return _section("rsm", "Response surface", view.status, _guard(b, view, render))
 
 
-def _rsm_pair_figures(b: _Builder, s: Surface, stored: dict[str, Any],
-                      hold: dict[str, float] | None) -> list[str]:
+def _rsm_pair_figures(b: _Builder, s: Surface, hold: dict[str, float] | None) -> list[str]:
     """The response surface over each factor pair (interactions first) and predicted vs
-    actual; the figures read the stored summary (their helpers are screening's too)."""
+    actual."""
     d = b.data
     p_of = {str(r.get("term")): r.get("p") for r in s.anova}
-    sig = set(significant_pairs(stored))
+    sig = set(significant_pairs(s))
+    try:  # a surface whose terms cannot be read: each figure says so, the tables stay
+        surf: StoredSurface | None = StoredSurface.from_surface(s)
+    except InputError:
+        surf = None
     parts = ["<h3>Response surface and contour of each factor pair</h3>"]
     goal = d.lead_target
     for a, c in itertools.combinations(s.names, 2):
@@ -529,7 +532,7 @@ def _rsm_pair_figures(b: _Builder, s: Surface, stored: dict[str, Any],
         if (a, c) in sig:
             why += ", significant" if p is not None and p < 0.05 else \
                 ", strongest main effects"
-        reached = MF.target_reached(stored, (a, c), hold, goal)
+        reached = surf is not None and MF.target_reached(surf, (a, c), hold, goal)
         parts.append(b.figure(
             key, f"Response surface and contour of AoR over {d.symbol(a)} and "
             f"{d.symbol(c)} ({why}; other factors at "
@@ -538,9 +541,10 @@ def _rsm_pair_figures(b: _Builder, s: Surface, stored: dict[str, Any],
                f"red = the target {goal:.2f}° contour" if reached else
                f"the target {goal:.2f}° is not reached over this pair")
             + "; dots = design points).",
-            lambda a=a, c=c: MF.pair_surface_figure(stored, (a, c), hold, goal)))
+            lambda a=a, c=c: MF.pair_surface_figure(StoredSurface.from_surface(s), (a, c),
+                                                    hold, goal)))
     parts.append(b.figure("predicted_actual", "Predicted (stored model) vs actual AoR "
-                          "of the design runs.", lambda: F.predicted_actual_figure(stored)))
+                          "of the design runs.", lambda: F.predicted_actual_figure(s)))
     return parts
 
 

@@ -25,7 +25,6 @@ no transform recommended; runs above Cook's or the leverage limit are flagged, n
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -36,6 +35,7 @@ from scipy import stats
 from demcal import doe
 from demcal.doe.model import ResponseSurface
 from demcal.errors import InputError
+from demcal.summaries import Screening, Surface
 
 __all__ = ["BOXCOX_LAMBDAS", "Check", "Diagnostics", "adequacy_checks", "model_diagnostics",
            "refit", "verdict"]
@@ -48,14 +48,14 @@ _TRANSFORM = {-3.0: "inverse cube", -2.0: "inverse square", -1.0: "inverse",
               1.0: "none", 2.0: "square", 3.0: "cube"}
 
 
-def refit(summary: Mapping[str, Any], stage: str) -> ResponseSurface:
+def refit(found: Screening | Surface, stage: str) -> ResponseSurface:
     """The stage's model refitted on its stored runs (NaN = no pile, excluded).
 
     Parameters
     ----------
-    summary : dict
-        ``screening`` or ``rsm`` stage summary (``factors``, ``runs``; ``rsm`` also
-        ``coefficients_coded``).
+    found : Screening or Surface
+        The screening or response-surface stage (its factors and runs; the surface's
+        ``coefficients_coded`` name the terms).
     stage : {"screening", "rsm"}
         Screening fits the linear main-effects model; the response surface the stored terms.
 
@@ -64,18 +64,15 @@ def refit(summary: Mapping[str, Any], stage: str) -> ResponseSurface:
     InputError
         No factors or runs, or a model that cannot be fitted.
     """
-    names = [str(f["name"]) for f in summary.get("factors") or []]
-    runs = summary.get("runs") or []
+    names = [str(f["name"]) for f in found.factors or []]
+    runs = found.runs or []
     if not names or not runs:
         raise InputError(f"{stage}: the summary has no factors or runs to fit")
-    coded = np.array([[float((r.get("coded") or {}).get(n, math.nan)) for n in names]
-                      for r in runs])
-    y = np.array([math.nan if r.get("aor_deg") is None else float(r["aor_deg"])
-                  for r in runs])
-    labels = [r.get("point", i) for i, r in enumerate(runs)]
-    frame = pd.DataFrame(coded, columns=names, index=labels)
-    if stage == "rsm" and summary.get("coefficients_coded"):
-        terms = list(summary["coefficients_coded"])
+    coded = np.array([[float(r.coded.get(n, math.nan)) for n in names] for r in runs])
+    y = np.array([math.nan if r.value is None else float(r.value) for r in runs])
+    frame = pd.DataFrame(coded, columns=names, index=[r.point for r in runs])
+    if stage == "rsm" and isinstance(found, Surface) and found.coefficients_coded:
+        terms = list(found.coefficients_coded)
         return doe.fit(frame, y, terms=terms, units="coded", response_name="AoR")
     return doe.fit(frame, y, model="linear" if stage == "screening" else "quadratic",
                    units="coded", response_name="AoR")
@@ -267,23 +264,24 @@ def _fmt(v: Any, spec: str = ".3f") -> str:
     return f"{f:{spec}}" if math.isfinite(f) else "—"
 
 
-def adequacy_checks(summary: Mapping[str, Any], rs: ResponseSurface,
+def adequacy_checks(found: Screening | Surface, rs: ResponseSurface,
                     diag: Diagnostics) -> list[Check]:
     """The rules a reviewer applies to a model, evaluated on the stored fit and the plots.
 
     The binding rules are the stage's own (:func:`demcal.calibrate.stages.adequacy`,
     Design-Expert's): model p < 0.05, no significant lack of fit, adjusted R^2 >= 0.7,
     predicted R^2 not negative and within 0.2 of the adjusted R^2, Adeq Precision >= 4, with
-    the statistics of the design-point means the stage stored (``summary["adequacy"]``), so
+    the statistics of the design-point means the stage stored (``Surface.adequacy``), so
     the report's verdict and the stage's agree. Outliers, influential runs, leverage and a
     Box-Cox transform are flagged for a look, not binding. A check that cannot be evaluated
     (e.g. no lack-of-fit test) does not fail.
     """
-    fit = {**(summary.get("fit") or {}), **(summary.get("adequacy") or {})}
+    surface = found if isinstance(found, Surface) else None
+    fit = {**(found.fit or {}), **((surface.adequacy if surface else None) or {})}
     pred, adj = fit.get("pred_r2", rs.pred_r2), fit.get("adj_r2", rs.adj_r2)
     adeq = fit.get("adeq_precision", rs.adeq_precision)
     p_model = fit.get("p_model", rs.f_pvalue)
-    lof = summary.get("lack_of_fit_p")
+    lof = surface.lack_of_fit_p if surface else None
 
     def finite(v: Any) -> float | None:
         try:

@@ -27,7 +27,7 @@ from matplotlib.image import imread
 
 from demcal.report.surface import StoredSurface
 from demcal.report.tables import term_label
-from demcal.summaries import Anchor, Effect, RangeFind, Steepest, Verification
+from demcal.summaries import Anchor, Effect, RangeFind, Steepest, Surface, Verification
 
 __all__ = [
     "comparison_figure",
@@ -206,14 +206,14 @@ def _anchor_marks(ax: Any, anchor: Anchor | None) -> None:
 
 
 # ------------------------------------------------------------------------------------------ rsm
-def surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
+def surface_figure(surface: Surface, pair: tuple[str, str],
                    hold: Mapping[str, float] | None = None, n_grid: int = 40) -> Figure:
     """3-D response surface and contour plot of AoR (deg) over one factor pair (cf. Fig. 8).
 
     Parameters
     ----------
-    summary : dict
-        The ``rsm`` stage summary (factors, coefficients_coded, runs).
+    surface : Surface
+        The response-surface stage (factors, coefficients_coded, runs).
     pair : (str, str)
         The two factors (names or symbols), on the x and y axes, in actual units.
     hold : dict, optional
@@ -223,17 +223,16 @@ def surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
     """
     from demcal.report.model_figures import pair_surface_figure
 
-    return pair_surface_figure(summary, pair, hold, None, n_grid)
+    return pair_surface_figure(StoredSurface.from_surface(surface), pair, hold, None, n_grid)
 
 
-def predicted_actual_figure(summary: Mapping[str, Any]) -> Figure:
+def predicted_actual_figure(surface: Surface) -> Figure:
     """Predicted (stored model) vs actual AoR (deg) of the design runs, with the 1:1 line."""
-    surf = StoredSurface.from_summary(summary)
+    surf = StoredSurface.from_surface(surface)
     actual, pred = [], []
-    for r in summary.get("runs") or []:
-        y = _num(r.get("aor_deg"))
-        coded = r.get("coded") or {}
-        x = np.array([_num(coded.get(n)) for n in surf.names])
+    for r in surface.runs:
+        y = _num(r.value)
+        x = np.array([_num(r.coded.get(n)) for n in surf.names])
         if math.isfinite(y) and np.isfinite(x).all():
             actual.append(y)
             pred.append(float(surf.predict_coded(x[None, :])[0]))

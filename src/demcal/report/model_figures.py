@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -158,13 +157,12 @@ def _reference(surf: StoredSurface, hold: Mapping[str, float] | None) -> np.ndar
     return base
 
 
-def perturbation_figure(summary: Mapping[str, Any], hold: Mapping[str, float] | None = None,
+def perturbation_figure(surf: StoredSurface, hold: Mapping[str, float] | None = None,
                         target: float | None = None) -> Figure:
     """Perturbation plot: AoR (deg) as each factor moves over its coded range (-1 to +1)
     through the reference point (``hold``, actual units; default the centre), the others held
     there; x is the deviation from the reference in coded units (Design-Expert's plot), so
     every curve passes through the reference's prediction at 0."""
-    surf = StoredSurface.from_summary(summary)
     base = surf.to_coded(_reference(surf, hold))
     dev = np.linspace(-1.0, 1.0, 41)
     fig = _figure(4.4, 3.3)
@@ -184,14 +182,14 @@ def perturbation_figure(summary: Mapping[str, Any], hold: Mapping[str, float] | 
     return fig
 
 
-def target_reached(summary: Mapping[str, Any], pair: tuple[str, str],
+def target_reached(surf: StoredSurface, pair: tuple[str, str],
                    hold: Mapping[str, float] | None, target: float | None,
                    n_grid: int = 40) -> bool:
     """True when the model's AoR crosses the target over the pair's region (others held)."""
     if target is None:
         return False
     try:
-        _, _, zz, _, _ = _grid(StoredSurface.from_summary(summary), pair, hold, n_grid)
+        _, _, zz, _, _ = _grid(surf, pair, hold, n_grid)
     except Exception:
         return False
     return bool(np.nanmin(zz) <= target <= np.nanmax(zz))
@@ -209,15 +207,16 @@ def _grid(surf: StoredSurface, pair, hold, n_grid):
     return xx, yy, zz, (i, j), base
 
 
-def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
+def pair_surface_figure(surf: StoredSurface, pair: tuple[str, str],
                         hold: Mapping[str, float] | None = None,
                         target: float | None = None, n_grid: int = 40) -> Figure:
     """3-D surface and contour of AoR (deg) over one factor pair with the target contour.
 
     Parameters
     ----------
-    summary : dict
-        The ``rsm`` stage summary.
+    surf : StoredSurface
+        The response surface (:meth:`StoredSurface.from_surface`: with its design points,
+        drawn as dots).
     pair : (str, str)
         Factor names or symbols (x and y axes, actual units).
     hold : dict, optional
@@ -227,7 +226,6 @@ def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
     n_grid : int
         Grid points per axis.
     """
-    surf = StoredSurface.from_summary(summary)
     xx, yy, zz, (i, j), base = _grid(surf, pair, hold, n_grid)
     reached = target is not None and np.nanmin(zz) <= target <= np.nanmax(zz)
     fig = _figure(9.5, 3.9)
@@ -248,10 +246,8 @@ def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
     if reached:
         tl = ax.contour(xx, yy, zz, levels=[target], colors=_TARGET, linewidths=2)
         ax.clabel(tl, fontsize=7, fmt=f"target {target:.2f}°")
-    runs = summary.get("runs") or []
-    px = [float((r.get("actual") or {}).get(surf.names[i], math.nan)) for r in runs]
-    py = [float((r.get("actual") or {}).get(surf.names[j], math.nan)) for r in runs]
-    ax.plot(px, py, "o", mfc="white", mec="k", ms=5)
+    points = np.empty((0, len(surf.names))) if surf.points is None else surf.points
+    ax.plot(points[:, i], points[:, j], "o", mfc="white", mec="k", ms=5)
     ax.plot([base[i]], [base[j]], "*", color=_TARGET, ms=10)
     ax.set_xlabel(f"{surf.symbols[i]} ({surf.names[i]})")
     ax.set_ylabel(f"{surf.symbols[j]} ({surf.names[j]})")
@@ -263,7 +259,7 @@ def pair_surface_figure(summary: Mapping[str, Any], pair: tuple[str, str],
     return fig
 
 
-def pair_contours_figure(summary: Mapping[str, Any], pairs: list[tuple[str, str]],
+def pair_contours_figure(surf: StoredSurface, pairs: list[tuple[str, str]],
                          hold: Mapping[str, float] | None = None,
                          target: float | None = None, n_grid: int = 30) -> Figure:
     """Contour plots of AoR (deg) over several factor pairs in one figure (small multiples),
@@ -271,8 +267,8 @@ def pair_contours_figure(summary: Mapping[str, Any], pairs: list[tuple[str, str]
 
     Parameters
     ----------
-    summary : dict
-        A summary with ``factors`` (actual ``low``/``high``) and ``coefficients_coded``.
+    surf : StoredSurface
+        The model (the screening's main effects, refitted).
     pairs : list of (str, str)
         Factor pairs (names or symbols), at most 6 are drawn.
     hold : dict, optional
@@ -282,7 +278,6 @@ def pair_contours_figure(summary: Mapping[str, Any], pairs: list[tuple[str, str]
     n_grid : int
         Grid points per axis.
     """
-    surf = StoredSurface.from_summary(summary)
     pairs = list(pairs)[:6]
     cols = min(3, max(1, len(pairs)))
     rows = math.ceil(len(pairs) / cols) or 1

@@ -6,6 +6,7 @@ whose term names use the factor names (or their symbols), with :func:`demcal.doe
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Mapping, Sequence
@@ -16,6 +17,7 @@ import numpy as np
 
 from demcal.doe import model_matrix, parse_term
 from demcal.errors import InputError
+from demcal.summaries import Surface
 
 __all__ = ["StoredSurface", "significant_pairs"]
 
@@ -36,6 +38,9 @@ class StoredSurface:
         Exponents of each term.
     coefficients : (p,) float64 ndarray
         Coefficients in coded units, degrees.
+    points : (n, k) float64 ndarray or None
+        The design's runs in actual units (NaN where a run lacks a factor), where the
+        surface was built from its stage (:meth:`from_surface`).
     """
 
     names: tuple[str, ...]
@@ -44,12 +49,23 @@ class StoredSurface:
     high: np.ndarray
     terms: tuple[tuple[int, ...], ...]
     coefficients: np.ndarray
+    points: np.ndarray | None = None
 
     @classmethod
     def from_summary(cls, summary: Mapping[str, Any]) -> StoredSurface:
-        """Build from the ``rsm`` summary; InputError if its coefficients cannot be read."""
+        """Build from the stored ``rsm`` summary; InputError if its coefficients cannot be
+        read."""
         return cls.from_model(summary.get("factors") or [], summary.get("coefficients_coded")
                               or {})
+
+    @classmethod
+    def from_surface(cls, surface: Surface) -> StoredSurface:
+        """Build from the typed response-surface stage, with its design points; InputError
+        as :meth:`from_model`."""
+        surf = cls.from_model(surface.factors, surface.coefficients_coded)
+        points = np.array([[float(r.actual.get(n, math.nan)) for n in surf.names]
+                           for r in surface.runs], dtype=float).reshape(-1, len(surf.names))
+        return dataclasses.replace(surf, points=points)
 
     @classmethod
     def from_model(cls, factors: Sequence[Mapping[str, Any]], coefs: Mapping[str, Any]
@@ -98,17 +114,17 @@ class StoredSurface:
         raise InputError(f"unknown factor {name!r}; factors: {', '.join(self.names)}")
 
 
-def significant_pairs(summary: Mapping[str, Any], alpha: float = 0.05,
+def significant_pairs(surface: Surface, alpha: float = 0.05,
                       at_least: int = 1) -> list[tuple[str, str]]:
     """Factor pairs to draw: interactions with p < ``alpha`` in the stored ANOVA.
 
     When fewer than ``at_least`` interactions are significant, the pairs of the most
     significant main effects fill in (so a surface is always drawn for 2+ factors).
     """
-    names = [str(f["name"]) for f in summary.get("factors") or []]
-    symbols = [str(f.get("symbol") or f["name"]) for f in summary.get("factors") or []]
+    names = [str(f["name"]) for f in surface.factors]
+    symbols = [str(f.get("symbol") or f["name"]) for f in surface.factors]
     pvals: dict[tuple[int, ...], float] = {}
-    for rec in summary.get("anova") or []:
+    for rec in surface.anova:
         term, p = rec.get("term"), rec.get("p")
         for labels in (names, symbols):
             try:
