@@ -386,7 +386,6 @@ def _result(ctx: st.Context, summary: dict[str, Any], ver: Verification) -> dict
         result["responses"] = {
             "predicted": {name: p.get("mean") for name, p in summary["predicted"].items()
                           if name not in (ctx.lead.name, PILE)},
-            "verification": None if ver.responses is None else {
-                name: r.to_summary() for name, r in ver.responses.items()}}
+            "verification": ver.stored_responses()}
     ctx.store.set_meta("result", result)
     return result

@@ -347,6 +347,6 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         result["responses"] = {
             "goals": [g.to_summary() for g in opt.responses.goals],
             "desirability": opt.responses.desirability, "predicted": opt.best.predicted,
-            "verification": {name: r.to_summary() for name, r in (ver.responses or {}).items()}}
+            "verification": ver.stored_responses()}
     ctx.store.set_meta("result", result)
     return result

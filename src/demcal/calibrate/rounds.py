@@ -51,21 +51,20 @@ class Rounds:
         of the surface's error there (s^2 cancels).
         """
         pool: list[int] = []
-        verified = self.verification
-        for j in range(len(verified) - 1, -1, -1):
+        for j in range(len(self.verification) - 1, -1, -1):
             pool.insert(0, j)
-            if verified[j].confirmed is not True:
+            if self.verification[j].confirmed is not True:
                 break
-        at = [(dict(self.optimize[j].chosen), int(verified[j].n_piles)) for j in pool]
+        at = [(dict(self.optimize[j].chosen), int(self.verification[j].n_piles)) for j in pool]
         if not at:
             return Offset()
-        y = np.array([float(verified[j].mean) for j in pool])
+        y = np.array([float(self.verification[j].mean) for j in pool])
         x = {n: [p[n] for p, _ in at] for n in model.names}
         pred = np.asarray(model.predict(x, units="actual"), dtype=float)
         w = np.array([n for _, n in at], dtype=float)
-        confirmed = all(verified[j].confirmed is True for j in pool)
+        confirmed = all(self.verification[j].confirmed is True for j in pool)
         return Offset(float(np.sum(w * (y - pred)) / w.sum()), at,
-                      [verified[j].round_number for j in pool],
+                      [self.verification[j].round_number for j in pool],
                       weight=offset_weight(model, at) if confirmed else 1.0)
 
 

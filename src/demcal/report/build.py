@@ -522,6 +522,10 @@ def _rsm_pair_figures(b: _Builder, s: Surface, hold: dict[str, float] | None) ->
         surf: StoredSurface | None = StoredSurface.from_surface(s)
     except InputError:
         surf = None
+
+    def drawn() -> StoredSurface:  # the surface, or the reason it cannot be drawn (raised)
+        return surf if surf is not None else StoredSurface.from_surface(s)
+
     parts = ["<h3>Response surface and contour of each factor pair</h3>"]
     goal = d.lead_target
     for a, c in itertools.combinations(s.names, 2):
@@ -541,8 +545,7 @@ def _rsm_pair_figures(b: _Builder, s: Surface, hold: dict[str, float] | None) ->
                f"red = the target {goal:.2f}° contour" if reached else
                f"the target {goal:.2f}° is not reached over this pair")
             + "; dots = design points).",
-            lambda a=a, c=c: MF.pair_surface_figure(StoredSurface.from_surface(s), (a, c),
-                                                    hold, goal)))
+            lambda a=a, c=c: MF.pair_surface_figure(drawn(), (a, c), hold, goal)))
     parts.append(b.figure("predicted_actual", "Predicted (stored model) vs actual AoR "
                           "of the design runs.", lambda: F.predicted_actual_figure(s)))
     return parts

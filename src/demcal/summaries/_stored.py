@@ -106,3 +106,30 @@ class _Keyed:
     def to_summary(self) -> dict[str, Any]:
         """The stored form."""
         return _stored(self, self.ALWAYS)
+
+
+class _KeyedEvery(_Keyed):
+    """A :class:`_Keyed` summary written with every field, None or not."""
+
+    def to_summary(self) -> dict[str, Any]:
+        """The stored form: every field."""
+        return _stored(self, tuple(f.name for f in dataclasses.fields(self)))  # type: ignore[arg-type]
+
+
+class _InRounds:
+    """A summary kept per refinement round: its ``round`` (None: the first) and the earlier
+    rounds' summaries in ``rounds``."""
+
+    round: int | None
+    rounds: list[Any]
+
+    @property
+    def round_number(self) -> int:
+        """The refinement round, 1 for the first."""
+        return self.round or 1
+
+    def in_round(self, earlier: list[Self]) -> Self:
+        """This summary as stored in its round: with the ``earlier`` rounds' as its history
+        (each without its own), and any history it carried dropped."""
+        return dataclasses.replace(  # type: ignore[type-var]
+            self, rounds=[dataclasses.replace(e, rounds=[]) for e in earlier])  # type: ignore[type-var]

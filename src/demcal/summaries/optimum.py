@@ -8,7 +8,16 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from demcal.summaries._stored import _Flat, _key, _Keyed, _known, _plain, _read, stored_as
+from demcal.summaries._stored import (
+    _Flat,
+    _InRounds,
+    _key,
+    _Keyed,
+    _known,
+    _plain,
+    _read,
+    stored_as,
+)
 
 __all__ = ["Candidate", "Goal", "Optimum", "ResponsesOptimum"]
 
@@ -113,7 +122,7 @@ class ResponsesOptimum:
 
 
 @dataclass(frozen=True)
-class Optimum:
+class Optimum(_InRounds):
     """The optimize stage: the settings the verification runs, and how they were found.
 
     One type for the three producers, told apart by what they fill in:
@@ -209,17 +218,6 @@ class Optimum:
     def best(self) -> Candidate:
         """The best candidate (an empty one where there is none)."""
         return self.candidates[0] if self.candidates else Candidate()
-
-    @property
-    def round_number(self) -> int:
-        """The refinement round, 1 for the first."""
-        return self.round or 1
-
-    def in_round(self, earlier: list[Optimum]) -> Optimum:
-        """This optimum as stored in its round: with the ``earlier`` rounds' optima as its
-        history (each without its own), and any history it carried dropped."""
-        return dataclasses.replace(
-            self, rounds=[dataclasses.replace(e, rounds=[]) for e in earlier])
 
     def to_summary(self) -> dict[str, Any]:
         """The stored form: the fields in order (the Bayesian strategy's: its own order,

@@ -7,13 +7,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from demcal.summaries._stored import _Keyed, _read, _stored, stored_as
+from demcal.summaries._stored import _Keyed, _KeyedEvery, _read, _stored, stored_as
 
 __all__ = ["RangeFind", "ScanFactor", "ScanPoint", "ScanReach"]
 
 
 @dataclass(frozen=True)
-class ScanPoint(_Keyed):
+class ScanPoint(_KeyedEvery):
     """One point of a factor's scan.
 
     Attributes
@@ -29,9 +29,6 @@ class ScanPoint(_Keyed):
     value: float = 0.0
     outcome: str = ""
     response: float | None = stored_as("aor_deg")
-
-    #: written even when None
-    ALWAYS = ("value", "outcome", "response")
 
     @property
     def measured(self) -> bool:
@@ -78,7 +75,7 @@ class ScanFactor(_Keyed):
 
 
 @dataclass(frozen=True)
-class ScanReach(_Keyed):
+class ScanReach(_KeyedEvery):
     """Another response than the lead over the scans (a several-response study): the span
     the scans measured and whether its lab value lies in it.
 
@@ -99,9 +96,6 @@ class ScanReach(_Keyed):
     high: float | None = None
     lab: float | None = None
     in_range: bool | None = None
-
-    #: written even when None
-    ALWAYS = ("name", "low", "high", "lab", "in_range")
 
 
 @dataclass(frozen=True)

@@ -8,13 +8,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from demcal.summaries._stored import _key, _Keyed, _read, by_key, stored_as
+from demcal.summaries._stored import _InRounds, _key, _KeyedEvery, _read, by_key, stored_as
 
 __all__ = ["ResponseVerification", "Verification"]
 
 
 @dataclass(frozen=True)
-class ResponseVerification(_Keyed):
+class ResponseVerification(_KeyedEvery):
     """One response of a several-response study at the verification (its lab comparison).
 
     Attributes
@@ -54,14 +54,9 @@ class ResponseVerification(_Keyed):
     consistent: bool | None = None
     desirability: float | None = None
 
-    #: every field is written, None or not
-    ALWAYS = ("values", "mean", "std", "n", "lab", "relative_error_percent", "ci_low",
-              "ci_high", "target_in_interval", "p_value", "test", "consistent",
-              "desirability")
-
 
 @dataclass(frozen=True)
-class Verification:
+class Verification(_InRounds):
     """The verification stage: replicate runs at the optimum on fresh seeds, judged against
     the lab's angle (and, in a several-response study, every response against its lab value).
 
@@ -172,16 +167,11 @@ class Verification:
         """Whether any run was made (an empty summary reads as not verified)."""
         return self.n > 0 or bool(self.outcomes)
 
-    @property
-    def round_number(self) -> int:
-        """The refinement round, 1 for the first."""
-        return self.round or 1
-
-    def in_round(self, earlier: list[Verification]) -> Verification:
-        """This verification as stored in its round: with the ``earlier`` rounds' as its
-        history (each without its own), and any history it carried dropped."""
-        return dataclasses.replace(
-            self, rounds=[dataclasses.replace(e, rounds=[]) for e in earlier])
+    def stored_responses(self) -> dict[str, dict[str, Any]] | None:
+        """Every response's verification as stored (None with the lead alone)."""
+        if self.responses is None:
+            return None
+        return {name: r.to_summary() for name, r in self.responses.items()}
 
     def to_summary(self) -> dict[str, Any]:
         """The stored form: every field, less ``responses``, ``round`` and ``rounds`` where
@@ -191,7 +181,7 @@ class Verification:
             value = getattr(self, f.name)
             if f.name == "responses":
                 if value is not None:
-                    out["responses"] = {k: r.to_summary() for k, r in value.items()}
+                    out["responses"] = self.stored_responses()
             elif f.name == "rounds":
                 if value:
                     out["rounds"] = [r.to_summary() for r in value]
