@@ -163,14 +163,10 @@ def test_a_study_spreads_on_the_cpu_unless_it_sets_a_chunk(two_fidelity_study, m
         assert seen == [want]
 
 
-def test_a_lammps_study_refuses_a_stage_at_the_factory_fill(example_data):
-    """LAMMPS runs the packing fill only: a stage at 'paper' is refused naming that stage."""
+def test_a_lammps_study_takes_a_stage_at_the_factory_fill(example_data):
+    """LAMMPS writes the paper fidelity's factory fill too: a stage at 'paper' is taken."""
     data = dict(example_data)
     data["test"] = {"kind": "aor", "fidelity": "quick"}
     data["executor"] = {"engine": "lammps"}
     data["stages"] = {**data["stages"], "screening": {"fidelity": "paper"}}
-    with pytest.raises(InputError, match=r"stages\.screening\.fidelity: executor\.engine = "
-                                         r"'lammps' runs the packing fill only"):
-        parse_study(data)
-    data["stages"]["screening"] = {"fidelity": "small"}
-    assert parse_study(data).stage_fidelities() == {"screening": "small"}
+    assert parse_study(data).stage_fidelities() == {"screening": "paper"}

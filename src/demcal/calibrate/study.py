@@ -538,21 +538,10 @@ class Study(_M):
         return self
 
     @model_validator(mode="after")
-    def _lammps_fill(self) -> Study:
+    def _one_engine(self) -> Study:
         if self.executor.engine == "lammps" and self.engine is not None:
             raise ValueError("executor.engine = 'lammps' and an [engine] table exclude each "
                              "other: name one engine")
-        if self.executor.engine == "lammps" and self.test.kind == "aor":
-            from demcal.virtual import fidelity_config
-
-            fields = {"test.fidelity": self.test.fidelity,
-                      **{f"stages.{n}.fidelity": f for n, f in self.stage_fidelities().items()}}
-            for field, fid in fields.items():
-                config = fidelity_config(fid, **self.test.overrides)
-                if config.fill.method != "packing":
-                    raise ValueError(f"{field}: executor.engine = 'lammps' runs the packing "
-                                     "fill only (fidelities quick, small and standard); "
-                                     f"{fid!r} has the {config.fill.method!r} fill")
         return self
 
     @model_validator(mode="after")

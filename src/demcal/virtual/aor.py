@@ -35,6 +35,7 @@ from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.factory import (
     SphereGrid,
     draw_scales,
+    fill_capacity,
     make_template,
     pack_cylinder,
     place_in_cylinder,
@@ -160,22 +161,6 @@ class _Run:
     pile_path: str | Path | None = None
 
 
-def _capacity(config: AoRTestConfig, template) -> int:
-    fill = config.fill
-    if fill.method == "packing":
-        return int(fill.count)
-    g = config.geometry
-    p = config.particle
-    mean_s3 = (p.size_max**4 - p.size_min**4) / (4 * (p.size_max - p.size_min)) \
-        if p.size_max > p.size_min else p.size_min**3
-    vol = math.pi * (0.5 * g.cylinder_inner_diameter) ** 2 * g.cylinder_height
-    fits = math.ceil(0.6 * vol / (template.volume * mean_s3))
-    n = math.ceil(fill.rate * fill.filling_time)
-    if fill.count is not None:
-        n = min(n, fill.count)
-    return max(1, min(n, fits))
-
-
 def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestConfig,
             seeds: Sequence[int], backend: str = "auto", progress: Progress | None = None,
             vtk_dir: str | Path | None = None,
@@ -225,7 +210,7 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
         raise InputError(f"pile_paths needs one entry per parameter set; got {len(pile_paths)} "
                          f"for {len(parameter_sets)} sets")
     template = make_template(config.particle)
-    cap = _capacity(config, template)
+    cap = fill_capacity(config, template)
     g = config.geometry
     r_in = 0.5 * g.cylinder_inner_diameter
     half = 0.5 * g.plate_size

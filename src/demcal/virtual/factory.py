@@ -19,7 +19,8 @@ from demcal.dem.state import random_quaternions
 from demcal.errors import InputError
 from demcal.virtual.config import AoRTestConfig, ParticleShape
 
-__all__ = ["SphereGrid", "draw_scales", "make_template", "pack_cylinder", "place_in_cylinder"]
+__all__ = ["SphereGrid", "draw_scales", "fill_capacity", "make_template", "pack_cylinder",
+           "place_in_cylinder"]
 
 
 def make_template(shape: ParticleShape) -> ClumpTemplate:
@@ -32,6 +33,25 @@ def make_template(shape: ParticleShape) -> ClumpTemplate:
     if shape.template == "sphere":
         return sphere_template(0.5 * shape.diameter)
     raise InputError(f"particle.template must be stalk, cylinder or sphere; got {shape.template}")
+
+
+def fill_capacity(config: AoRTestConfig, template: ClumpTemplate) -> int:
+    """How many clumps the test's fill holds: the packing's ``count``; for the factory,
+    ``ceil(rate x filling_time)`` (at most ``count``), and at most what fills the tube at a
+    solid fraction of 0.6 (the factory stops there, however long it may still run)."""
+    fill = config.fill
+    if fill.method == "packing":
+        return int(fill.count)
+    g = config.geometry
+    p = config.particle
+    mean_s3 = (p.size_max**4 - p.size_min**4) / (4 * (p.size_max - p.size_min)) \
+        if p.size_max > p.size_min else p.size_min**3
+    vol = math.pi * (0.5 * g.cylinder_inner_diameter) ** 2 * g.cylinder_height
+    fits = math.ceil(0.6 * vol / (template.volume * mean_s3))
+    n = math.ceil(fill.rate * fill.filling_time)
+    if fill.count is not None:
+        n = min(n, fill.count)
+    return max(1, min(n, fits))
 
 
 def draw_scales(n: int, shape: ParticleShape, rng: np.random.Generator) -> np.ndarray:

@@ -18,8 +18,10 @@ engines the same initial clumps; the same time step, lift speed, settle rules an
   ``DEMCAL <event> ...`` line per phase change and dumps the settled fill's, the lifted and
   the final spheres.
 
-Only the ``packing`` fill is written (the quick, standard and large fidelities); the factory
-fill of the paper fidelity is not (an :class:`~demcal.errors.InputError` says so).
+The paper fidelity's ``factory`` fill is written as LAMMPS' own insertion
+(:mod:`demcal.virtual.lammps_factory`): an empty box, one molecule template per size class,
+``fix deposit`` generating the clumps as demcal's factory does, then the same phases; one seed
+then gives the two engines different fills.
 """
 
 from __future__ import annotations
@@ -30,10 +32,23 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.errors import InputError
 from demcal.virtual.config import AoRTestConfig
 from demcal.virtual.factory import draw_scales, make_template, pack_cylinder
-from demcal.virtual.lammps_clumps import Box, ClumpSet, settle_block, step_and_laws, write_clumps
+from demcal.virtual.lammps_clumps import (
+    Box,
+    ClumpSet,
+    LammpsClumps,
+    settle_block,
+    step_and_laws,
+    write_clumps,
+)
+from demcal.virtual.lammps_factory import (
+    TEMPLATE_ID,
+    Factory,
+    generation_lines,
+    template_line,
+    write_factory,
+)
 from demcal.virtual.lammps_laws import ContactLaw, model_string
 
 __all__ = ["LammpsCase", "write_case"]
@@ -69,32 +84,66 @@ def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
     params : mapping
         A complete demcal parameter set (SI units).
     config : AoRTestConfig
-        The test; ``fill.method`` must be ``packing``.
+        The test: its ``packing`` fill is written as placed clumps, its ``factory`` fill as
+        LAMMPS' insertion (:mod:`demcal.virtual.lammps_factory`).
     seed : int
         The run's seed (sizes, positions, orientations: as demcal's engine draws them).
     folder : path
-        Where to write ``aor.data``, ``bodies.txt`` and ``in.aor``.
+        Where to write ``aor.data``, ``bodies.txt`` (packing) or the clump templates
+        (factory), and ``in.aor``.
     """
-    if config.fill.method != "packing":
-        raise InputError("the LAMMPS engine runs the packing fill only (fidelities quick, "
-                         "standard and large); fill.method = 'factory' is not written for "
-                         "LAMMPS yet")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     template = make_template(config.particle)
-    rng = np.random.default_rng(int(seed))
-    scales_all = draw_scales(int(config.fill.count), config.particle, rng)
-    idx, pos, quat = pack_cylinder(template, scales_all, config, rng)
     rho = params["particle.density"]
     half, zlo, zhi = _box(config)
-    written = write_clumps(ClumpSet(template, scales_all[idx], pos, quat, rho),
-                           Box((-half, -half, zlo), (half, half, zhi)), folder / DATA,
-                           folder / BODIES, title="demcal AoR test")
+    box = Box((-half, -half, zlo), (half, half, zhi))
+    if config.fill.method == "factory":
+        factory = write_factory(template, config, rho, seed, folder)
+        written = factory.clumps
+    else:
+        factory = None
+        rng = np.random.default_rng(int(seed))
+        scales_all = draw_scales(int(config.fill.count), config.particle, rng)
+        idx, pos, quat = pack_cylinder(template, scales_all, config, rng)
+        written = write_clumps(ClumpSet(template, scales_all[idx], pos, quat, rho), box,
+                               folder / DATA, folder / BODIES, title="demcal AoR test")
     dt, laws = step_and_laws(params, written, dt_fraction=config.dt_fraction,
                              rolling=config.rolling_model != "none")
-    (folder / INPUT).write_text(_script(config, dt, laws, written.reach, written.r_min))
+    fill = _FillLines.factory(factory, config, dt, box) if factory is not None \
+        else _FillLines.packing()
+    (folder / INPUT).write_text(_script(config, dt, laws, written, fill))
     return LammpsCase(folder, written.n_clumps, written.n_spheres, float(dt), int(seed),
                       dict(params))
+
+
+@dataclass(frozen=True)
+class _FillLines:
+    """The lines of the script that differ between the two fills."""
+
+    atoms: str  #: the box and the spheres there at the start
+    rigid: str  #: the rigid-body fix ``rig``
+    generation: str  #: what runs before the fill settles (nothing for the packing)
+    settle_from: str  #: when the fill starts to settle, s (a LAMMPS value)
+
+    @classmethod
+    def packing(cls) -> _FillLines:
+        return cls(atoms=f"read_data {DATA} fix pmol NULL Molecules\n",
+                   rigid=f"fix rig all rigid/small molecule infile {BODIES}\n", generation="",
+                   settle_from="0.0")
+
+    @classmethod
+    def factory(cls, factory: Factory, config: AoRTestConfig, dt: float, box: Box) -> _FillLines:
+        lo, hi = box.lo, box.hi
+        n_check = max(1, round(config.phases.check_interval / dt))
+        return cls(
+            atoms=(f"region box block {_fmt(lo[0])} {_fmt(hi[0])} {_fmt(lo[1])} "
+                   f"{_fmt(hi[1])} {_fmt(lo[2])} {_fmt(hi[2])} units box\n"
+                   "create_box 1 box\nfix pmol all property/atom mol ghost yes\n"
+                   + template_line(factory)),
+            rigid=f"fix rig all rigid/small molecule mol {TEMPLATE_ID}\n",
+            generation=generation_lines(factory, config, dt, n_check, "rig"),
+            settle_from="$(time)")
 
 
 def _box(config: AoRTestConfig) -> tuple[float, float, float]:
@@ -104,8 +153,8 @@ def _box(config: AoRTestConfig) -> tuple[float, float, float]:
     return half, -0.05, z_top
 
 
-def _script(config: AoRTestConfig, dt: float, laws: Mapping[str, ContactLaw], reach: float,
-            r_min: float) -> str:
+def _script(config: AoRTestConfig, dt: float, laws: Mapping[str, ContactLaw],
+            clumps: LammpsClumps, fill: _FillLines) -> str:
     """The phase script ``in.aor``.
 
     Parameters
@@ -117,11 +166,14 @@ def _script(config: AoRTestConfig, dt: float, laws: Mapping[str, ContactLaw], re
     laws : mapping
         The contact laws by kind, ``pp`` (particle-particle) and ``pw`` (particle-wall), as
         :func:`demcal.virtual.lammps_laws.contact_laws` gives them.
-    reach : float
-        The largest clump's bounding radius, m (sets the ghost cutoff).
-    r_min : float
-        The smallest sphere radius, m (the neighbour skin is half of it).
+    clumps : LammpsClumps
+        The clumps (the largest one's reach sets the ghost cutoff, half the smallest sphere
+        radius the neighbour skin).
+    fill : _FillLines
+        The fill's own lines.
     """
+    reach, r_min = clumps.reach, clumps.r_min
+    settle = settle_block(config.phases.settle_rms_speed, config.phases.settle_max_speed)
     pp, pw = model_string(laws["pp"]), model_string(laws["pw"])
     g, ph, p = config.geometry, config.phases, config.particle
     n_check = max(1, round(ph.check_interval / dt))
@@ -138,29 +190,26 @@ units si
 atom_style sphere
 atom_modify map array
 boundary f f f
-comm_modify vel yes cutoff {_fmt(2.0 * reach + skin)}
-fix pmol all property/atom mol ghost yes
-read_data {DATA} fix pmol NULL Molecules
+{fill.atoms}comm_modify vel yes cutoff {_fmt(2.0 * reach + skin)}
 neighbor {_fmt(skin)} bin
 neigh_modify delay 0 every 1 check yes exclude molecule/intra all
 pair_style granular
 pair_coeff * * {pp}
 timestep {_fmt(dt)}
 fix grav all gravity 9.81 vector 0 0 -1
-fix rig all rigid/small molecule infile {BODIES}
-fix plate all wall/gran granular {pw} zplane 0.0 NULL
+{fill.rigid}fix plate all wall/gran granular {pw} zplane 0.0 NULL
 variable dz equal 0.0
 region tube cylinder z 0 0 {_fmt(r_in)} 0 {_fmt(g.cylinder_height)} side in move NULL NULL v_dz \
 open 1 open 2 units box
 fix tube all wall/gran/region granular {pw} region tube
 
-{settle_block(ph.settle_rms_speed, ph.settle_max_speed)}variable cleared equal "{lift_done}"
+{fill.generation}{settle}variable cleared equal "{lift_done}"
 thermo_style custom step time atoms v_rms v_vmax v_top v_dz
 thermo {n_check}
 thermo_modify lost ignore norm no
 
 print "DEMCAL start 0 {n_check}"
-variable tp equal 0.0
+variable tp equal {fill.settle_from}
 label fill_loop
 run {n_check} post no
 if "${{still}} && $(time - v_tp) >= {_fmt(ph.min_settle_time)}" then "jump SELF fill_done"

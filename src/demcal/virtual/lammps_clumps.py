@@ -28,8 +28,8 @@ from demcal.dem.state import rotate
 from demcal.limits import check_time_step
 from demcal.virtual.lammps_laws import ContactLaw, contact_laws
 
-__all__ = ["Box", "ClumpSet", "DataSpheres", "LammpsClumps", "settle_block", "step_and_laws",
-           "write_clumps", "write_data"]
+__all__ = ["Box", "ClumpSet", "DataSpheres", "LammpsClumps", "clump_mass_inertia",
+           "rotation_matrices", "settle_block", "step_and_laws", "write_clumps", "write_data"]
 
 
 @dataclass(frozen=True)
@@ -72,10 +72,20 @@ class LammpsClumps:
     reach: float  #: the largest clump's bounding radius, m (sets the ghost cutoff)
 
 
-def _quat_matrix(q: np.ndarray) -> np.ndarray:
+def rotation_matrices(q: np.ndarray) -> np.ndarray:
     """Rotation matrices (n, 3, 3) of unit quaternions (w, x, y, z)."""
     cols = [rotate(q, np.tile(e, (len(q), 1))) for e in np.eye(3)]
     return np.stack(cols, axis=2)
+
+
+def clump_mass_inertia(template: ClumpTemplate, scales: np.ndarray,
+                       density: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each clump's mass (kg, ``(n,)``: density x the union's volume) and its principal
+    moments of inertia in the template's body frame (kg m^2, ``(n, 3)``) at size factors
+    ``scales`` and solid ``density`` (kg/m^3)."""
+    mass = density * template.volume * scales**3
+    inertia = density * template.inertia_per_density[None, :] * scales[:, None] ** 5
+    return mass, inertia
 
 
 def write_clumps(clumps: ClumpSet, box: Box, data_path: Path, bodies_path: Path, *,
@@ -95,13 +105,12 @@ def write_clumps(clumps: ClumpSet, box: Box, data_path: Path, bodies_path: Path,
     """
     t, scales, quat = clumps.template, clumps.scales, clumps.orientations
     n, ns = len(scales), len(t.radii)
-    mass = clumps.density * t.volume * scales**3
+    mass, inertia = clump_mass_inertia(t, scales, clumps.density)
     centres = clumps.positions[:, None, :] + np.stack(
         [rotate(quat, t.offsets[k][None, :] * scales[:, None]) for k in range(ns)], 1)
     radii = t.radii[None, :] * scales[:, None]
     atom_density = mass / (4.0 / 3.0 * math.pi * np.sum(radii**3, axis=1))
-    rmat = _quat_matrix(quat)
-    inertia = clumps.density * t.inertia_per_density[None, :] * scales[:, None] ** 5
+    rmat = rotation_matrices(quat)
     tensor = np.einsum("nij,nj,nkj->nik", rmat, inertia, rmat)
     # LAMMPS checks the given centre of mass against its own (sphere-mass weighted)
     w = radii**3

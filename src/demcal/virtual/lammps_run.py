@@ -205,16 +205,21 @@ def _result(case: LammpsCase, config: AoRTestConfig, wall: float,
     text = (folder / "log.lammps").read_text() if (folder / "log.lammps").exists() else ""
     ev = log_events(text)
     t_end = ev.get("end", [0.0])[0]
+    n_clumps, n_spheres = case.n_clumps, case.n_spheres
+    if "generated" in ev:  # the factory's clumps: those fix deposit inserted
+        n_spheres = int(ev["generated"][1])
+        n_clumps = n_spheres * case.n_clumps // case.n_spheres
     fill_height = ev["filled"][1] if "filled" in ev else None
-    phase_times = {k: ev[e][0] for k, e in (("fill_settle", "filled"), ("lift", "lifted"),
-                                            ("pile_settle", "settled")) if e in ev}
+    phase_times = {k: ev[e][0] for k, e in (("fill", "generated"), ("fill_settle", "filled"),
+                                            ("lift", "lifted"), ("pile_settle", "settled"))
+                   if e in ev}
     base: dict[str, Any] = dict(
         aor_deg=None, aor_left_deg=None, aor_right_deg=None, aor_std_deg=None,
-        aor_profile_deg=None, n_particles=case.n_clumps, particles_lost=0,
+        aor_profile_deg=None, n_particles=n_clumps, particles_lost=0,
         mass_on_plate_kg=0.0, pile_height_m=None, base_diameter_m=None,
         fill_height_m=fill_height, settled=False, time_step_s=case.time_step_s,
         sim_time_s=t_end, wall_time_s=wall, seed=case.seed, params=dict(case.params),
-        sphere_steps=round(t_end / case.time_step_s) * case.n_spheres,
+        sphere_steps=round(t_end / case.time_step_s) * n_spheres,
         phase_times_s=phase_times)
     if "filled" in ev and (folder / FILLED).is_file():  # read as demcal's own fill is
         centres, radii, _, mass = _clumps(read_dump(folder / FILLED))
@@ -244,7 +249,7 @@ def _result(case: LammpsCase, config: AoRTestConfig, wall: float,
     centres, radii, com, mass = _clumps(final)
     on_plate = com[:, 2] > -0.01
     base["mass_on_plate_kg"] = float(mass[on_plate].sum())
-    base["particles_lost"] = int(case.n_clumps - len(mass))
+    base["particles_lost"] = int(n_clumps - len(mass))
     # the tube stays where the lift left it (the script freezes its offset): what it retained
     base["mass_left_kg"] = mass_in_tube(com, mass, tube_bottom=ev["lifted"][1],
                                         tube_height=g.cylinder_height,
@@ -371,7 +376,7 @@ def run_aor_lammps(parameter_sets: Sequence[Mapping[str, float]], *, config: AoR
     parameter_sets : sequence of mapping
         Complete demcal parameter sets (SI units), one per run.
     config : AoRTestConfig
-        The test (``fill.method`` must be ``packing``).
+        The test (either fill).
     seeds : sequence of int
         One seed per run.
     options : LammpsOptions, optional
