@@ -11,10 +11,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from demcal import doe
-from demcal.calibrate.responses import AOR, LabValue, ResponseSpec
+from demcal.calibrate.responses import LabValue, ResponseSpec
 from demcal.calibrate.rounds import Rounds
 from demcal.calibrate.runner import Point, Runner
 from demcal.calibrate.study import Study
+from demcal.lead import LeadName
 from demcal.store import RunRecord, RunStore, params_hash
 from demcal.summaries import (
     DesignRun,
@@ -113,22 +114,27 @@ class Context:
         return self.responses[0]
 
     @property
+    def lead_name(self) -> LeadName:
+        """How people read the lead's name and unit."""
+        return LeadName(self.lead.name, self.lead.unit or "")
+
+    @property
     def unit(self) -> str:
         """The lead's unit as the stages' messages write it after a number: `` deg`` for the
         angle, ``""`` for a response without a unit."""
-        return f" {self.lead.unit}" if self.lead.unit else ""
+        return self.lead_name.after_number()
 
     @property
     def lead_words(self) -> str:
         """The lead as the stages' messages name it: ``the AoR`` for the angle."""
-        return "the AoR" if self.lead.name == AOR else self.lead.name
+        return self.lead_name.words
 
     def lead_keys(self) -> dict[str, Any]:
         """The result JSON's ``lead`` (name and unit) where the lead is not the angle: its
         keys named for the angle (``target_aor_deg``, ``predicted_aor_deg``,
         ``verification.aor_mean_deg``, ...) then hold the lead's values. Nothing for the
         angle, whose result is what it always was."""
-        if self.lead.name == AOR:
+        if self.lead_name.is_angle:
             return {}
         return {"lead": {"name": self.lead.name, "unit": self.lead.unit}}
 

@@ -33,12 +33,13 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from demcal.doe.desirability import ResponseGoal
 from demcal.errors import InputError
+from demcal.lead import ANGLE
 from demcal.safety import read_text_input
 
 __all__ = ["AOR", "LabValue", "ResponseSpec", "aor_spec", "load_goals", "read_repeats"]
 
 #: The lift test's own response: its angle of repose, deg.
-AOR = "aor_deg"
+AOR = ANGLE
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
 #: At most this many repeats in a measurements file.
 MAX_REPEATS = 100_000

@@ -30,15 +30,7 @@ from demcal.cli._common import (
 )
 from demcal.display import readable
 from demcal.errors import InputError
-
-
-def _lead(result: dict) -> tuple[str, str]:
-    """How the console names the study's lead response and writes its unit after a number:
-    ``("AoR", " deg")`` for the angle."""
-    lead = result.get("lead")
-    if not lead:
-        return "AoR", " deg"
-    return str(lead["name"]), f" {lead['unit']}" if lead.get("unit") else ""
+from demcal.lead import LeadName
 
 
 def _print_result(result: dict) -> None:
@@ -53,7 +45,8 @@ def _print_result(result: dict) -> None:
     std = "n/a" if v["aor_std_deg"] is None else f"{v['aor_std_deg']:.2f}"
     rel = "n/a" if v["relative_error_percent"] is None else \
         f"{v['relative_error_percent']:.2f} %"
-    name, u = _lead(result)
+    lead = LeadName.of_result(result)
+    name, u = lead.label, lead.after_number()
     console.print(f"target {name} {result['target_aor_deg']:.2f}{u}; predicted "
                   f"{result['predicted_aor_deg']:.2f}{u}; verification ({v['n']} runs): "
                   f"{mean} +/- {std}{u}, relative error {rel}; {_runs_stored(result)}")
@@ -152,7 +145,7 @@ def _print_verification(result: dict) -> None:
     """The verification against the measurement, the surface's promise and the target."""
     _print_rounds(result)
     v = result["verification"]
-    _, u = _lead(result)
+    u = LeadName.of_result(result).after_number()
     if v.get("p_value") is not None:
         verdict = ("consistent with", "") if v["consistent"] else ("differs from", "yellow")
         console.print(styled(f"verification: 95 % interval {v['ci_low_deg']:.2f}-"

@@ -145,7 +145,7 @@ def _overview(b: _Builder) -> str:
     opt, ver = d.optimum, d.verification
     lead = d.lead
     t = (d.target or {}) if lead.is_angle else {"aor_deg": lead.target, "std_deg": lead.std}
-    label, u = ("AoR", "°") if lead.is_angle else (lead.name, f" {lead.unit}".rstrip())
+    label, u = lead.label, lead.after_number(degree_sign=True)
     cards = [(f"Measured {label}", _fmt(t.get("aor_deg"), ".2f", u)
               + (f" ± {_fmt(t.get('std_deg'), '.2f')}{u}" if t.get("std_deg") is not None
                  else "")),

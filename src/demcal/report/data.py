@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from demcal.errors import InputError, StoreError
+from demcal.lead import LeadName
 from demcal.store import STAGES, STORE_NAME, RunRecord, RunStore
 from demcal.summaries import Optimum, RangeFind, Screening, Steepest, Surface, Verification
 
@@ -47,31 +48,21 @@ def _check_meta_types(meta: dict[str, Any], store_path: Path) -> None:
 
 
 @dataclass(frozen=True)
-class Lead:
-    """The response a study leads with, as the report names it.
+class Lead(LeadName):
+    """The response a study leads with, as the report names it (:class:`~demcal.lead.LeadName`:
+    ``name``, ``unit``, ``label``, ``after_number``), and its lab value.
 
     Attributes
     ----------
-    name : str
-        The response (``aor_deg``: the angle of repose).
-    unit : str
-        Its unit (``deg`` for the angle).
     target, std : float or None
         Its lab value and spread (for another response than the angle; the angle's are the
         meta ``target``).
     n : int or None
     """
 
-    name: str = "aor_deg"
-    unit: str = "deg"
     target: float | None = None
     std: float | None = None
     n: int | None = None
-
-    @property
-    def is_angle(self) -> bool:
-        """Whether the lead is the angle of repose."""
-        return self.name == "aor_deg"
 
 
 @dataclass(frozen=True)

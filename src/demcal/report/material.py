@@ -40,8 +40,8 @@ def verification_line(ver: Verification, target: Mapping[str, Any] | None,
         return ("not verified" if not ver.done else
                 f"verification formed no pile ({ver.n_piles} of {ver.n} runs)")
     t = target or {}
-    label, u = ("AoR", "°") if lead is None or lead.is_angle else (
-        lead.name, f" {lead.unit}" if lead.unit else "")
+    lead = lead or Lead()
+    label, u = lead.label, lead.after_number(degree_sign=True)
     out = f"verified {label} {mean:.2f}"
     out += f" ± {std:.2f}{u}" if std is not None else u
     out += f" (n = {ver.n})"
