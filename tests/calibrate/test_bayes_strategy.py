@@ -157,6 +157,16 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
     assert shrink["drum_deg"] > 0.5 and shrink["drum_deg"] > shrink["bulk_density_kg_m3"]
 
 
+def test_a_stable_ridge_stops_before_the_budget(tmp_path: Path) -> None:
+    """With ``stable_rounds`` the angle alone stops once its intervals stop moving, and the
+    study says so; the settings it ran with are in the result."""
+    res = calibrate(bayes_study(tmp_path, responses=False, strategy=(
+        "max_runs = 60\nstable_rounds = 2\nstable_change = 0.1\n")), workers=1)
+    assert res["stopped"] == "stable" and res["n_runs_strategy"] < 60
+    assert res["identifiable"] is False
+    assert res["settings"]["stable_rounds"] == 2 and res["settings"]["stable_change"] == 0.1
+
+
 def test_the_doe_path_is_unchanged_by_a_default_strategy(tmp_path: Path) -> None:
     """``kind = "doe"`` written out gives the very result of a study without the table."""
     (tmp_path / "plain").mkdir()
@@ -177,6 +187,8 @@ def test_the_doe_path_is_unchanged_by_a_default_strategy(tmp_path: Path) -> None
     ("n_start = 50\nmax_runs = 40", "n_start"),
     ("max_runs = 20", "max_runs"),  # below the 27-run start of three factors
     ("runs = 3", "strategy.runs"),
+    ("stable_rounds = -1", "strategy.stable_rounds"),
+    ("stable_change = 0", "strategy.stable_change"),
 ])
 def test_bad_strategy_settings_are_one_line_and_exit_2(tmp_path: Path, setting: str,
                                                        field: str) -> None:

@@ -80,6 +80,8 @@ def test_a_batch_is_distinct_inside_the_box_and_in_the_posterior_mass():
     (dict(tolerance=0.0), r"tolerance must be in \(0, 1\]"),
     (dict(tolerance=1.5), r"tolerance must be in \(0, 1\]"),
     (dict(max_runs=10, n_start=12), "max_runs must be >= the space-filling start's 12 runs"),
+    (dict(stable_rounds=-1), "stable_rounds must be an integer >= 0"),
+    (dict(stable_change=0.0), r"stable_change must be in \(0, 1\]"),
 ])
 def test_bad_settings_are_one_input_error(settings, message):
     evaluate = engine(NAMES)
@@ -159,3 +161,19 @@ def test_the_loop_is_deterministic_so_a_caching_runner_resumes_without_new_runs(
     assert fresh.runs == 12  # nothing new was run
     assert np.array_equal(first.x, again.x)
     assert np.array_equal(first.posterior.samples, again.posterior.samples)
+
+
+def test_a_ridge_that_stops_moving_stops_the_loop_with_the_budget_s_answer():
+    """The angle alone leaves a ridge more runs do not narrow: with ``stable_rounds = 2`` the
+    loop stops two rounds after the start, its intervals those the whole budget gives (within
+    0.1 coded), for fewer than half the budget's acquired runs; without it, the budget."""
+    sampler = SamplerSettings(n_steps=1000, burn=300)
+    runs = {}
+    for m in (0, 2):
+        evaluate = engine(("aor",), seed=1)
+        runs[m] = calibrate_bayes(evaluate, FACTORS, lab(("aor",)), BayesSettings(
+            max_runs=59, batch=4, tolerance=0.25, seed=1, stable_rounds=m, sampler=sampler))
+    assert runs[0].stopped == "budget" and runs[0].n_runs == 59
+    assert runs[2].stopped == "stable" and runs[2].n_runs == 27 + 2 * 4
+    assert not runs[2].identifiability.identifiable
+    assert np.max(np.abs(runs[2].posterior.intervals - runs[0].posterior.intervals)) < 0.1

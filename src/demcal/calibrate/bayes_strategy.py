@@ -81,7 +81,7 @@ def settings(ctx: st.Context) -> bayes.BayesSettings:
     out = bayes.BayesSettings(
         max_runs=s.max_runs, batch=min(64, s.batch or max(1, int(ctx.runner.workers))),
         tolerance=float(s.tolerance), seed=int(ctx.study.seed if s.seed is None else s.seed),
-        n_start=s.n_start)
+        n_start=s.n_start, stable_rounds=s.stable_rounds, stable_change=float(s.stable_change))
     try:
         out.check(len(ctx.factors))
     except InputError as exc:
@@ -314,7 +314,10 @@ def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequ
               for r in labs},
         notes=list(notes),
         settings={"max_runs": cfg.max_runs, "batch": cfg.batch, "tolerance": cfg.tolerance,
-                  "seed": cfg.seed, "n_start": cfg.start_runs(len(res.posterior.names))},
+                  "seed": cfg.seed, "n_start": cfg.start_runs(len(res.posterior.names)),
+                  # only when asked for: a study without it stores what it always stored
+                  **({"stable_rounds": cfg.stable_rounds, "stable_change": cfg.stable_change}
+                     if cfg.stable_rounds else {})},
         units={p.name: p.unit for p in res.posterior.parameters})
     return out
 

@@ -350,6 +350,11 @@ class Strategy(_M):
                              "surrogates, sampler and acquisition; default: the study's")
     n_start: int | None = Field(None, ge=3, le=2000, description="space-filling start; "
                                 "default 9 per factor")
+    stable_rounds: int = Field(0, ge=0, le=50, description="stop once no 95 % interval's end "
+                               "moved by more than stable_change over this many rounds in a "
+                               "row; 0: off")
+    stable_change: float = Field(0.05, gt=0, le=1, description="the largest move of an "
+                                 "interval's end that counts as none, coded units")
     marks: list[Mark] = Field(default_factory=list, max_length=50, description="points held "
                               "against the posterior (the report's corner plot)")
 

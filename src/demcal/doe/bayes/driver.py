@@ -47,6 +47,14 @@ class BayesSettings:
         Seed of the start, the surrogates, the sampler and the acquisition.
     n_start : int or None
         Space-filling start; None: 9 per factor.
+    stable_rounds : int
+        Stop once the posterior has stopped changing: when, over this many rounds in a row,
+        no 95 % interval's end moved by more than ``stable_change`` and the posterior is
+        plausible (a ridge that more runs do not narrow spends no more of the budget). 0 (the
+        default): off, stop on the tolerance or the budget only.
+    stable_change : float
+        The largest move of an interval's end, coded units, in (0, 1], that counts as no
+        change (0.05: 2.5 % of the range; the sampler's own noise is ~0.01-0.02).
     sampler : SamplerSettings
         How each round's posterior is sampled.
 
@@ -61,6 +69,8 @@ class BayesSettings:
     tolerance: float = 0.25
     seed: int = 0
     n_start: int | None = None
+    stable_rounds: int = 0
+    stable_change: float = 0.05
     sampler: SamplerSettings = field(default_factory=SamplerSettings)
 
     def __post_init__(self) -> None:
@@ -75,6 +85,13 @@ class BayesSettings:
             raise InputError(f"strategy max_runs must be an integer; got {self.max_runs!r}")
         if self.n_start is not None and not (isinstance(self.n_start, int) and self.n_start >= 3):
             raise InputError(f"strategy n_start must be an integer >= 3; got {self.n_start!r}")
+        if not (isinstance(self.stable_rounds, int) and self.stable_rounds >= 0):
+            raise InputError("strategy stable_rounds must be an integer >= 0 (0: off); got "
+                             f"{self.stable_rounds!r}")
+        change = self.stable_change
+        if not (isinstance(change, int | float) and 0 < change <= 1):
+            raise InputError("strategy stable_change must be in (0, 1] (coded units); got "
+                             f"{change!r}")
 
     def start_runs(self, k: int) -> int:
         """Runs of the space-filling start for ``k`` factors."""
@@ -132,7 +149,8 @@ class BayesResult:
     history : tuple of Round
         One per round.
     stopped : str
-        ``"tolerance"`` (every interval within it) or ``"budget"``.
+        ``"tolerance"`` (every interval within it), ``"stable"`` (the intervals stopped
+        moving: ``BayesSettings.stable_rounds``) or ``"budget"``.
     """
 
     posterior: Posterior
@@ -260,12 +278,14 @@ def calibrate_bayes(evaluate: Evaluate, factors: Any, responses: Sequence[Respon
                         optimization="random-cd").coded
     data = _evaluate(evaluate, x, responses)
     history: list[Round] = []
+    intervals: list[np.ndarray] = []
     while True:
         surrogates = _fit_all(x, data, settings.seed)
         posterior = sample_posterior(surrogates, responses, space, settings.sampler)
         history.append(Round(len(x), tuple(map(float, posterior.half_widths)),
                              posterior.acceptance_fraction, posterior.warnings))
-        stopped = _stop(posterior, settings, len(x))
+        intervals.append(posterior.intervals)
+        stopped = _stop(posterior, settings, len(x), intervals)
         if stopped:
             break
         new = acquire_batch(surrogates, responses, posterior,
@@ -278,10 +298,18 @@ def calibrate_bayes(evaluate: Evaluate, factors: Any, responses: Sequence[Respon
                        history=tuple(history), stopped=stopped)
 
 
-def _stop(posterior: Posterior, settings: BayesSettings, n_runs: int) -> str:
-    """Why to stop now ("tolerance", "budget"), or "" to go on."""
+def _stop(posterior: Posterior, settings: BayesSettings, n_runs: int,
+          intervals: Sequence[np.ndarray]) -> str:
+    """Why to stop now ("tolerance", "stable", "budget"), or "" to go on; ``intervals``: each
+    round's (k, 2) coded 95 % intervals so far, this round's last."""
     if posterior.plausible and np.all(posterior.half_widths <= settings.tolerance):
         return "tolerance"
+    m = settings.stable_rounds
+    if m and posterior.plausible and len(intervals) > m:
+        moves = [np.max(np.abs(b - a)) for a, b in zip(intervals[-m - 1:-1], intervals[-m:],
+                                                       strict=True)]
+        if max(moves) <= settings.stable_change:
+            return "stable"
     if n_runs >= settings.max_runs:
         return "budget"
     return ""

@@ -170,6 +170,11 @@ class Posterior:
         return not self.warnings
 
     @property
+    def intervals(self) -> np.ndarray:
+        """(k, 2) the 95 % intervals' ends (low, high), coded."""
+        return np.array([[p.ci95_low, p.ci95_high] for p in self.parameters])
+
+    @property
     def half_widths(self) -> np.ndarray:
         """(k,) half-widths of the 95 % intervals, coded."""
         return np.array([p.half_width for p in self.parameters])
