@@ -51,3 +51,32 @@ def test_sigkill_mid_stage_then_resume(study_file):
     with RunStore(study_file.parent) as store:
         assert keys <= {r.key for r in store.runs()}
         assert store.count() == 40
+
+
+def test_sigterm_stops_a_study_as_ctrl_c_does(study_file):
+    """SIGTERM (a batch scheduler's time limit) mid-stage: the study stops as an interrupted
+    one (the finished runs counted and stored, exit 143), not killed where it stood (-15)."""
+    text = study_file.read_text().replace("noise_deg = 0.3", "noise_deg = 0.3\ndelay_s = 0.05")
+    study_file.write_text(text)
+    cmd = [sys.executable, "-m", "demcal", "calibrate", str(study_file), "--workers", "1",
+           "--no-report"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.1)
+            try:
+                with RunStore(study_file.parent) as store:
+                    if store.count("screening") >= 3:
+                        break
+            except StoreError:  # not there yet, or caught between its creation and header
+                continue
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 143, out
+    assert "terminated (SIGTERM)" in out and "finished runs are stored" in out, out
+    with RunStore(study_file.parent) as store:
+        assert store.count() >= 3

@@ -46,9 +46,10 @@ def main() -> None:
     """
     import sys
 
-    from demcal.cli._stdout import survive_hangup
+    from demcal.cli._stdout import stop_on_terminate, survive_hangup
 
     survive_hangup()  # a dropped terminal ends no study midway (its output is guarded)
+    stop_on_terminate()  # a scheduler's SIGTERM stops a study as Ctrl-C does
     # the click exceptions typer raises (typer may vendor its own click)
     errors = importlib.import_module(typer.BadParameter.__module__)
     try:

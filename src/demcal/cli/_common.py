@@ -68,6 +68,9 @@ F = TypeVar("F", bound=Callable[..., Any])
 EXIT_INPUT = 2
 EXIT_FAILURE = 3
 EXIT_INTERRUPTED = 130
+#: the exit status of a command stopped by SIGTERM (128 + 15: ``SystemExit`` raised by
+#: :func:`demcal.cli._stdout.stop_on_terminate` or a local pool's ``sigterm_raises``)
+EXIT_TERMINATED = 143
 
 
 def styled(*parts: str | tuple[str, str]) -> Text:
@@ -263,7 +266,8 @@ def cli_errors(func: F) -> F:
 
     InputError, pydantic validation errors, unreadable input files (missing, a folder,
     not text, no permission) and inputs nested too deeply exit with 2; a failed simulation or
-    study, a damaged store or a full disk exit with 3; Ctrl-C exits with 130; a standard
+    study, a damaged store or a full disk exit with 3; Ctrl-C exits with 130, SIGTERM with
+    143 (:func:`demcal.cli._stdout.stop_on_terminate`); a standard
     output that went away during a command that ran to its end exits with 141. Anything else
     is a bug and keeps its traceback.
     """
@@ -279,6 +283,10 @@ def cli_errors(func: F) -> F:
             raise
         except KeyboardInterrupt:
             raise _fail("interrupted", "", EXIT_INTERRUPTED) from None
+        except SystemExit as stop:
+            if stop.code != EXIT_TERMINATED:
+                raise
+            raise _fail("terminated", "(SIGTERM)", EXIT_TERMINATED) from None
         except Exception as exc:
             if (exit_ := _as_exit(exc)) is None:
                 raise

@@ -21,6 +21,7 @@ from demcal.calibrate.study import Study, study_folder
 from demcal.cli import app
 from demcal.cli._common import (
     EXIT_INTERRUPTED,
+    EXIT_TERMINATED,
     check_output_dir,
     check_output_file,
     check_report_problems,
@@ -292,12 +293,16 @@ def calibrate_cmd(
         demonstration = _is_quick_demonstration(ctx.study)
         try:
             result = run_stages(ctx)
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemExit) as stop:
+            code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else stop.code
+            if code not in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+                raise
             progress.stop()
             n = ctx.store.count()
-            console.print(styled(("interrupted:", "yellow"), f" {n} finished runs are stored; "
+            how = "interrupted:" if code == EXIT_INTERRUPTED else "terminated (SIGTERM):"
+            console.print(styled((how, "yellow"), f" {n} finished runs are stored; "
                                  f"run `demcal calibrate {study}` again to resume"))
-            raise typer.Exit(EXIT_INTERRUPTED) from None
+            raise typer.Exit(code) from None
         except ExternalPending as pending:
             progress.stop()
             names = [r.name for r in ctx.responses]
