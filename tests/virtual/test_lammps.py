@@ -96,6 +96,8 @@ def test_written_case_is_demcals_packing(tmp_path):
     text = (tmp_path / INPUT).read_text()
     assert "fix rig all rigid/small molecule infile bodies.txt" in text
     assert "wall/gran/region" in text and "DEMCAL end" in text
+    # the molecule IDs' property exists before the data file fills it
+    assert text.index("fix pmol all property/atom mol") < text.index("read_data aor.data")
 
 
 def _molecule(path):
@@ -163,6 +165,8 @@ def test_factory_fill_is_written_as_lammps_insertion(tmp_path):
         files, key=lambda p: int(p.stem[5:]))) in text
     assert "fix rig all rigid/small molecule mol clumps" in text
     assert "create_box 1 box" in text and "read_data" not in text
+    assert text.index("create_box") < text.index("fix pmol all property/atom mol") \
+        < text.index("molecule clumps") < text.index("fix rig ") < text.index("fix fac ")
     assert f"$(count(all)) >= {case.n_spheres} || $(time) >= 0.6" in text
     assert text.index("unfix fac") < text.index("label fill_loop")
     assert "variable tp equal $(time)" in text  # the fill settles from the generation's end

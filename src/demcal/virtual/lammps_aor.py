@@ -117,6 +117,10 @@ def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
                       dict(params))
 
 
+#: atom_style sphere has no molecule IDs: a per-atom property holds each sphere's clump
+_MOLECULE_IDS = "fix pmol all property/atom mol ghost yes\n"
+
+
 @dataclass(frozen=True)
 class _FillLines:
     """The lines of the script that differ between the two fills."""
@@ -128,7 +132,7 @@ class _FillLines:
 
     @classmethod
     def packing(cls) -> _FillLines:
-        return cls(atoms=f"read_data {DATA} fix pmol NULL Molecules\n",
+        return cls(atoms=f"{_MOLECULE_IDS}read_data {DATA} fix pmol NULL Molecules\n",
                    rigid=f"fix rig all rigid/small molecule infile {BODIES}\n", generation="",
                    settle_from="0.0")
 
@@ -139,8 +143,7 @@ class _FillLines:
         return cls(
             atoms=(f"region box block {_fmt(lo[0])} {_fmt(hi[0])} {_fmt(lo[1])} "
                    f"{_fmt(hi[1])} {_fmt(lo[2])} {_fmt(hi[2])} units box\n"
-                   "create_box 1 box\nfix pmol all property/atom mol ghost yes\n"
-                   + template_line(factory)),
+                   "create_box 1 box\n" + _MOLECULE_IDS + template_line(factory)),
             rigid=f"fix rig all rigid/small molecule mol {TEMPLATE_ID}\n",
             generation=generation_lines(factory, config, dt, n_check, "rig"),
             settle_from="$(time)")
@@ -190,8 +193,8 @@ units si
 atom_style sphere
 atom_modify map array
 boundary f f f
-{fill.atoms}comm_modify vel yes cutoff {_fmt(2.0 * reach + skin)}
-neighbor {_fmt(skin)} bin
+comm_modify vel yes cutoff {_fmt(2.0 * reach + skin)}
+{fill.atoms}neighbor {_fmt(skin)} bin
 neigh_modify delay 0 every 1 check yes exclude molecule/intra all
 pair_style granular
 pair_coeff * * {pp}
