@@ -361,3 +361,18 @@ def test_the_factory_fill_agrees_with_demcal_s_with_the_laws_matched(tmp_path):
         means = {e: float(np.mean([r[key] for r in rs])) for e, rs in runs.items()}
         assert means["lammps"] == pytest.approx(means["demcal"], rel=rel), (key, means)
     assert all(r["particles_lost"] == 0 for r in runs["lammps"])
+
+
+def test_every_written_sphere_lies_in_the_data_file_s_box(tmp_path):
+    """The standard fidelity's loose packing stands ~0.5 m high: LAMMPS refuses a data file
+    whose atoms lie outside its box ("Did not assign all atoms correctly")."""
+    for fid in ("quick", "standard"):
+        case = write_case(PARAMS, fidelity_config(fid), 1, tmp_path / fid)
+        lines = (tmp_path / fid / DATA).read_text().splitlines()
+        lo_hi = [tuple(map(float, line.split()[:2])) for line in lines
+                 if line.endswith(("xlo xhi", "ylo yhi", "zlo zhi"))]
+        start = lines.index("Atoms # sphere") + 2
+        rows = np.loadtxt(lines[start:start + case.n_spheres], ndmin=2)
+        xyz, radius = rows[:, 4:7], rows[:, 2] / 2
+        for k, (lo, hi) in enumerate(lo_hi):
+            assert np.all(xyz[:, k] - radius >= lo) and np.all(xyz[:, k] + radius <= hi), fid

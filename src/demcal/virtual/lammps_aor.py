@@ -106,6 +106,11 @@ def write_case(params: Mapping[str, float], config: AoRTestConfig, seed: int,
         rng = np.random.default_rng(int(seed))
         scales_all = draw_scales(int(config.fill.count), config.particle, rng)
         idx, pos, quat = pack_cylinder(template, scales_all, config, rng)
+        # a tall loose packing (the standard fidelity's 1200 stalks at a solid fraction of
+        # 0.18 stand ~0.5 m high in the 56 mm tube) must lie inside the box LAMMPS reads
+        top = float(pos[:, 2].max()) + template.bounding_radius * float(scales_all.max())
+        if top + 0.05 > zhi:
+            box = Box(box.lo, (half, half, top + 0.1))
         written = write_clumps(ClumpSet(template, scales_all[idx], pos, quat, rho), box,
                                folder / DATA, folder / BODIES, title="demcal AoR test")
     dt, laws = step_and_laws(params, written, dt_fraction=config.dt_fraction,
