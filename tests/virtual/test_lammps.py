@@ -324,18 +324,26 @@ def test_the_fill_s_bulk_density_agrees_with_demcal_s_with_the_laws_matched(tmp_
     (With the preset's cohesion and demcal's rolling model A the engines' fills differ by
     ~30 %: calibrate for the engine you simulate with.)"""
     means = {}
-    for engine in ("demcal", "lammps"):
-        out = tmp_path / f"{engine}.json"
-        res = CliRunner().invoke(app, [
-            "simulate", "aor", "--engine", engine, "--fidelity", "quick", "--seed", "1",
-            "--seeds", "2", "--set", "pp.surface_energy=0", "--set", "pw.surface_energy=0",
-            "--test", "rolling_model=C", "--json", str(out)])
-        assert res.exit_code == 0, res.output
-        runs = json.loads(out.read_text())["runs"]
+    for engine, runs in _matched_runs(tmp_path, ["--fidelity", "quick"]).items():
         values = [r["bulk_density_kg_m3"] for r in runs]
         assert all(v is not None and 20.0 < v < 114.36 for v in values), values
         means[engine] = float(np.mean(values))
     assert means["lammps"] == pytest.approx(means["demcal"], rel=0.05), means
+
+
+def _matched_runs(tmp_path, test: list[str]) -> dict[str, list[dict]]:
+    """Seeds 1-2 of the lift test ``test`` (simulate's options) in each engine with the laws
+    matched (rolling model C, no cohesion): every run's JSON, by engine."""
+    runs = {}
+    for engine in ("demcal", "lammps"):
+        out = tmp_path / f"{engine}.json"
+        res = CliRunner().invoke(app, [
+            "simulate", "aor", "--engine", engine, *test, "--seed", "1", "--seeds", "2",
+            "--set", "pp.surface_energy=0", "--set", "pw.surface_energy=0",
+            "--test", "rolling_model=C", "--json", str(out)])
+        assert res.exit_code == 0, res.output
+        runs[engine] = json.loads(out.read_text())["runs"]
+    return runs
 
 
 @pytest.mark.slow
@@ -346,17 +354,10 @@ def test_the_factory_fill_agrees_with_demcal_s_with_the_laws_matched(tmp_path):
     over seeds 1-3, demcal generated 115, 132, 121 stalks, LAMMPS 135, 136, 131 (each
     factory skips or defers a clump that finds no free place); loose bulk densities 59.96,
     60.83, 60.55 against 60.55, 61.73, 62.36 kg/m^3, 1.8 % apart."""
-    runs = {}
-    for engine in ("demcal", "lammps"):
-        out = tmp_path / f"{engine}.json"
-        res = CliRunner().invoke(app, [
-            "simulate", "aor", "--engine", engine, "--fidelity", "paper", "--seed", "1",
-            "--seeds", "2", "--test", "fill.rate=2000", "--test", "fill.filling_time=0.1",
-            "--test", "geometry.cylinder_inner_diameter=0.04",
-            "--test", "geometry.cylinder_height=0.1", "--set", "pp.surface_energy=0",
-            "--set", "pw.surface_energy=0", "--test", "rolling_model=C", "--json", str(out)])
-        assert res.exit_code == 0, res.output
-        runs[engine] = json.loads(out.read_text())["runs"]
+    runs = _matched_runs(tmp_path, [
+        "--fidelity", "paper", "--test", "fill.rate=2000", "--test", "fill.filling_time=0.1",
+        "--test", "geometry.cylinder_inner_diameter=0.04",
+        "--test", "geometry.cylinder_height=0.1"])
     for key, rel in (("n_particles", 0.2), ("bulk_density_kg_m3", 0.05)):
         means = {e: float(np.mean([r[key] for r in rs])) for e, rs in runs.items()}
         assert means["lammps"] == pytest.approx(means["demcal"], rel=rel), (key, means)
