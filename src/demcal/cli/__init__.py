@@ -46,14 +46,17 @@ def main() -> None:
     """
     import sys
 
-    from demcal.cli._stdout import stop_on_terminate, survive_hangup
+    from demcal.cli._stdout import survive_hangup
+    from demcal.execute.signals import sigterm_raises
 
     survive_hangup()  # a dropped terminal ends no study midway (its output is guarded)
-    stop_on_terminate()  # a scheduler's SIGTERM stops a study as Ctrl-C does
     # the click exceptions typer raises (typer may vendor its own click)
     errors = importlib.import_module(typer.BadParameter.__module__)
     try:
-        code = app(standalone_mode=False)
+        # SIGTERM (kill, a scheduler's time limit) unwinds the command as Ctrl-C does,
+        # exit 143: its finished runs are stored and its clean-ups run
+        with sigterm_raises():
+            code = app(standalone_mode=False)
     except errors.NoArgsIsHelpError:  # the help is printed already
         sys.exit(0)
     except errors.UsageError as exc:

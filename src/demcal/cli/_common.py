@@ -68,8 +68,8 @@ F = TypeVar("F", bound=Callable[..., Any])
 EXIT_INPUT = 2
 EXIT_FAILURE = 3
 EXIT_INTERRUPTED = 130
-#: the exit status of a command stopped by SIGTERM (128 + 15: ``SystemExit`` raised by
-#: :func:`demcal.cli._stdout.stop_on_terminate` or a local pool's ``sigterm_raises``)
+#: the exit status of a command stopped by SIGTERM (128 + 15: the ``SystemExit`` that
+#: :func:`demcal.execute.signals.sigterm_raises` raises around every command)
 EXIT_TERMINATED = 143
 
 
@@ -267,7 +267,7 @@ def cli_errors(func: F) -> F:
     InputError, pydantic validation errors, unreadable input files (missing, a folder,
     not text, no permission) and inputs nested too deeply exit with 2; a failed simulation or
     study, a damaged store or a full disk exit with 3; Ctrl-C exits with 130, SIGTERM with
-    143 (:func:`demcal.cli._stdout.stop_on_terminate`); a standard
+    143 (:func:`demcal.execute.signals.sigterm_raises`); a standard
     output that went away during a command that ran to its end exits with 141. Anything else
     is a bug and keeps its traceback.
     """

@@ -116,20 +116,6 @@ def reset() -> None:
     guarded_stdout.gone = False
 
 
-def _terminated(signum: int, frame: object) -> None:
-    raise SystemExit(128 + signum)
-
-
-def stop_on_terminate() -> None:
-    """SIGTERM (``kill``, a batch scheduler's time limit) raises ``SystemExit(143)`` wherever
-    the command is, as :func:`demcal.execute.signals.sigterm_raises` does inside a local
-    pool: the command unwinds as an interrupted one (a study says how many finished runs are
-    stored, LAMMPS and the worker pool are taken down, temporary folders are removed) and
-    exits with 143, instead of dying where it stands."""
-    with contextlib.suppress(ValueError, OSError, AttributeError):  # not the main thread
-        signal.signal(signal.SIGTERM, _terminated)
-
-
 def survive_hangup() -> None:
     """Ignore SIGHUP (a hung-up terminal), so a running study or simulation finishes and
     writes its results; SIGTERM and Ctrl-C still stop it."""

@@ -246,7 +246,7 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
         _start_fill(sim, run, config, template)
     snap = _Snapshots(vtk_dir) if vtk_dir is not None else None
     for run in runs:  # each world is checked every interval of its own time step
-        run.check_every = max(1, round(config.phases.check_interval / float(sim.dt[run.index])))
+        run.check_every = config.phases.check_steps(float(sim.dt[run.index]))
         run.next_check = run.check_every
     while not all(r.done for r in runs):
         live = [r for r in runs if not r.done]

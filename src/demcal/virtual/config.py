@@ -114,6 +114,11 @@ class Phases(_Model):
     min_settle_time: float = Field(0.02, ge=0, description="shortest settle phase, s")
     check_interval: float = Field(0.005, gt=0, description="time between checks, s")
 
+    def check_steps(self, dt: float) -> int:
+        """Time steps between two checks at time step ``dt`` (s): the whole number nearest
+        ``check_interval / dt``, >= 1 (both engines check on it)."""
+        return max(1, round(self.check_interval / dt))
+
 
 class MeasurementOptions(_Model):
     """How the settled pile's angle is measured (by demcal.measure, as a photo would be)."""

@@ -144,13 +144,13 @@ class _FillLines:
     @classmethod
     def factory(cls, factory: Factory, config: AoRTestConfig, dt: float, box: Box) -> _FillLines:
         lo, hi = box.lo, box.hi
-        n_check = max(1, round(config.phases.check_interval / dt))
         return cls(
             atoms=(f"region box block {_fmt(lo[0])} {_fmt(hi[0])} {_fmt(lo[1])} "
                    f"{_fmt(hi[1])} {_fmt(lo[2])} {_fmt(hi[2])} units box\n"
                    "create_box 1 box\n" + _MOLECULE_IDS + template_line(factory)),
             rigid=f"fix rig all rigid/small molecule mol {TEMPLATE_ID}\n",
-            generation=generation_lines(factory, config, dt, n_check, "rig"),
+            generation=generation_lines(factory, config, dt, config.phases.check_steps(dt),
+                                        "rig"),
             settle_from="$(time)")
 
 
@@ -184,7 +184,7 @@ def _script(config: AoRTestConfig, dt: float, laws: Mapping[str, ContactLaw],
     settle = settle_block(config.phases.settle_rms_speed, config.phases.settle_max_speed)
     pp, pw = model_string(laws["pp"]), model_string(laws["pw"])
     g, ph, p = config.geometry, config.phases, config.particle
-    n_check = max(1, round(ph.check_interval / dt))
+    n_check = ph.check_steps(dt)
     r_in = 0.5 * g.cylinder_inner_diameter
     skin = 0.5 * r_min
     limit = ph.lift_height if ph.lift_height is not None else g.cylinder_height

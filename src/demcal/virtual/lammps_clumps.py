@@ -71,6 +71,18 @@ class LammpsClumps:
     mass_mean: float  #: mean clump mass, kg
     reach: float  #: the largest clump's bounding radius, m (sets the ghost cutoff)
 
+    @classmethod
+    def of_sizes(cls, template: ClumpTemplate, scales: np.ndarray, density: float,
+                 n_clumps: int) -> LammpsClumps:
+        """``n_clumps`` clumps of ``template`` whose sizes are those of ``scales`` (the placed
+        clumps', or a factory's size classes) at solid ``density`` (kg/m^3)."""
+        mass, _ = clump_mass_inertia(template, scales, density)
+        radii = template.radii[None, :] * scales[:, None]
+        return cls(n_clumps=n_clumps, n_spheres=n_clumps * len(template.radii),
+                   r_min=float(radii.min()), r_mean=float(np.mean(radii)),
+                   mass_mean=float(np.mean(mass)),
+                   reach=float(template.bounding_radius * scales.max()))
+
 
 def rotation_matrices(q: np.ndarray) -> np.ndarray:
     """Rotation matrices (n, 3, 3) of unit quaternions (w, x, y, z)."""
@@ -119,9 +131,7 @@ def write_clumps(clumps: ClumpSet, box: Box, data_path: Path, bodies_path: Path,
         centres.reshape(-1, 3), radii.reshape(-1), np.repeat(atom_density, ns),
         np.repeat(np.arange(1, n + 1), ns)))
     _write_bodies(bodies_path, mass, com, tensor)
-    return LammpsClumps(n_clumps=n, n_spheres=n * ns, r_min=float(radii.min()),
-                        r_mean=float(np.mean(radii)), mass_mean=float(np.mean(mass)),
-                        reach=float(t.bounding_radius * scales.max()))
+    return LammpsClumps.of_sizes(t, scales, clumps.density, n)
 
 
 def write_data(path: Path, box: Box, title: str, spheres: DataSpheres) -> None:

@@ -67,9 +67,11 @@ class Factory:
 
     files: tuple[str, ...]  #: the molecule template files (size classes x orientations)
     scales: np.ndarray  #: (k,) size factor of each size class
-    clumps: LammpsClumps  #: sizes and masses over the classes (for the time step and laws)
+    #: the clumps to insert (``n_clumps``: demcal's
+    #: :func:`~demcal.virtual.factory.fill_capacity`), sized over the classes (for the time
+    #: step and the laws)
+    clumps: LammpsClumps
     r_max: float  #: the largest sphere radius, m (sets ``near``)
-    n_insert: int  #: clumps to insert: demcal's :func:`~demcal.virtual.factory.fill_capacity`
     seed: int  #: ``fix deposit``'s seed (a positive integer)
 
 
@@ -137,14 +139,9 @@ def write_factory(template: ClumpTemplate, config: AoRTestConfig, density: float
         name = f"clump{k}.mol"
         (folder / name).write_text(_molecule_text(template, float(s), q, density))
         files.append(name)
-    mass, _ = clump_mass_inertia(template, scales, density)
-    radii = template.radii[None, :] * scales[:, None]
-    n_insert = fill_capacity(config, template)
-    clumps = LammpsClumps(n_clumps=n_insert, n_spheres=n_insert * len(template.radii),
-                          r_min=float(radii.min()), r_mean=float(np.mean(radii)),
-                          mass_mean=float(np.mean(mass)),
-                          reach=float(template.bounding_radius * scales.max()))
-    return Factory(tuple(files), scales, clumps, float(radii.max()), n_insert, int(seed) + 1)
+    clumps = LammpsClumps.of_sizes(template, scales, density, fill_capacity(config, template))
+    return Factory(tuple(files), scales, clumps, float((template.radii.max() * scales).max()),
+                   int(seed) + 1)
 
 
 def insertion_interval(rate: float, dt: float) -> int:
@@ -173,7 +170,7 @@ def generation_lines(factory: Factory, config: AoRTestConfig, dt: float, n_check
     # the thermo line needs no atoms here: the settle variables divide by their count
     return (
         f"region fac cylinder z 0 0 {_f(radius)} {_f(z_f - reach)} {_f(z_f)} side in units box\n"
-        f"fix fac all deposit {factory.n_insert} 0 {every} {factory.seed} region fac "
+        f"fix fac all deposit {factory.clumps.n_clumps} 0 {every} {factory.seed} region fac "
         f"near {_f(2.0 * factory.r_max)} attempt {ATTEMPTS} vz {_f(-fill.drop_speed)} "
         f"{_f(-fill.drop_speed)} mol {TEMPLATE_ID} molfrac {frac} rigid {rigid_fix} units box\n"
         f"thermo_style custom step time atoms\nthermo {n_check}\n"
