@@ -23,9 +23,10 @@ import os
 import re
 import stat
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import pandas as pd
+if TYPE_CHECKING:  # pandas loads with the caller's frame, not with every command
+    import pandas as pd
 
 __all__ = ["MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "MEASURE_BYTES_PER_PIXEL", "available_memory",
            "csv_cell", "csv_safe", "image_problem", "memory_problem", "not_regular",
@@ -130,7 +131,7 @@ def csv_safe(frame: pd.DataFrame) -> pd.DataFrame:
     out = frame.copy()
     out.columns = [csv_cell(c) for c in out.columns]
     for i in range(out.shape[1]):
-        if not pd.api.types.is_numeric_dtype(out.iloc[:, i]):
+        if out.iloc[:, i].dtype.kind not in "biufc":  # numbers are never formulas
             out.iloc[:, i] = out.iloc[:, i].map(csv_cell)
     return out
 

@@ -142,9 +142,19 @@ row's inputs_hash is a hash of the stage's inputs (ranges, options, fixed values
 are reused by run key, so a changed study re-runs only the runs whose key changed.
 """
 
-from demcal.calibrate.pipeline import STAGES, calibrate, open_study
-from demcal.calibrate.runner import ExternalPending, Point, Runner
-from demcal.calibrate.study import EXAMPLE_STUDY, Study, load_study, parse_study
+# The public names, imported on first use (demcal._lazy): `demcal.calibrate.study` is read by
+# every command and must not pull the pipeline's scipy, pandas and numba in with it.
+from demcal._lazy import exports
 
-__all__ = ["EXAMPLE_STUDY", "STAGES", "ExternalPending", "Point", "Runner", "Study",
-           "calibrate", "load_study", "open_study", "parse_study"]
+__getattr__, __dir__, __all__ = exports(__name__, {
+    "STAGES": "pipeline",
+    "calibrate": "pipeline",
+    "open_study": "pipeline",
+    "ExternalPending": "runner",
+    "Point": "runner",
+    "Runner": "runner",
+    "EXAMPLE_STUDY": "study",
+    "Study": "study",
+    "load_study": "study",
+    "parse_study": "study",
+})

@@ -31,7 +31,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from demcal.doe.desirability import ResponseGoal
+from demcal.doe.goal import ResponseGoal
 from demcal.errors import InputError
 from demcal.lead import ANGLE
 from demcal.safety import read_text_input

@@ -11,10 +11,9 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
-import pandas as pd
 import typer
 from rich.table import Table
 
@@ -26,6 +25,9 @@ from demcal.cli.optimize_goals import GoalsRun, check_goal_options, optimize_goa
 from demcal.errors import InputError
 from demcal.limits import MAX_DESIGN_RUNS, MAX_SEED, check_finite
 from demcal.safety import regular_input
+
+if TYPE_CHECKING:  # pandas loads when a sheet is read, not with `demcal --help`
+    import pandas as pd
 
 BOOKKEEPING = ("run", "std", "point_type", "block")
 
@@ -152,6 +154,7 @@ def _read_csv(path: Path) -> pd.DataFrame:
     if not path.exists():
         raise InputError(f"runs file {str(path)!r} does not exist")
     regular_input(path, "runs file")  # a named pipe would block the read
+    import pandas as pd
     try:
         frame = pd.read_csv(path, skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
@@ -173,6 +176,8 @@ def _load_surface(
     block: str | None = None,
 ) -> doe.ResponseSurface:
     """Read a run sheet and fit the model (the shared front half of analyze and optimize)."""
+    import pandas as pd
+
     frame = _read_csv(runs)
     if block is not None and block not in frame.columns:
         raise InputError(f"--block: column {block!r} not found in {runs.name}; columns: "

@@ -10,17 +10,11 @@ import typer
 from rich.table import Table
 from rich.text import Text
 
+from demcal import measure as pile_photos  # lazy: scikit-image loads when a photo is read
 from demcal.cli import app
 from demcal.cli._common import check_output_dir, check_output_file, cli_errors, console, log
 from demcal.cli._outputs import refuse_overwrites
 from demcal.errors import InputError
-from demcal.measure import (
-    DEFAULT_FIT_WINDOW,
-    AoRTable,
-    photos_aor,
-    plot_photo_aor,
-    save_table,
-)
 from demcal.safety import photo_too_large
 
 
@@ -40,7 +34,7 @@ def _fmt(x: float, digits: int = 2) -> str:
     return "-" if x is None or not math.isfinite(x) else f"{x:.{digits}f}"
 
 
-def aor_table(table: AoRTable) -> Table:
+def aor_table(table: pile_photos.AoRTable) -> Table:
     """A rich table: one row per photo, then the mean and standard deviation."""
     out = Table(title="Angle of repose", title_justify="left")
     out.add_column("#", justify="right")
@@ -57,8 +51,8 @@ def aor_table(table: AoRTable) -> Table:
     return out
 
 
-def _write_outputs(table: AoRTable, plot: Path | None, plot_dir: Path | None, csv: Path | None,
-                   json_out: Path | None) -> list[Path]:
+def _write_outputs(table: pile_photos.AoRTable, plot: Path | None, plot_dir: Path | None,
+                   csv: Path | None, json_out: Path | None) -> list[Path]:
     """Write the figures, the CSV and the JSON of a measured table; return their paths."""
     targets = [(table.results[0], plot)] if plot is not None else []
     if plot_dir is not None:
@@ -66,12 +60,12 @@ def _write_outputs(table: AoRTable, plot: Path | None, plot_dir: Path | None, cs
         names = _figure_names([Path(r.source) for r in table.results], plot_dir)
         targets += list(zip(table.results, names, strict=True))
     for res, path in targets:
-        plot_photo_aor(res, path)
+        pile_photos.plot_photo_aor(res, path)
     for path in (csv, json_out):
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
     if csv is not None or json_out is not None:
-        save_table(table, csv=csv, json_path=json_out)
+        pile_photos.save_table(table, csv=csv, json_path=json_out)
     return [path for _, path in targets] + [p for p in (csv, json_out) if p is not None]
 
 
@@ -101,7 +95,7 @@ def measure(
         tuple[float, float],
         typer.Option("--fit-window", help="Flank heights fitted, fractions of the pile height "
                      "(LO HI, 0 <= LO < HI <= 1)."),
-    ] = DEFAULT_FIT_WINDOW,
+    ] = pile_photos.DEFAULT_FIT_WINDOW,
     fit: Annotated[
         str,
         typer.Option("--fit", help="Line fit: theil_sen, least_squares or ransac."),
@@ -153,9 +147,9 @@ def measure(
         if why := photo_too_large(photo):
             raise InputError(f"photo {photo}: {why}")
     log.info("measuring %d photo(s)", len(photos))
-    table = photos_aor(photos, threshold=parse_threshold(threshold), fit_window=fit_window,
-                       fit=fit, pile=pile, base_line=base_row, roi=roi, roll_deg=roll_deg,
-                       pixel_aspect=pixel_aspect)
+    table = pile_photos.photos_aor(
+        photos, threshold=parse_threshold(threshold), fit_window=fit_window, fit=fit, pile=pile,
+        base_line=base_row, roi=roi, roll_deg=roll_deg, pixel_aspect=pixel_aspect)
     # every file first, the console last: a console that is gone or blocks costs no file
     written = _write_outputs(table, plot, plot_dir, csv, json_out)
     console.print(aor_table(table))

@@ -9,11 +9,10 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
+from demcal import physical as bench  # lazy: scipy.stats loads when measurements are reduced
 from demcal.cli import app
 from demcal.cli._common import check_output_file, cli_errors, console, log, styled
 from demcal.cli._outputs import refuse_overwrites
-from demcal.physical import PARAMETERS, PhysicalResult, derive_parameters, load_measurements
-from demcal.physical.stats import RepeatSummary
 
 
 def _num(x: float | None, digits: int = 4) -> str:
@@ -23,10 +22,10 @@ def _num(x: float | None, digits: int = 4) -> str:
     return f"{x:.6g}" if abs(x) >= 1 else f"{x:.{digits}g}"
 
 
-def _display(s: RepeatSummary) -> tuple[str, float]:
+def _display(s: bench.RepeatSummary) -> tuple[str, float]:
     """Display unit and scale of a summary (moduli in MPa, lengths in mm)."""
-    if s.name in PARAMETERS:
-        info = PARAMETERS[s.name]
+    if s.name in bench.PARAMETERS:
+        info = bench.PARAMETERS[s.name]
         return info.display_unit, info.display_scale
     if s.unit == "Pa":
         return "MPa", 1e-6
@@ -35,7 +34,7 @@ def _display(s: RepeatSummary) -> tuple[str, float]:
     return s.unit, 1.0
 
 
-def _parameter_table(result: PhysicalResult) -> Table:
+def _parameter_table(result: bench.PhysicalResult) -> Table:
     table = Table(title=f"Model parameters of {result.measurements.material}", title_justify="left")
     table.add_column("Symbol")
     table.add_column("Parameter")
@@ -56,7 +55,7 @@ def _parameter_table(result: PhysicalResult) -> Table:
     return table
 
 
-def _summary_table(result: PhysicalResult) -> Table:
+def _summary_table(result: bench.PhysicalResult) -> Table:
     level = result.settings.get("ci_level", 0.95)
     table = Table(title="Measured repeats", title_justify="left")
     table.add_column("Quantity", style="cyan")
@@ -88,7 +87,7 @@ def _summary_table(result: PhysicalResult) -> Table:
     return table
 
 
-def _template_lines(result: PhysicalResult) -> list[str]:
+def _template_lines(result: bench.PhysicalResult) -> list[str]:
     lines = []
     t = result.template
     if t is not None:
@@ -161,8 +160,8 @@ def physical(
     check_output_file(json_out, "--json", make_parents=True)
     refuse_overwrites({"--json": json_out}, [(measurements, "the measurements file")])
     log.info("reading %s", measurements)
-    result = derive_parameters(
-        load_measurements(measurements), ci_level=ci_level, range_rule=range_rule, range_k=k
+    result = bench.derive_parameters(
+        bench.load_measurements(measurements), ci_level=ci_level, range_rule=range_rule, range_k=k
     )
     if json_out is not None:  # first: a console that is gone or blocks costs no file
         json_out.parent.mkdir(parents=True, exist_ok=True)

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from demcal import report as study_report  # lazy: matplotlib loads when the report is built
 from demcal.cli import app
 from demcal.cli._common import (
     check_output_dir,
@@ -15,7 +16,6 @@ from demcal.cli._common import (
     console,
     styled,
 )
-from demcal.report import build_report, load_report_data
 
 
 @app.command("report")
@@ -28,8 +28,8 @@ def report(
 ) -> None:
     """Build the calibration report (HTML, JSON, CSV tables, PNG figures) from the store."""
     check_output_dir(out, "--out")
-    path = build_report(study_dir, out)
-    data = load_report_data(study_dir)
+    path = study_report.build_report(study_dir, out)
+    data = study_report.load_report_data(study_dir)
     for view in data.stages.values():
         colour = {"done": "green", "failed": "red", "running": "yellow"}.get(view.status, "dim")
         line = styled(f"  {view.title}: ", (str(view.status), colour))

@@ -25,7 +25,6 @@ from demcal.cli._common import (
 from demcal.cli._outputs import refuse_overwrites
 from demcal.errors import InputError
 from demcal.limits import MAX_REPLICATES, MAX_SEED, check_test_size
-from demcal.physical.stats import std_interval
 
 PROGRESS_ROWS = 16
 
@@ -51,6 +50,8 @@ def summary_line(summary: dict) -> str:
 
 def summarize_runs(results: list) -> dict:
     """Aggregate replicate runs: mean angle over views and seeds (piles only), spreads."""
+    from demcal.physical.stats import std_interval  # scipy.stats: only when runs are summed
+
     piles = [r for r in results if r.outcome == "pile" and r.aor_deg is not None]
     outcomes = [r.outcome for r in results]
     if len(piles) == len(results):

@@ -10,52 +10,38 @@ heights, default (0.2, 0.8)) is fitted with ``x = slope * z + intercept``.
 - :func:`plot_photo_aor`, :func:`plot_pile_aor`: diagnostic figures.
 """
 
-from demcal.measure._checks import DEFAULT_FIT_WINDOW, FIT_METHODS
-from demcal.measure.batch import AoRTable, photos_aor, save_table
-from demcal.measure.boundary import Outline, find_base_row, largest_region, outline
-from demcal.measure.image import binarise, flatten_illumination, load_gray
-from demcal.measure.linefit import Flank, LineFit, fit_flank, fit_line
-from demcal.measure.photo import PhotoAoR, photo_aor
-from demcal.measure.pile import (
-    PileAoR,
-    ViewAoR,
-    pile_aor_profile,
-    pile_aor_silhouette,
-    pile_axis,
-    render_view,
-    sector_spheres,
-)
-from demcal.measure.plot import plot_photo_aor, plot_pile_aor
-from demcal.measure.render import Raster, render_discs
+# The public names, imported on first use (demcal._lazy): scikit-image and scipy load when a
+# photo is measured, not with every command.
+from demcal._lazy import exports
 
-__all__ = [
-    "DEFAULT_FIT_WINDOW",
-    "FIT_METHODS",
-    "AoRTable",
-    "Flank",
-    "LineFit",
-    "Outline",
-    "PhotoAoR",
-    "PileAoR",
-    "Raster",
-    "ViewAoR",
-    "binarise",
-    "find_base_row",
-    "fit_flank",
-    "fit_line",
-    "flatten_illumination",
-    "largest_region",
-    "load_gray",
-    "outline",
-    "photo_aor",
-    "photos_aor",
-    "pile_aor_profile",
-    "pile_aor_silhouette",
-    "pile_axis",
-    "plot_photo_aor",
-    "plot_pile_aor",
-    "render_discs",
-    "render_view",
-    "save_table",
-    "sector_spheres",
-]
+__getattr__, __dir__, __all__ = exports(__name__, {
+    "DEFAULT_FIT_WINDOW": "_checks",
+    "FIT_METHODS": "_checks",
+    "AoRTable": "batch",
+    "photos_aor": "batch",
+    "save_table": "batch",
+    "Outline": "boundary",
+    "find_base_row": "boundary",
+    "largest_region": "boundary",
+    "outline": "boundary",
+    "binarise": "image",
+    "flatten_illumination": "image",
+    "load_gray": "image",
+    "Flank": "linefit",
+    "LineFit": "linefit",
+    "fit_flank": "linefit",
+    "fit_line": "linefit",
+    "PhotoAoR": "photo",
+    "photo_aor": "photo",
+    "PileAoR": "pile",
+    "ViewAoR": "pile",
+    "pile_aor_profile": "pile",
+    "pile_aor_silhouette": "pile",
+    "pile_axis": "pile",
+    "render_view": "pile",
+    "sector_spheres": "pile",
+    "plot_photo_aor": "plot",
+    "plot_pile_aor": "plot",
+    "Raster": "render",
+    "render_discs": "render",
+})

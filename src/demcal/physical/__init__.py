@@ -13,62 +13,36 @@ into fixed parameters, factor ranges (the paper's Table 1) and a particle templa
 114.36
 """
 
-from demcal.physical.conversions import (
-    angle_from_friction,
-    compression_test,
-    density_from_overflow,
-    friction_from_angle,
-    poisson_from_moduli,
-    rayleigh_time_step,
-    shear_modulus_from_youngs,
-    youngs_modulus_from_shear,
-)
-from demcal.physical.derive import (
-    DT_FRACTION,
-    FactorRange,
-    FixedParameter,
-    PhysicalResult,
-    RayleighStep,
-    TemplateChoice,
-    derive_parameters,
-)
-from demcal.physical.parameters import PARAMETERS, Parameter, parameter_info
-from demcal.physical.schema import Measurements, load_measurements, parse_measurements
-from demcal.physical.stats import (
-    RANGE_RULES,
-    RepeatSummary,
-    std_interval,
-    suggest_range,
-    summarize,
-    summarize_range,
-)
+# The public names, imported on first use (demcal._lazy): scipy.stats loads when measurements
+# are reduced, not with every study file that names a parameter.
+from demcal._lazy import exports
 
-__all__ = [
-    "DT_FRACTION",
-    "PARAMETERS",
-    "RANGE_RULES",
-    "FactorRange",
-    "FixedParameter",
-    "Measurements",
-    "Parameter",
-    "PhysicalResult",
-    "RayleighStep",
-    "RepeatSummary",
-    "TemplateChoice",
-    "angle_from_friction",
-    "compression_test",
-    "density_from_overflow",
-    "derive_parameters",
-    "friction_from_angle",
-    "load_measurements",
-    "parameter_info",
-    "parse_measurements",
-    "poisson_from_moduli",
-    "rayleigh_time_step",
-    "shear_modulus_from_youngs",
-    "std_interval",
-    "suggest_range",
-    "summarize",
-    "summarize_range",
-    "youngs_modulus_from_shear",
-]
+__getattr__, __dir__, __all__ = exports(__name__, {
+    "angle_from_friction": "conversions",
+    "compression_test": "conversions",
+    "density_from_overflow": "conversions",
+    "friction_from_angle": "conversions",
+    "poisson_from_moduli": "conversions",
+    "rayleigh_time_step": "conversions",
+    "shear_modulus_from_youngs": "conversions",
+    "youngs_modulus_from_shear": "conversions",
+    "DT_FRACTION": "derive",
+    "FactorRange": "derive",
+    "FixedParameter": "derive",
+    "PhysicalResult": "derive",
+    "RayleighStep": "derive",
+    "TemplateChoice": "derive",
+    "derive_parameters": "derive",
+    "PARAMETERS": "parameters",
+    "Parameter": "parameters",
+    "parameter_info": "parameters",
+    "Measurements": "schema",
+    "load_measurements": "schema",
+    "parse_measurements": "schema",
+    "RANGE_RULES": "stats",
+    "RepeatSummary": "stats",
+    "std_interval": "stats",
+    "suggest_range": "stats",
+    "summarize": "stats",
+    "summarize_range": "stats",
+})

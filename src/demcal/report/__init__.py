@@ -16,51 +16,33 @@ Figures are matplotlib Figures (Agg canvas, no pyplot state); tables are pandas 
 (``report.tables``), also written as CSV next to the HTML.
 """
 
-from demcal.report import diagnostics, tables
-from demcal.report.build import build_report
-from demcal.report.data import STAGES, ReportData, StageView, load_report_data
-from demcal.report.figures import (
-    comparison_figure,
-    measurement_figure,
-    pareto_figure,
-    predicted_actual_figure,
-    rangefind_figure,
-    steepest_figure,
-    surface_figure,
-    verification_figure,
-)
-from demcal.report.material import material_card, measurements_table, parameter_table
-from demcal.report.model_figures import (
-    boxcox_figure,
-    pair_surface_figure,
-    perturbation_figure,
-    residual_figure,
-)
-from demcal.report.surface import StoredSurface, significant_pairs
+# The public names, imported on first use (demcal._lazy): matplotlib loads only when a figure
+# or the report is asked for.
+from demcal._lazy import exports
 
-__all__ = [
-    "STAGES",
-    "ReportData",
-    "StageView",
-    "StoredSurface",
-    "boxcox_figure",
-    "build_report",
-    "comparison_figure",
-    "diagnostics",
-    "load_report_data",
-    "material_card",
-    "measurement_figure",
-    "measurements_table",
-    "pair_surface_figure",
-    "parameter_table",
-    "pareto_figure",
-    "perturbation_figure",
-    "predicted_actual_figure",
-    "rangefind_figure",
-    "residual_figure",
-    "significant_pairs",
-    "steepest_figure",
-    "surface_figure",
-    "tables",
-    "verification_figure",
-]
+__getattr__, __dir__, __all__ = exports(__name__, {
+    "diagnostics": "diagnostics",
+    "tables": "tables",
+    "build_report": "build",
+    "STAGES": "data",
+    "ReportData": "data",
+    "StageView": "data",
+    "load_report_data": "data",
+    "comparison_figure": "figures",
+    "measurement_figure": "figures",
+    "pareto_figure": "figures",
+    "predicted_actual_figure": "figures",
+    "rangefind_figure": "figures",
+    "steepest_figure": "figures",
+    "surface_figure": "figures",
+    "verification_figure": "figures",
+    "material_card": "material",
+    "measurements_table": "material",
+    "parameter_table": "material",
+    "boxcox_figure": "model_figures",
+    "pair_surface_figure": "model_figures",
+    "perturbation_figure": "model_figures",
+    "residual_figure": "model_figures",
+    "StoredSurface": "surface",
+    "significant_pairs": "surface",
+})

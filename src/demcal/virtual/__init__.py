@@ -7,28 +7,25 @@ quick, standard, large and paper configurations (``FIDELITY_REPLICATES``: their 
 point) and the corn-stalk material.
 """
 
-from demcal.virtual.aor import AoRResult, run_aor
-from demcal.virtual.config import FIDELITY_REPLICATES, AoRTestConfig, fidelity_config
-from demcal.virtual.drum import DrumResult, run_drum
-from demcal.virtual.drum_settings import DrumSettings, drum_settings
-from demcal.virtual.outcome import Outcome
-from demcal.virtual.parameters import PARAMETERS, check_parameters, parse_assignments
-from demcal.virtual.presets import PRESETS, preset_parameters
+# The public names, imported on first use (demcal._lazy): the study schema reads
+# `demcal.virtual.config` and must not compile the engine (numba) to do so. The drum's settings
+# are `demcal.virtual.drum_settings.drum_settings`: a name that is also a submodule's would read
+# as the module once anything imports that submodule.
+from demcal._lazy import exports
 
-__all__ = [
-    "FIDELITY_REPLICATES",
-    "PARAMETERS",
-    "PRESETS",
-    "AoRResult",
-    "AoRTestConfig",
-    "DrumResult",
-    "DrumSettings",
-    "Outcome",
-    "check_parameters",
-    "drum_settings",
-    "fidelity_config",
-    "parse_assignments",
-    "preset_parameters",
-    "run_aor",
-    "run_drum",
-]
+__getattr__, __dir__, __all__ = exports(__name__, {
+    "AoRResult": "aor",
+    "run_aor": "aor",
+    "FIDELITY_REPLICATES": "config",
+    "AoRTestConfig": "config",
+    "fidelity_config": "config",
+    "DrumResult": "drum",
+    "run_drum": "drum",
+    "DrumSettings": "drum_settings",
+    "Outcome": "outcome",
+    "PARAMETERS": "parameters",
+    "check_parameters": "parameters",
+    "parse_assignments": "parameters",
+    "PRESETS": "presets",
+    "preset_parameters": "presets",
+})
