@@ -30,11 +30,13 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
   (e.g. {"density_kg_m3":..., "shear_modulus_pa":..., "poisson":..., "friction": {...}})
 - "fixed_params": {name: value}  (every parameter not a factor)
 - "factors": [{"name", "symbol", "low", "high", "unit"}]  (ranges as given in the study)
-- "versions": {"demcal", "python", "numpy", "engine_backend", "engine"; with the LAMMPS
-  engine "lammps": the version `lmp -h` names, or None}
-- "engine": which engine made the runs: {"kind": "demcal", "name": "demcal", "backend"}, or
-  an external one {"kind": "template", "name": "template: <command>", "command": [str],
-  "template": str (path), "template_sha256": str, "result": {reader settings}}
+- "versions" (typed: demcal.summaries.Versions): {"demcal", "python", "numpy",
+  "engine_backend", "engine"; with the LAMMPS engine "lammps": the version `lmp -h` names,
+  or None}
+- "engine" (typed: demcal.summaries.EngineMeta): which engine made the runs: {"kind":
+  "demcal", "name": "demcal", "backend"}, or an external one {"kind": "template", "name":
+  "template: <command>", "command": [str], "template": str (path), "template_sha256": str,
+  "result": {reader settings}}
 - "result": the final JSON (same as `demcal calibrate --json`), once the study is done
 
 ## stages (RunStore.set_stage(name, status, summary)); status running|done|failed;

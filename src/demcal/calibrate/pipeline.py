@@ -36,8 +36,10 @@ from demcal.summaries import (
     Verification,
     by_key,
 )
+from demcal.summaries.provenance import EngineMeta, Versions
 
-__all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def"]
+__all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def",
+           "versions_meta"]
 
 STAGES = tuple(STAGE_TITLES)  #: the stages in the order they run (demcal.store.STAGES)
 
@@ -79,15 +81,30 @@ def beside_tests(study: Study, test: TestDef) -> dict[str, TestDef]:
                             backend=study.backend, engine=test.engine, lammps=dict(test.lammps))}
 
 
-def engine_meta(study: Study) -> dict[str, Any]:
+def engine_meta(study: Study) -> EngineMeta:
     """The store's meta ``"engine"``: which engine produced the study's runs."""
     engine = study.engine_data()
     if engine is None:
         name = study.executor.engine  # demcal | lammps
-        return {"kind": name, "name": name, "backend": study.backend}
-    return {"kind": engine["kind"], "name": f"{engine['kind']}: {' '.join(engine['command'])}",
-            "command": engine["command"], "template": engine["template_path"],
-            "template_sha256": engine["template_sha256"], "result": engine["result"]}
+        return EngineMeta(kind=name, name=name, backend=study.backend)
+    return EngineMeta(kind=engine["kind"], name=f"{engine['kind']}: {' '.join(engine['command'])}",
+                      command=list(engine["command"]), template=engine["template_path"],
+                      template_sha256=engine["template_sha256"], result=engine["result"])
+
+
+def versions_meta(study: Study) -> Versions:
+    """The store's meta ``"versions"``: the software that makes the study's runs."""
+    try:
+        dv = version("demcal")
+    except PackageNotFoundError:  # pragma: no cover
+        dv = "unknown"
+    lammps = None
+    if study.executor.engine == "lammps":  # the LAMMPS the runs use (the material card says)
+        from demcal.virtual.lammps_run import lammps_version
+
+        lammps = lammps_version(study.executor.lammps)
+    return Versions(demcal=dv, python=platform.python_version(), numpy=np.__version__,
+                    engine_backend=study.backend, engine=study.executor.engine, lammps=lammps)
 
 
 def resolve_target(study: Study, figures: Path | None = None) -> dict[str, Any]:
@@ -176,18 +193,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     store.set_meta("fixed_params", {k: v for k, v in fixed.items()
                                     if k not in {f.name for f in study.factors}})
     store.set_meta("factors", factors)
-    store.set_meta("engine", engine_meta(study))
-    try:
-        dv = version("demcal")
-    except PackageNotFoundError:  # pragma: no cover
-        dv = "unknown"
-    versions = {"demcal": dv, "python": platform.python_version(), "numpy": np.__version__,
-                "engine_backend": study.backend, "engine": study.executor.engine}
-    if study.executor.engine == "lammps":  # the LAMMPS the runs use (the material card says)
-        from demcal.virtual.lammps_run import lammps_version
-
-        versions["lammps"] = lammps_version(study.executor.lammps)
-    store.set_meta("versions", versions)
+    store.set_meta("engine", engine_meta(study).to_summary())
+    store.set_meta("versions", versions_meta(study).to_summary())
     ex = study.executor
     batched = study.test.kind == "aor" and study.engine is None  # worlds of demcal's engine
     chunk = ex.chunk or (default_chunk(study.backend, study.replicates) if batched else 1)

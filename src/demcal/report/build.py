@@ -702,10 +702,8 @@ def _excluded(b: _Builder) -> str:
 
 
 def _footer(b: _Builder) -> str:
-    versions = b.data.meta.get("versions") or {}
-    v = ", ".join(f"{k} {val}" for k, val in versions.items())
+    v = b.data.versions.line() or "versions not stored"
     probs = "".join(f'<p class="warn">{escape(p)}</p>' for p in b.problems)
-    v = v or "versions not stored"
     return (f'<footer><h2>Provenance</h2>{probs}<p class="meta">{escape(v)}'
             ". Every number here is in <code>report.json</code> and "
             "<code>tables/*.csv</code>.</p></footer>")

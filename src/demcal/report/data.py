@@ -15,7 +15,16 @@ from typing import Any
 from demcal.errors import InputError, StoreError
 from demcal.lead import LeadName
 from demcal.store import STAGES, STORE_NAME, RunRecord, RunStore
-from demcal.summaries import Optimum, RangeFind, Screening, Steepest, Surface, Verification
+from demcal.summaries import (
+    EngineMeta,
+    Optimum,
+    RangeFind,
+    Screening,
+    Steepest,
+    Surface,
+    Verification,
+    Versions,
+)
 
 __all__ = ["META_KEYS", "STAGES", "Lead", "ReportData", "StageView", "load_report_data"]
 
@@ -156,6 +165,16 @@ class ReportData:
     def optimum(self) -> Optimum:
         """The optimize stage's summary, typed (empty when the stage has not run or failed)."""
         return Optimum.from_summary(self.stage("optimize").summary)
+
+    @property
+    def versions(self) -> Versions:
+        """The software that made the runs (meta ``versions``; all None in a store without)."""
+        return Versions.from_summary(self.meta.get("versions"))
+
+    @property
+    def engine(self) -> EngineMeta:
+        """The engine that made the runs (meta ``engine``; all None in a store without)."""
+        return EngineMeta.from_summary(self.meta.get("engine"))
 
     @property
     def target(self) -> dict[str, Any] | None:

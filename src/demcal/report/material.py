@@ -69,22 +69,21 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
     """Engine, test and particle shape of the study (from its test settings)."""
     study = data.meta.get("study") or {}
     test = study.get("test") or {}
-    versions = data.meta.get("versions") or {}
-    external = data.meta.get("engine") or {}
-    if external.get("kind") not in (None, "demcal", "lammps"):  # a template engine made the runs
-        engine = {"name": str(external["kind"]), "version": str(versions.get("demcal") or ""),
-                  "command": " ".join(external.get("command") or []),
-                  "template": str(external.get("template") or ""),
-                  "template_sha256": str(external.get("template_sha256") or "")}
-        return engine, {"kind": str(external["kind"])}, {}
-    engine = {"version": str(versions.get("demcal") or ""),
-              "backend": str(versions.get("engine_backend") or study.get("backend") or "auto"),
+    versions, external = data.versions, data.engine
+    if external.external:  # a template engine made the runs
+        engine = {"name": str(external.kind), "version": str(versions.demcal or ""),
+                  "command": " ".join(external.command or []),
+                  "template": str(external.template or ""),
+                  "template_sha256": str(external.template_sha256 or "")}
+        return engine, {"kind": str(external.kind)}, {}
+    engine = {"version": str(versions.demcal or ""),
+              "backend": str(versions.engine_backend or study.get("backend") or "auto"),
               "rolling_model": "A"}
-    name = versions.get("engine") or (study.get("executor") or {}).get("engine") or "demcal"
+    name = versions.engine or (study.get("executor") or {}).get("engine") or "demcal"
     if name != "demcal":  # the parameters are that engine's (docs/lammps.md)
         engine["name"] = str(name)
-    if name == "lammps" and versions.get("lammps"):  # `version` stays demcal's
-        engine["lammps_version"] = str(versions["lammps"])
+    if name == "lammps" and versions.lammps:  # `version` stays demcal's
+        engine["lammps_version"] = str(versions.lammps)
     shape: dict[str, Any] = {}
     try:
         from demcal.virtual.config import fidelity_config

@@ -17,13 +17,15 @@ file formats built from them (the result JSON).
 from demcal.summaries._stored import by_key, stored_key
 from demcal.summaries.design import DesignRun
 from demcal.summaries.optimum import Candidate, Goal, Optimum, ResponsesOptimum
+from demcal.summaries.provenance import EngineMeta, Versions
 from demcal.summaries.rangefind import RangeFind, ScanFactor, ScanPoint, ScanReach
 from demcal.summaries.screening import Effect, Screening, ScreeningModel
 from demcal.summaries.steepest import Anchor, AnchorRun, PathStep, Steepest
 from demcal.summaries.surface import ResponseModel, Surface
 from demcal.summaries.verification import ResponseVerification, Verification
 
-__all__ = ["Anchor", "AnchorRun", "Candidate", "DesignRun", "Effect", "Goal", "Optimum",
-           "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
+__all__ = ["Anchor", "AnchorRun", "Candidate", "DesignRun", "Effect", "EngineMeta", "Goal",
+           "Optimum", "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
            "ResponsesOptimum", "ScanFactor", "ScanPoint", "ScanReach", "Screening",
-           "ScreeningModel", "Steepest", "Surface", "Verification", "by_key", "stored_key"]
+           "ScreeningModel", "Steepest", "Surface", "Verification", "Versions", "by_key",
+           "stored_key"]
