@@ -19,6 +19,7 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "corn_stalk"
                                              ("study_standard_lean.toml", False),
                                              ("study_lammps.toml", True),
                                              ("study_lammps_small.toml", False),
+                                             ("study_lammps_standard.toml", False),
                                              ("study_bayes_standard.toml", False)])
 def test_only_the_quick_study_is_a_demonstration(name, quick):
     assert _is_quick_demonstration(load_study(EXAMPLE / name)) is quick
