@@ -16,7 +16,7 @@ from scipy import stats
 
 from demcal import report
 from demcal.store import RunStore
-from demcal.summaries import RangeFind, Screening, Steepest, Surface, Verification
+from demcal.summaries import RangeFind, Screening, Steepest, Surface, Target, Verification
 
 
 def _number(cell: str) -> float | None:
@@ -222,7 +222,8 @@ def test_stored_surface_reproduces_the_fit(paper_report):
 
 def test_figures_are_callable_from_python(paper_report):
     summ = paper_report["json"]["summaries"]
-    target = paper_report["json"]["target"]
+    target = Target.from_summary(paper_report["json"]["target"])
+    assert len(target.photos) == 5 and target.photos[0].mean_deg is not None
     figs = [report.measurement_figure(target),
             report.rangefind_figure(RangeFind.from_summary(summ["rangefind"]), 44.12),
             report.pareto_figure(Screening.from_summary(summ["screening"]).effects or []),

@@ -22,7 +22,8 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
 ## meta (RunStore.set_meta / meta)
 - "study": the validated study (pydantic model_dump(mode="json"))
 - "study_file": str, absolute path of the TOML;  "study_dir": str
-- "target": {"aor_deg": float, "std_deg": float|None, "n": int|None,
+- "target" (typed: demcal.summaries.Target): {"aor_deg": float, "std_deg": float|None,
+             "n": int|None,
              "source": "value"|"photos",
              "photos": [{"file": str, "left_deg", "right_deg", "mean_deg",
                          "figure": str|None (PNG path, diagnostic figure)}]}

@@ -37,6 +37,7 @@ from demcal.summaries import (
     by_key,
 )
 from demcal.summaries.provenance import EngineMeta, Versions
+from demcal.summaries.target import Target, TargetPhoto
 
 __all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def",
            "versions_meta"]
@@ -107,15 +108,14 @@ def versions_meta(study: Study) -> Versions:
                     engine_backend=study.backend, engine=study.executor.engine, lammps=lammps)
 
 
-def resolve_target(study: Study, figures: Path | None = None) -> dict[str, Any]:
-    """The target AoR (deg) as the store's meta "target": from a value, photos or a file.
+def resolve_target(study: Study, figures: Path | None = None) -> Target:
+    """The target AoR (deg), the store's meta "target": from a value, photos or a file.
 
     With photos and ``figures`` (a folder), a diagnostic figure of each photo is saved there.
     """
     t = study.target
     if t.aor_deg is not None:
-        return {"aor_deg": float(t.aor_deg), "std_deg": t.std_deg, "n": t.n, "source": "value",
-                "photos": []}
+        return Target(aor_deg=float(t.aor_deg), std_deg=t.std_deg, n=t.n, source="value")
     if t.photos:
         from demcal.measure import photos_aor, plot_photo_aor
 
@@ -127,11 +127,11 @@ def resolve_target(study: Study, figures: Path | None = None) -> dict[str, Any]:
                 figures.mkdir(parents=True, exist_ok=True)
                 fig = str(figures / f"target_photo_{i + 1}.png")
                 plot_photo_aor(r, fig)
-            photos.append({"file": r.source, "left_deg": r.left_deg, "right_deg": r.right_deg,
-                           "mean_deg": r.mean_deg, "figure": fig})
+            photos.append(TargetPhoto(file=r.source, left_deg=r.left_deg, right_deg=r.right_deg,
+                                      mean_deg=r.mean_deg, figure=fig))
         std = table.std_deg
-        return {"aor_deg": table.mean_deg, "std_deg": None if not np.isfinite(std) else std,
-                "n": len(photos), "source": "photos", "photos": photos}
+        return Target(aor_deg=table.mean_deg, std_deg=None if not np.isfinite(std) else std,
+                      n=len(photos), source="photos", photos=photos)
     from demcal.physical import derive_parameters, load_measurements
 
     res = derive_parameters(load_measurements(t.measurements))
@@ -139,8 +139,7 @@ def resolve_target(study: Study, figures: Path | None = None) -> dict[str, Any]:
         raise InputError(f"target.measurements: {t.measurements} has no [measurements.aor] "
                          "angle_deg repeats")
     a = res.target_aor
-    return {"aor_deg": float(a.mean), "std_deg": a.std, "n": a.n_repeats, "source": "value",
-            "photos": []}
+    return Target(aor_deg=float(a.mean), std_deg=a.std, n=a.n_repeats, source="value")
 
 
 def _fixed(study: Study) -> tuple[dict[str, float], dict[str, Any] | None]:
@@ -188,7 +187,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     store.set_meta("study", study.model_dump(mode="json"))
     store.set_meta("study_file", str(path))
     store.set_meta("study_dir", str(folder))
-    store.set_meta("target", target)  # the angle's; None where another response leads
+    # the angle's; None where another response leads
+    store.set_meta("target", None if target is None else target.to_summary())
     store.set_meta("physical", physical)
     store.set_meta("fixed_params", {k: v for k, v in fixed.items()
                                     if k not in {f.name for f in study.factors}})
@@ -222,7 +222,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
                       target_std=lead.std, target_n=lead.n, responses=specs, labs=labs)
 
 
-def _responses(study: Study, target: dict[str, Any] | None) -> list[ResponseSpec]:
+def _responses(study: Study, target: Target | None) -> list[ResponseSpec]:
     """Every response the study aims at, the lead first: the angle at the target the study
     resolved (its own ``[[responses]]`` goal and limits, if any) where it gives one, else its
     ``[[responses]]`` tables as given."""

@@ -35,6 +35,7 @@ from demcal.doe.goal import ResponseGoal
 from demcal.errors import InputError
 from demcal.lead import ANGLE
 from demcal.safety import read_text_input
+from demcal.summaries.target import Target
 
 __all__ = ["AOR", "LabValue", "ResponseSpec", "aor_spec", "load_goals", "read_repeats"]
 
@@ -156,13 +157,13 @@ def _physical_lab(path: Path, name: str) -> LabValue:
     return LabValue(mean=float(s.mean), std=s.std, n=s.n_repeats)
 
 
-def aor_spec(own: ResponseSpec | None, target: dict) -> ResponseSpec:
+def aor_spec(own: ResponseSpec | None, target: Target) -> ResponseSpec:
     """The angle's response: its own ``[[responses]]`` goal, limits, weight and importance
-    (or the defaults), at the target the study resolved (the store's meta "target":
-    ``aor_deg``, ``std_deg``, ``n``, from a value, photos or a measurements file)."""
+    (or the defaults), at the target the study resolved (the store's meta "target", from a
+    value, photos or a measurements file)."""
     fields = {} if own is None else own.model_dump(exclude={"target", "std", "n", "measurements"})
-    fields.update(name=AOR, unit="deg", target=float(target["aor_deg"]),
-                  std=target.get("std_deg"), n=target.get("n"))
+    fields.update(name=AOR, unit="deg", target=float(target.aor_deg),  # type: ignore[arg-type]
+                  std=target.std_deg, n=target.n)
     return ResponseSpec(**fields)
 
 

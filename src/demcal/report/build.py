@@ -34,7 +34,7 @@ from demcal.report.html import badge, banner, figure_html, page, table_html
 from demcal.report.lead_labels import relabel_figure, relabel_html, relabel_table
 from demcal.report.surface import StoredSurface, significant_pairs
 from demcal.safety import csv_safe, safe_filename, study_image
-from demcal.summaries import Screening, Surface, Verification
+from demcal.summaries import Screening, Surface, Target, Verification
 from demcal.virtual.material_card import CONTACT_LAWS, ROLLING_LAWS, MaterialCard
 
 __all__ = ["build_report"]
@@ -144,11 +144,11 @@ def _overview(b: _Builder) -> str:
     name = study.get("name") or d.study_dir.name
     opt, ver = d.optimum, d.verification
     lead = d.lead
-    t = (d.target or {}) if lead.is_angle else {"aor_deg": lead.target, "std_deg": lead.std}
+    t = (d.target or Target()) if lead.is_angle else Target(aor_deg=lead.target,
+                                                           std_deg=lead.std)
     label, u = lead.label, lead.after_number(degree_sign=True)
-    cards = [(f"Measured {label}", _fmt(t.get("aor_deg"), ".2f", u)
-              + (f" ± {_fmt(t.get('std_deg'), '.2f')}{u}" if t.get("std_deg") is not None
-                 else "")),
+    cards = [(f"Measured {label}", _fmt(t.aor_deg, ".2f", u)
+              + (f" ± {_fmt(t.std_deg, '.2f')}{u}" if t.std_deg is not None else "")),
              ("Predicted at optimum", _fmt(opt.predicted_lead, ".2f", u)),
              (f"Verified {label}", _fmt(ver.mean, ".2f", u)
               + (f" ± {_fmt(ver.std, '.2f')}{u}" if ver.std is not None
@@ -253,22 +253,23 @@ def _material(b: _Builder) -> str:
 def _measurement(b: _Builder) -> str:
     d = b.data
     parts = [b.table(M.parameter_table(d, b.card))]
-    if not d.target:
+    if d.target is None:
         return _section("measurement", "Physical measurements and target", "missing",
                         '<div class="banner missing"><b>No target</b> is stored.</div>'
                         + "".join(parts))
     parts.append(b.table(M.measurements_table(d)))
     parts.append(b.table(T.target_table(d)))
-    photos = d.target.get("photos") or []
+    target = d.target
+    photos = target.photos
     if photos:
         parts.append(b.table(T.measurement_table(d)))
         parts.append(b.figure("measurement", "Angle of repose of each photo with the target "
-                              "mean ± 1 std.", lambda: F.measurement_figure(d.target)))
-        shots = [b.image(f"photo_{i + 1}", p.get("figure"),
-                         f"Photo {i + 1} ({Path(str(p.get('file', ''))).name}): "
-                         f"{_fmt(p.get('mean_deg'), '.2f', '°')} (left "
-                         f"{_fmt(p.get('left_deg'), '.2f', '°')}, right "
-                         f"{_fmt(p.get('right_deg'), '.2f', '°')}); boundary and fitted "
+                              "mean ± 1 std.", lambda: F.measurement_figure(target)))
+        shots = [b.image(f"photo_{i + 1}", p.figure,
+                         f"Photo {i + 1} ({Path(str(p.file or '')).name}): "
+                         f"{_fmt(p.mean_deg, '.2f', '°')} (left "
+                         f"{_fmt(p.left_deg, '.2f', '°')}, right "
+                         f"{_fmt(p.right_deg, '.2f', '°')}); boundary and fitted "
                          "flank lines") for i, p in enumerate(photos)]
         if any(shots):
             parts.append('<h3>Diagnostic figure of each photo</h3><div class="gallery">'
@@ -610,7 +611,7 @@ def _verification(b: _Builder) -> str:
 
     def render() -> str:
         s = d.verification
-        t = d.target or {}
+        t = d.target or Target()
         parts = ['<div class="row">' + b.table(T.verification_summary_table(s, d.lead_target))
                  + b.table(T.verification_table(s)) + "</div>"]
         rounds = T.verification_rounds_table(d.optimum, s, d.symbols)
@@ -621,7 +622,7 @@ def _verification(b: _Builder) -> str:
                           "(blue band) and the measurement (green).",
                           lambda: F.verification_figure(
                               s, d.lead_target,
-                              t.get("std_deg") if d.lead.is_angle else d.lead.std))]
+                              t.std_deg if d.lead.is_angle else d.lead.std))]
         parts += (_pile_comparison(b, s, view) if d.lead.is_angle else [
             '<p class="note">The verification piles show their angle, not the response this '
             "study leads with: no side-by-side comparison.</p>"])
@@ -641,15 +642,14 @@ def _pile_comparison(b: _Builder, s: Verification, view: StageView) -> list[str]
     """Each verification pile beside a measured photo (or the one pile and photo stored): the
     same boundary and flank-line fit on both, cf. the paper's Fig. 9."""
     d = b.data
-    t = d.target or {}
     parts: list[str] = []
-    photos = t.get("photos") or []
-    with_fig = [p for p in photos if p.get("figure")]
+    photos = (d.target or Target()).photos
+    with_fig = [p for p in photos if p.figure]
     goal = d.lead_target
     if with_fig and goal is not None:  # the photo closest to the target mean
-        with_fig.sort(key=lambda p: abs(T._num(p.get("mean_deg")) - goal)
-                      if T._num(p.get("mean_deg")) is not None else math.inf)
-    photo_fig = with_fig[0].get("figure") if with_fig else None
+        with_fig.sort(key=lambda p: abs(T._num(p.mean_deg) - goal)
+                      if T._num(p.mean_deg) is not None else math.inf)
+    photo_fig = with_fig[0].figure if with_fig else None
     pile = s.pile_png
 
     def resolve(p: str | None) -> Path | None:
@@ -662,24 +662,24 @@ def _pile_comparison(b: _Builder, s: Verification, view: StageView) -> list[str]
     runs = sorted((r for r in view.runs if (r.artefacts or {}).get("pile_png")
                    and r.params == s.params),  # the last round's piles
                   key=lambda r: (r.point, r.replicate))
-    shown = [p for p in photos if p.get("figure")]
+    shown = [p for p in photos if p.figure]
     if runs:
         parts.append("<h3>Each verification pile beside a measured photo</h3>")
         for k, r in enumerate(runs):
-            ph = shown[k % len(shown)] if shown else {}
-            n_ph = photos.index(ph) + 1 if ph else None
+            ph = shown[k % len(shown)] if shown else None
+            n_ph = photos.index(ph) + 1 if ph is not None else None
             cap = (f"Replicate {r.replicate + 1}: simulated pile, AoR "
                    f"{_fmt(r.aor_deg, '.2f', '°')} (side view with fitted flank lines)"
-                   + (f", beside photo {n_ph} ({_fmt(ph.get('mean_deg'), '.2f', '°')}, "
-                      "boundary and fitted flank lines: the same method)" if ph else
+                   + (f", beside photo {n_ph} ({_fmt(ph.mean_deg, '.2f', '°')}, "
+                      "boundary and fitted flank lines: the same method)" if ph is not None else
                       "; no photo is stored")
                    + ".")
             parts.append(b.figure(
                 f"comparison_{k + 1}", cap,
                 lambda ph=ph, r=r, n_ph=n_ph: F.comparison_figure(
-                    resolve(ph.get("figure") if ph else None),
+                    resolve(ph.figure if ph is not None else None),
                     resolve(r.artefacts.get("pile_png")),
-                    (f"photo {n_ph}: {_fmt(ph.get('mean_deg'), '.2f', '°')}" if ph
+                    (f"photo {n_ph}: {_fmt(ph.mean_deg, '.2f', '°')}" if ph is not None
                      else "physical pile (photo)",
                      f"replicate {r.replicate + 1}: {_fmt(r.aor_deg, '.2f', '°')}"))))
     elif photo_fig or pile:
@@ -765,7 +765,7 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
         "study_dir": str(data.study_dir),
         "stages": {n: {"status": v.status, "error": v.error, "n_runs": len(v.runs)}
                    for n, v in data.stages.items()},
-        "target": data.target,
+        "target": None if data.target is None else data.target.to_summary(),
         "meta": data.meta,
         "summaries": {n: v.summary for n, v in data.stages.items() if v.summary},
         "tables": b.tables,

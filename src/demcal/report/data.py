@@ -22,6 +22,7 @@ from demcal.summaries import (
     Screening,
     Steepest,
     Surface,
+    Target,
     Verification,
     Versions,
 )
@@ -177,9 +178,11 @@ class ReportData:
         return EngineMeta.from_summary(self.meta.get("engine"))
 
     @property
-    def target(self) -> dict[str, Any] | None:
-        """The measured target (``meta["target"]``) or None."""
-        return self.meta.get("target")
+    def target(self) -> Target | None:
+        """The measured angle the study aims at (meta ``target``), or None (no target, or
+        another response leads)."""
+        stored = self.meta.get("target")
+        return None if not stored else Target.from_summary(stored)
 
     @property
     def lead(self) -> Lead:
@@ -200,7 +203,7 @@ class ReportData:
     def target_aor_deg(self) -> float | None:
         """Target angle of repose, degrees, or None."""
         t = self.target
-        return None if not t or t.get("aor_deg") is None else float(t["aor_deg"])
+        return None if t is None or t.aor_deg is None else float(t.aor_deg)
 
     @property
     def symbols(self) -> dict[str, str]:

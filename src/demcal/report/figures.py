@@ -27,7 +27,7 @@ from matplotlib.image import imread
 
 from demcal.report.surface import StoredSurface
 from demcal.report.tables import term_label
-from demcal.summaries import Anchor, Effect, RangeFind, Steepest, Surface, Verification
+from demcal.summaries import Anchor, Effect, RangeFind, Steepest, Surface, Target, Verification
 
 __all__ = [
     "comparison_figure",
@@ -62,18 +62,18 @@ def _sym(name: str, symbols: Mapping[str, str] | None) -> str:
 
 
 # ---------------------------------------------------------------------------------- measurement
-def measurement_figure(target: Mapping[str, Any]) -> Figure:
+def measurement_figure(target: Target) -> Figure:
     """Each photo's angle (left, right and mean flank, deg) with the target mean ± std."""
-    photos = target.get("photos") or []
+    photos = target.photos
     fig = _figure(6.5, 3.0)
     ax = fig.add_subplot()
     x = np.arange(1, len(photos) + 1)
     for key, marker, label in (("left_deg", "<", "left flank"), ("right_deg", ">", "right flank"),
                                ("mean_deg", "o", "mean")):
-        y = np.array([_num(p.get(key)) for p in photos])
+        y = np.array([_num(getattr(p, key)) for p in photos])
         if np.isfinite(y).any():
             ax.plot(x, y, marker, ls="none", label=label, ms=7 if key == "mean_deg" else 5)
-    aor, std = _num(target.get("aor_deg")), _num(target.get("std_deg"))
+    aor, std = _num(target.aor_deg), _num(target.std_deg)
     if math.isfinite(aor):
         ax.axhline(aor, color=_TARGET, label=f"target {aor:.2f}°")
         if math.isfinite(std):

@@ -22,7 +22,7 @@ from demcal.display import readable
 from demcal.report import responses as RS
 from demcal.report.data import Lead, ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
-from demcal.summaries import Optimum, Verification, by_key, stored_key
+from demcal.summaries import Optimum, Target, Verification, by_key, stored_key
 from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
@@ -30,27 +30,27 @@ __all__ = ["card_table", "material_card", "measurement_label", "measurements_tab
            "parameter_table", "verification_line", "write_material_card"]
 
 
-def verification_line(ver: Verification, target: Mapping[str, Any] | None,
+def verification_line(ver: Verification, target: Target | None,
                       lead: Lead | None = None) -> str:
     """One sentence: the verified lead (the AoR) mean ± std (n) against the measurement,
     error, p, verdict. ``lead``: the study's lead where it is not the angle (``target`` then
-    holds its lab value under the angle's keys)."""
+    holds its lab value)."""
     mean, std = _num(ver.mean), _num(ver.std)
     if mean is None:
         return ("not verified" if not ver.done else
                 f"verification formed no pile ({ver.n_piles} of {ver.n} runs)")
-    t = target or {}
+    t = target or Target()
     lead = lead or Lead()
     label, u = lead.label, lead.after_number(degree_sign=True)
     out = f"verified {label} {mean:.2f}"
     out += f" ± {std:.2f}{u}" if std is not None else u
     out += f" (n = {ver.n})"
-    goal = _num(t.get("aor_deg"))
+    goal = _num(t.aor_deg)
     if goal is not None:
-        tstd = _num(t.get("std_deg"))
+        tstd = _num(t.std_deg)
         out += f" vs measured {goal:.2f}" + (f" ± {tstd:.2f}{u}" if tstd is not None else u)
-        if t.get("n"):
-            out += f" (n = {t.get('n')})"
+        if t.n:
+            out += f" (n = {t.n})"
     rel = _num(ver.relative_error_percent)
     if rel is not None:
         out += f"; relative error {rel:.2f} %"
@@ -116,8 +116,8 @@ def _verification_block(ver: Verification, opt: Optimum,
                         data: ReportData) -> dict[str, Any]:
     """The card's [verification]: its line, the numbers behind it, the round it is from."""
     lead = data.lead
-    target = data.target if lead.is_angle else {"aor_deg": lead.target, "std_deg": lead.std,
-                                                 "n": lead.n}
+    target = data.target if lead.is_angle else Target(aor_deg=lead.target, std_deg=lead.std,
+                                                       n=lead.n)
     verification = {"line": verification_line(ver, target, lead),
                     **({} if lead.is_angle else {"lead": lead.name})}
     verification.update((k, v) for k, v in by_key(ver, (
@@ -324,15 +324,15 @@ def measurements_table(data: ReportData) -> Table:
         if isinstance(s, Mapping):
             names.add(str(s.get("name") or key))
             rows.append(_measurement_row(str(s.get("name") or key), s))
-    t = data.target or {}
-    if t.get("aor_deg") is not None and "aor_deg" not in names:
+    t = data.target or Target()
+    if t.aor_deg is not None and "aor_deg" not in names:
         tgt = derived.get("target_aor_deg")
         if isinstance(tgt, Mapping):
             rows.append(_measurement_row("aor_deg", tgt))
         else:
             rows.append({"quantity": "angle of repose (target)", "unit": "deg",
-                         "mean": _num(t.get("aor_deg")), "std": _num(t.get("std_deg")),
-                         "n": t.get("n"), "95 % interval": "", "range": ""})
+                         "mean": _num(t.aor_deg), "std": _num(t.std_deg),
+                         "n": t.n, "95 % interval": "", "range": ""})
     return Table("lab_measurements", "Measurements (mean ± std, n, 95 % interval)",
                  _frame(rows, ["quantity", "unit", "mean", "std", "n", "95 % interval",
                                "range"]))

@@ -18,7 +18,15 @@ import pandas as pd
 from demcal.display import readable
 from demcal.doe.anova import significance
 from demcal.report.data import ReportData, StageView
-from demcal.summaries import Optimum, RangeFind, Screening, Steepest, Surface, Verification
+from demcal.summaries import (
+    Optimum,
+    RangeFind,
+    Screening,
+    Steepest,
+    Surface,
+    Target,
+    Verification,
+)
 from demcal.summaries.steepest import AnchorRun, PathStep
 
 __all__ = [
@@ -179,18 +187,18 @@ def physical_table(data: ReportData) -> Table:
 
 def target_table(data: ReportData) -> Table:
     """The target angle of repose: mean, standard deviation, number and source."""
-    t = data.target or {}
-    rows = [{"target AoR (deg)": _num(t.get("aor_deg")), "std (deg)": _num(t.get("std_deg")),
-             "n": t.get("n"), "source": t.get("source", "")}]
+    t = data.target or Target()
+    rows = [{"target AoR (deg)": _num(t.aor_deg), "std (deg)": _num(t.std_deg),
+             "n": t.n, "source": t.source or ""}]
     return Table("target", "Target angle of repose",
                  _frame(rows, ["target AoR (deg)", "std (deg)", "n", "source"]))
 
 
 def measurement_table(data: ReportData) -> Table:
     """Each photo's measured angles (left and right flank, mean), degrees."""
-    photos = (data.target or {}).get("photos") or []
-    rows = [{"photo": i + 1, "file": str(p.get("file", "")), "left (deg)": _num(p.get("left_deg")),
-             "right (deg)": _num(p.get("right_deg")), "mean (deg)": _num(p.get("mean_deg"))}
+    photos = (data.target or Target()).photos
+    rows = [{"photo": i + 1, "file": str(p.file or ""), "left (deg)": _num(p.left_deg),
+             "right (deg)": _num(p.right_deg), "mean (deg)": _num(p.mean_deg)}
             for i, p in enumerate(photos)]
     return Table("measurements", "Angle of repose of each photo",
                  _frame(rows, ["photo", "file", "left (deg)", "right (deg)", "mean (deg)"]))

@@ -22,10 +22,11 @@ from demcal.summaries.rangefind import RangeFind, ScanFactor, ScanPoint, ScanRea
 from demcal.summaries.screening import Effect, Screening, ScreeningModel
 from demcal.summaries.steepest import Anchor, AnchorRun, PathStep, Steepest
 from demcal.summaries.surface import ResponseModel, Surface
+from demcal.summaries.target import Target, TargetPhoto
 from demcal.summaries.verification import ResponseVerification, Verification
 
 __all__ = ["Anchor", "AnchorRun", "Candidate", "DesignRun", "Effect", "EngineMeta", "Goal",
            "Optimum", "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
            "ResponsesOptimum", "ScanFactor", "ScanPoint", "ScanReach", "Screening",
-           "ScreeningModel", "Steepest", "Surface", "Verification", "Versions", "by_key",
-           "stored_key"]
+           "ScreeningModel", "Steepest", "Surface", "Target", "TargetPhoto", "Verification",
+           "Versions", "by_key", "stored_key"]

@@ -1,5 +1,6 @@
-"""The store's meta ``versions`` and ``engine``, typed (demcal.summaries.provenance): written by
-the calibration as before, read back by the report from stores of any release."""
+"""The store's meta ``versions``, ``engine`` and ``target``, typed (demcal.summaries.provenance,
+demcal.summaries.target): written by the calibration as before, read back by the report and
+the angle's response from stores of any release."""
 
 from __future__ import annotations
 
@@ -7,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from demcal.calibrate.pipeline import engine_meta, versions_meta
+from demcal.calibrate.pipeline import engine_meta, resolve_target, versions_meta
+from demcal.calibrate.responses import aor_spec
 from demcal.calibrate.study import load_study, parse_study
-from demcal.summaries import EngineMeta, Versions
+from demcal.summaries import EngineMeta, Target, TargetPhoto, Versions
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -56,3 +58,21 @@ def test_old_and_empty_stores_read():
     assert old.engine is None and old.lammps is None
     assert not EngineMeta.from_summary(None).external
     assert EngineMeta.from_summary({"kind": "template", "name": "template: x"}).external
+
+
+def test_a_target_from_measurements_feeds_the_angle_s_response():
+    """The corn stalk's five photos of Table 2 as a measurements file (the photo path's stored
+    form is tests/calibrate/test_targets.py's)."""
+    target = resolve_target(load_study(EXAMPLES / "corn_stalk" / "study.toml"))
+    assert round(target.aor_deg, 2) == 44.12 and target.n == 5 and target.source == "value"
+    assert Target.from_summary(target.to_summary()) == target
+    spec = aor_spec(None, target)
+    assert spec.target == target.aor_deg and spec.std == target.std_deg and spec.n == 5
+
+
+def test_a_target_value_and_an_old_or_crafted_one_read():
+    assert Target(aor_deg=44.12, std_deg=1.1, n=5, source="value").to_summary() == {
+        "aor_deg": 44.12, "std_deg": 1.1, "n": 5, "source": "value", "photos": []}
+    crafted = Target.from_summary({"aor_deg": 40.0, "photos": [{"file": "a.jpg"}, 3, "x"],
+                                   "colour": "red"})
+    assert crafted.photos == [TargetPhoto(file="a.jpg")] and crafted.std_deg is None
