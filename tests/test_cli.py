@@ -49,3 +49,33 @@ def test_no_arguments_print_the_help_once(monkeypatch, capsys):
     with pytest.raises(SystemExit) as exit_:
         main()
     assert exit_.value.code == 0 and capsys.readouterr().out.count("Usage") == 1
+
+
+def _commands(group, path=()):
+    """Every command of the click tree under ``group``, with its path of names."""
+    for name, cmd in getattr(group, "commands", {}).items():
+        yield (*path, name), cmd
+        yield from _commands(cmd, (*path, name))
+
+
+def test_square_brackets_in_help_text_are_printed():
+    """The help is rich markup: an unescaped ``[factors.NAME]``, ``[[responses]]`` or
+    ``demcal[lammps]`` was swallowed as a tag ("Factors TOML file ( low/high)")."""
+    import re
+
+    import typer
+
+    root = typer.main.get_command(app)
+    checked = 0
+    for path, cmd in _commands(root):
+        texts = [p.help for p in cmd.params if getattr(p, "help", None)] + [cmd.help or ""]
+        wanted = {t for text in texts for t in re.findall(r"\[[^\]\s]+\]+",
+                                                           text.replace("\\[", "["))}
+        if not wanted:
+            continue
+        out = CliRunner().invoke(app, [*path, "--help"], terminal_width=400).output
+        flat = " ".join(out.replace("│", " ").split())
+        for token in wanted:
+            assert token in flat, (path, token)
+            checked += 1
+    assert checked >= 4

