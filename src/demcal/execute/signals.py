@@ -50,11 +50,29 @@ def sigterm_raises() -> Iterator[None]:
         yield
         return
 
+    code = 128 + signal.SIGTERM
+
     def stop(signum: int, frame: Any) -> None:
-        raise SystemExit(128 + signum)
+        raise SystemExit(code)
+
+    hook = sys.unraisablehook
+
+    def again(unraisable: Any) -> None:
+        # the handler runs at the next line of Python, which may be a finalizer's (__del__,
+        # many of them while numba compiles): Python swallows what a finalizer raises, and
+        # the command would run on. Signal again from a thread, so that the handler runs
+        # at a line after the finalizer (raised here, it would be swallowed again).
+        if isinstance(unraisable.exc_value, SystemExit) and unraisable.exc_value.code == code:
+            resend = threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGTERM))
+            resend.daemon = True
+            resend.start()
+            return
+        hook(unraisable)
 
     old = signal.signal(signal.SIGTERM, stop)
+    sys.unraisablehook = again
     try:
         yield
     finally:
+        sys.unraisablehook = hook
         signal.signal(signal.SIGTERM, old)
