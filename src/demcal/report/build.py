@@ -144,8 +144,7 @@ def _overview(b: _Builder) -> str:
     name = study.get("name") or d.study_dir.name
     opt, ver = d.optimum, d.verification
     lead = d.lead
-    t = (d.target or Target()) if lead.is_angle else Target(aor_deg=lead.target,
-                                                           std_deg=lead.std)
+    t = d.lead_lab or Target()
     label, u = lead.label, lead.after_number(degree_sign=True)
     cards = [(f"Measured {label}", _fmt(t.aor_deg, ".2f", u)
               + (f" ± {_fmt(t.std_deg, '.2f')}{u}" if t.std_deg is not None else "")),
@@ -611,7 +610,7 @@ def _verification(b: _Builder) -> str:
 
     def render() -> str:
         s = d.verification
-        t = d.target or Target()
+        lab = d.lead_lab or Target()
         parts = ['<div class="row">' + b.table(T.verification_summary_table(s, d.lead_target))
                  + b.table(T.verification_table(s)) + "</div>"]
         rounds = T.verification_rounds_table(d.optimum, s, d.symbols)
@@ -621,8 +620,7 @@ def _verification(b: _Builder) -> str:
                  b.figure("verification", "Verification replicates, their mean ± 1 std "
                           "(blue band) and the measurement (green).",
                           lambda: F.verification_figure(
-                              s, d.lead_target,
-                              t.std_deg if d.lead.is_angle else d.lead.std))]
+                              s, d.lead_target, lab.std_deg))]
         parts += (_pile_comparison(b, s, view) if d.lead.is_angle else [
             '<p class="note">The verification piles show their angle, not the response this '
             "study leads with: no side-by-side comparison.</p>"])

@@ -195,6 +195,15 @@ class ReportData:
                     std=own.get("std"), n=own.get("n"))
 
     @property
+    def lead_lab(self) -> Target | None:
+        """The lead's lab value, mean, spread and repeats: the measured angle where the angle
+        leads (None: no target), else the leading response's lab value."""
+        lead = self.lead
+        if lead.is_angle:
+            return self.target
+        return Target(aor_deg=lead.target, std_deg=lead.std, n=lead.n)
+
+    @property
     def lead_target(self) -> float | None:
         """The lead's lab value (the target lines of the stages' figures)."""
         return self.target_aor_deg if self.lead.is_angle else self.lead.target

@@ -116,9 +116,7 @@ def _verification_block(ver: Verification, opt: Optimum,
                         data: ReportData) -> dict[str, Any]:
     """The card's [verification]: its line, the numbers behind it, the round it is from."""
     lead = data.lead
-    target = data.target if lead.is_angle else Target(aor_deg=lead.target, std_deg=lead.std,
-                                                       n=lead.n)
-    verification = {"line": verification_line(ver, target, lead),
+    verification = {"line": verification_line(ver, data.lead_lab, lead),
                     **({} if lead.is_angle else {"lead": lead.name})}
     verification.update((k, v) for k, v in by_key(ver, (
         "mean", "std", "n", "relative_error_percent", "p_value", "consistent", "ci_low",
