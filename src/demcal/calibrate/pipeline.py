@@ -32,6 +32,7 @@ from demcal.summaries import (
     Optimum,
     Screening,
     Steepest,
+    StudyFactor,
     Surface,
     Verification,
     by_key,
@@ -182,8 +183,8 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     target = None if study.target is None else resolve_target(study, figures=folder / "figures")
     fixed, physical = _fixed(study)
     store = RunStore(folder, lock=True, break_lock=break_lock)
-    factors = [{"name": f.name, "symbol": f.symbol, "low": f.low, "high": f.high,
-                "unit": f.unit} for f in study.factors]
+    factors = [StudyFactor(name=f.name, symbol=f.symbol, low=f.low, high=f.high,
+                           unit=f.unit).to_summary() for f in study.factors]
     store.set_meta("study", study.model_dump(mode="json"))
     store.set_meta("study_file", str(path))
     store.set_meta("study_dir", str(folder))

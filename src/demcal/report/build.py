@@ -140,8 +140,7 @@ def _guard(b: _Builder, view: StageView, render: Callable[[], str]) -> str:
 # ------------------------------------------------------------------------------------- sections
 def _overview(b: _Builder) -> str:
     d = b.data
-    study = d.meta.get("study") or {}
-    name = study.get("name") or d.study_dir.name
+    name = d.title_name
     opt, ver = d.optimum, d.verification
     lead = d.lead
     t = d.lead_lab or Target()
@@ -754,8 +753,7 @@ def build_report(study_dir: str | Path, out_dir: str | Path | None = None) -> Pa
                         _rangefind, _screening, _steepest, _rsm, _optimize, _verification)),
                     _several_responses(b), relabel_html(_excluded(b), lead)])
     body += _footer(b)
-    study = data.meta.get("study") or {}
-    title = f"demcal calibration report: {study.get('name') or data.study_dir.name}"
+    title = f"demcal calibration report: {data.title_name}"
     html_path = out / "report.html"
     html_path.write_text(page(title, body), encoding="utf-8")
     doc = {

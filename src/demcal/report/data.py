@@ -21,6 +21,8 @@ from demcal.summaries import (
     RangeFind,
     Screening,
     Steepest,
+    StudyFactor,
+    StudyMeta,
     Surface,
     Target,
     Verification,
@@ -168,6 +170,29 @@ class ReportData:
         return Optimum.from_summary(self.stage("optimize").summary)
 
     @property
+    def study(self) -> StudyMeta:
+        """The study's settings the report shows (meta ``study``; defaults in a store
+        without)."""
+        return StudyMeta.from_summary(self.meta.get("study"))
+
+    @property
+    def title_name(self) -> str:
+        """The study's name, else its folder's."""
+        return self.study.name or self.study_dir.name
+
+    @property
+    def factors(self) -> list[StudyFactor]:
+        """The study's factors and their ranges as it gave them (meta ``factors``)."""
+        return [StudyFactor.from_summary(f) for f in self.meta.get("factors") or []
+                if isinstance(f, dict)]
+
+    @property
+    def fixed_params(self) -> dict[str, float]:
+        """Every parameter that is not a factor, at its fixed value, SI (meta
+        ``fixed_params``)."""
+        return dict(self.meta.get("fixed_params") or {})
+
+    @property
     def versions(self) -> Versions:
         """The software that made the runs (meta ``versions``; all None in a store without)."""
         return Versions.from_summary(self.meta.get("versions"))
@@ -217,14 +242,14 @@ class ReportData:
     @property
     def symbols(self) -> dict[str, str]:
         """Parameter name -> paper-style symbol (from the factors of the meta and stages)."""
+        factors = list(self.factors)
+        for name in ("screening", "rsm"):  # the stages store their factors in the same shape
+            factors += [StudyFactor.from_summary(f) for f in
+                        self.stage(name).summary.get("factors") or [] if isinstance(f, dict)]
         out: dict[str, str] = {}
-        sources = [self.meta.get("factors") or []]
-        for name in ("screening", "rsm"):
-            sources.append(self.stage(name).summary.get("factors") or [])
-        for rows in sources:
-            for f in rows:
-                if isinstance(f, dict) and f.get("name") and f.get("symbol"):
-                    out.setdefault(str(f["name"]), str(f["symbol"]))
+        for f in factors:
+            if f.name and f.symbol:
+                out.setdefault(str(f.name), str(f.symbol))
         return out
 
     def symbol(self, name: str) -> str:
@@ -266,11 +291,11 @@ def load_report_data(study_dir: str | Path) -> ReportData:
     for r in runs:
         by_stage.setdefault(RUNS_OF.get(r.stage, r.stage), []).append(r)
     stages: dict[str, StageView] = {}
+    disabled = StudyMeta.from_summary(meta.get("study")).disabled_stages
     for name in [*STAGES, *(n for n in stored if n not in STAGES)]:
         rec = stored.get(name)
         if rec is None:
-            conf = ((meta.get("study") or {}).get("stages") or {}).get(name) or {}
-            status = "disabled" if conf.get("enabled") is False else "missing"
+            status = "disabled" if name in disabled else "missing"
             stages[name] = StageView(name, status, {}, by_stage.get(name, []))
         else:
             summary = rec.summary if isinstance(rec.summary, dict) else {}

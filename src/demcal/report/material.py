@@ -67,8 +67,8 @@ def verification_line(ver: Verification, target: Target | None,
 
 def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
     """Engine, test and particle shape of the study (from its test settings)."""
-    study = data.meta.get("study") or {}
-    test = study.get("test") or {}
+    study = data.study
+    test = study.test
     versions, external = data.versions, data.engine
     if external.external:  # a template engine made the runs
         engine = {"name": str(external.kind), "version": str(versions.demcal or ""),
@@ -77,9 +77,9 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
                   "template_sha256": str(external.template_sha256 or "")}
         return engine, {"kind": str(external.kind)}, {}
     engine = {"version": str(versions.demcal or ""),
-              "backend": str(versions.engine_backend or study.get("backend") or "auto"),
+              "backend": str(versions.engine_backend or study.backend),
               "rolling_model": "A"}
-    name = versions.engine or (study.get("executor") or {}).get("engine") or "demcal"
+    name = versions.engine or study.engine
     if name != "demcal":  # the parameters are that engine's (docs/lammps.md)
         engine["name"] = str(name)
     if name == "lammps" and versions.lammps:  # `version` stays demcal's
@@ -88,8 +88,7 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
     try:
         from demcal.virtual.config import fidelity_config
 
-        cfg = fidelity_config(str(test.get("fidelity") or "quick"),
-                              **(test.get("overrides") or {}))
+        cfg = fidelity_config(test.fidelity, **test.overrides)
         engine["rolling_model"] = cfg.rolling_model
         if name == "lammps" and cfg.rolling_model != "none":
             # LAMMPS has no model A: its rolling sds is model C's law (docs/lammps.md)
@@ -99,16 +98,14 @@ def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str,
         shape = {"template": p.template, "length_m": p.length, "diameter_m": p.diameter,
                  "n_spheres": p.n_spheres, "size_min": p.size_min, "size_max": p.size_max}
     except Exception:  # a study of another version: the engine's defaults, no shape
-        overrides = test.get("overrides") or {}
-        if isinstance(overrides, dict) and overrides.get("rolling_model"):
-            engine["rolling_model"] = str(overrides["rolling_model"])
+        if test.overrides.get("rolling_model"):
+            engine["rolling_model"] = str(test.overrides["rolling_model"])
     from demcal.virtual.config import fidelity_overrides
 
     # the fidelity's tube and fill written out: the card runs the same pile if the name later
     # means another (as "standard" did: 300 stalks until 2026-11-27, 1200 since)
-    fidelity = str(test.get("fidelity") or "quick")
-    test_out = {"kind": str(test.get("kind") or "aor"), "fidelity": fidelity,
-                "overrides": fidelity_overrides(fidelity, dict(test.get("overrides") or {}))}
+    test_out = {"kind": test.kind, "fidelity": test.fidelity,
+                "overrides": fidelity_overrides(test.fidelity, dict(test.overrides))}
     return engine, test_out, shape
 
 
@@ -159,14 +156,13 @@ def material_card(data: ReportData) -> MaterialCard | None:
             return None
         # the response-surface runs hold every other parameter where the optimum has it
         held = next((r.params for r in reversed(data.stage("rsm").runs) if r.params), None)
-        params = {**(data.meta.get("fixed_params") or {}), **(held or {}), **chosen}
+        params = {**data.fixed_params, **(held or {}), **chosen}
     params = {k: float(v) for k, v in params.items() if k in PARAMETERS}
     missing = [k for k in PARAMETERS if k not in params]
     if missing:
         from demcal.virtual.presets import PRESETS
 
-        preset = ((data.meta.get("study") or {}).get("material") or {}).get("preset")
-        base = PRESETS.get(str(preset), PRESETS["corn_stalk"])
+        base = PRESETS.get(str(data.study.material.preset), PRESETS["corn_stalk"])
         for k in missing:
             params[k] = float(base[k])
     params = {k: params[k] for k in PARAMETERS}  # the canonical order
@@ -175,9 +171,8 @@ def material_card(data: ReportData) -> MaterialCard | None:
     for name, spec in PARAMETERS.items():
         symbols.setdefault(name, spec.symbol)
     verification = _verification_block(ver, opt, data)
-    study = data.meta.get("study") or {}
     return MaterialCard(parameters=params, calibrated=tuple(k for k in chosen if k in params),
-                        symbols=symbols, study=str(study.get("name") or data.study_dir.name),
+                        symbols=symbols, study=data.title_name,
                         engine=engine, test=test, verification=verification, shape=shape,
                         posterior=_posterior_block(data.stage("bayes").summary))
 
@@ -271,19 +266,17 @@ def parameter_table(data: ReportData, card: MaterialCard | None = None) -> Table
     rows_by_name = {str(r.get("name")): r for r in derived.get("table") or []
                     if isinstance(r, Mapping)}
     summaries = derived.get("summaries") or {}
-    factors = {str(f.get("name")): f for f in data.meta.get("factors") or []}
+    factors = {f.name: f for f in data.factors}
     ranges = (data.meta.get("result") or {}).get("ranges") or {}
-    fixed = data.meta.get("fixed_params") or {}
-    study = data.meta.get("study") or {}
-    preset = (study.get("material") or {}).get("preset")
-    overrides = (study.get("material") or {}).get("overrides") or {}
+    fixed = data.fixed_params
+    preset, overrides = data.study.material.preset, data.study.material.overrides
     rows = []
     for name, spec in PARAMETERS.items():
         phys = rows_by_name.get(name) or {}
-        symbol = (factors.get(name) or {}).get("symbol") or phys.get("symbol") or \
-            spec.symbol
-        if name in factors:
-            lo, hi = factors[name].get("low"), factors[name].get("high")
+        given = factors.get(name)
+        symbol = (given.symbol if given else None) or phys.get("symbol") or spec.symbol
+        if given is not None:
+            lo, hi = given.low, given.high
             value = _range_text(lo, hi)
             if name in ranges and list(ranges[name]) != [lo, hi]:
                 value += f" (searched {_range_text(*ranges[name])})"

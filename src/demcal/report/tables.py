@@ -149,17 +149,15 @@ def stages_table(data: ReportData) -> Table:
 
 def factors_table(data: ReportData) -> Table:
     """The study's factors: symbol, parameter, unit and range as given."""
-    rows = [{"symbol": f.get("symbol", ""), "parameter": f.get("name", ""),
-             "unit": f.get("unit", "") or "", "low": _num(f.get("low")),
-             "high": _num(f.get("high"))} for f in data.meta.get("factors") or []]
+    rows = [{"symbol": f.symbol or "", "parameter": f.name, "unit": f.unit or "",
+             "low": _num(f.low), "high": _num(f.high)} for f in data.factors]
     return Table("factors", "Factors and their ranges (as given in the study)",
                  _frame(rows, ["symbol", "parameter", "unit", "low", "high"]))
 
 
 def fixed_params_table(data: ReportData) -> Table:
     """Every parameter that is not a factor, with its fixed value (SI)."""
-    fixed = data.meta.get("fixed_params") or {}
-    rows = [{"parameter": k, "value": _num(v)} for k, v in fixed.items()]
+    rows = [{"parameter": k, "value": _num(v)} for k, v in data.fixed_params.items()]
     return Table("fixed_params", "Fixed parameters (SI units)",
                  _frame(rows, ["parameter", "value"]))
 

@@ -21,6 +21,7 @@ from demcal.summaries.provenance import EngineMeta, Versions
 from demcal.summaries.rangefind import RangeFind, ScanFactor, ScanPoint, ScanReach
 from demcal.summaries.screening import Effect, Screening, ScreeningModel
 from demcal.summaries.steepest import Anchor, AnchorRun, PathStep, Steepest
+from demcal.summaries.study_meta import StudyFactor, StudyMaterial, StudyMeta, StudyTest
 from demcal.summaries.surface import ResponseModel, Surface
 from demcal.summaries.target import Target, TargetPhoto
 from demcal.summaries.verification import ResponseVerification, Verification
@@ -28,5 +29,6 @@ from demcal.summaries.verification import ResponseVerification, Verification
 __all__ = ["Anchor", "AnchorRun", "Candidate", "DesignRun", "Effect", "EngineMeta", "Goal",
            "Optimum", "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
            "ResponsesOptimum", "ScanFactor", "ScanPoint", "ScanReach", "Screening",
-           "ScreeningModel", "Steepest", "Surface", "Target", "TargetPhoto", "Verification",
+           "ScreeningModel", "Steepest", "StudyFactor", "StudyMaterial", "StudyMeta",
+           "StudyTest", "Surface", "Target", "TargetPhoto", "Verification",
            "Versions", "by_key", "stored_key"]
