@@ -18,6 +18,7 @@ from typer.testing import CliRunner
 from demcal.calibrate import calibrate
 from demcal.cli import app
 from demcal.store import RunStore
+from demcal.summaries.bayes import BayesSummary
 
 FRICTIONS = {"pp.static_friction", "pp.rolling_friction"}
 
@@ -138,9 +139,24 @@ def test_the_stage_and_the_runs_are_stored(three: tuple[Path, dict]) -> None:
     assert opt["opts"] == "bayes" and list(opt["candidates"][0]) == [
         "params", "predicted_aor_deg", "pi_low_deg", "pi_high_deg", "p_pile"]
     assert len(summary["samples"][next(iter(FACTORS))]) >= 100
+    # the stage's keys, a file format, in the order they were always written; the result
+    # JSON holds the same less the drawing data
+    assert list(summary) == [*BAYES_KEYS, "samples", "slices"]
+    assert [k for k in res if k in summary] == list(BAYES_KEYS)
+    assert list(summary["history"][0]) == ["round", "n_runs", "half_widths_coded",
+                                           "acceptance_fraction", "warnings"]
+    assert list(summary["marks"][0]) == ["label", "values", "in_box", "credibility",
+                                         "inside95"]
+    assert BayesSummary.from_summary(summary).to_summary() == summary
     assert len(runs) == res["n_runs_strategy"]
     assert sorted(r.point for r in runs) == list(range(len(runs)))  # a stable index per run
     assert len({r.seed for r in runs}) == len(runs)
+
+
+#: the stored keys of the stage "bayes" (and of the result JSON), in their order
+BAYES_KEYS = ("posterior", "correlation", "acceptance_fraction", "map", "warnings",
+              "identifiable", "reason", "n_runs", "stopped", "ridges", "ridge", "shrinkage",
+              "history", "optimum", "predicted", "labs", "notes", "settings", "units", "marks")
 
 
 def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
@@ -155,6 +171,9 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
     shrink = {s["response"]: s["shrinkage"] for s in res["shrinkage"]
               if s["ridge"] == friction[0]["text"]}
     assert shrink["drum_deg"] > 0.5 and shrink["drum_deg"] > shrink["bulk_density_kg_m3"]
+    assert list(friction[0]) == ["text", "parameters", "direction_coded", "fraction"]
+    assert list(res["shrinkage"][0]) == ["response", "ridge", "shrinkage", "extent_before",
+                                         "extent_after", "effective_samples"]
 
 
 def test_a_stable_ridge_stops_before_the_budget(tmp_path: Path) -> None:

@@ -112,7 +112,8 @@ everything else SI. Parameter names are those of demcal.virtual.parameters.PARAM
       confirmation; in a refinement round, of the surface corrected by the offset, widened
       by the offset's own error), "target_in_interval" (the target inside
       ci_low_deg-ci_high_deg), in a refinement round "round" and "rounds" (as optimize's)}
-- "bayes" (``[strategy] kind = "bayes"``, demcal.calibrate.bayes_strategy; the DOE stages'
+- "bayes" (typed: demcal.summaries.BayesSummary; ``[strategy] kind = "bayes"``,
+      demcal.calibrate.bayes_strategy; the DOE stages'
       summaries are dropped then, and this one when the DOE path runs): {"posterior":
       {name: {"mean", "median", "ci95_low", "ci95_high"}} (factors' units), "correlation":
       {name: {name: r}}, "identifiable": bool, "reason": str, "ridge": [str], "ridges":

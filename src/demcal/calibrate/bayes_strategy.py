@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -38,6 +38,17 @@ from demcal.doe import bayes
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord
 from demcal.summaries import Candidate, Optimum, Verification
+from demcal.summaries.bayes import (
+    BayesLab,
+    BayesPrediction,
+    BayesRound,
+    BayesSummary,
+    MarkedPoint,
+    PosteriorInterval,
+    RidgeRow,
+    ShrinkageRow,
+    SurrogateSlice,
+)
 
 __all__ = ["DEFAULT_RELATIVE_STD", "PILE", "STAGE", "can_fail", "lab_responses", "run_bayes",
            "settings"]
@@ -225,29 +236,29 @@ def _candidates(ev: _Evaluator, x: np.ndarray, n_lab: int, seed: int) -> list[ba
 
 
 def _shrinkage(res: bayes.BayesResult, cands: Sequence[bayes.Candidate],
-               seed: int) -> list[dict[str, Any]]:
+               seed: int) -> list[ShrinkageRow]:
     if not cands:
         return []
     rows = bayes.ridge_shrinkage(res.posterior, cands, seed=seed)
-    return [{"response": s.response, "ridge": s.ridge, "shrinkage": float(s.shrinkage),
-             "extent_before": s.extent_before, "extent_after": s.extent_after,
-             "effective_samples": s.effective_samples} for s in rows]
+    return [ShrinkageRow(response=s.response, ridge=s.ridge, shrinkage=float(s.shrinkage),
+                         extent_before=s.extent_before, extent_after=s.extent_after,
+                         effective_samples=s.effective_samples) for s in rows]
 
 
-def _predicted(res: bayes.BayesResult) -> dict[str, dict[str, float]]:
+def _predicted(res: bayes.BayesResult) -> dict[str, BayesPrediction]:
     """Each surrogate's mean response and its standard deviation at the best point."""
     out = {}
     for name, sur in res.surrogates.items():
         mean, std = sur.predict(res.best_point[None, :])
-        out[name] = {"mean": float(mean[0]), "std": float(std[0])}
+        out[name] = BayesPrediction(mean=float(mean[0]), std=float(std[0]))
     return out
 
 
-def _history(res: bayes.BayesResult) -> list[dict[str, Any]]:
+def _history(res: bayes.BayesResult) -> list[BayesRound]:
     names = res.posterior.names
-    return [{"round": i + 1, "n_runs": r.n_runs,
-             "half_widths_coded": dict(zip(names, r.half_widths, strict=True)),
-             "acceptance_fraction": r.acceptance_fraction, "warnings": list(r.warnings)}
+    return [BayesRound(round=i + 1, n_runs=r.n_runs,
+                       half_widths_coded=dict(zip(names, r.half_widths, strict=True)),
+                       acceptance_fraction=r.acceptance_fraction, warnings=list(r.warnings))
             for i, r in enumerate(res.history)]
 
 
@@ -259,34 +270,35 @@ def _samples(res: bayes.BayesResult) -> dict[str, list[float]]:
     return {n: [float(v) for v in actual[:, j]] for j, n in enumerate(post.names)}
 
 
-def _slices(res: bayes.BayesResult) -> dict[str, dict[str, dict[str, list[float]]]]:
+def _slices(res: bayes.BayesResult) -> dict[str, dict[str, SurrogateSlice]]:
     """Each surrogate along each factor through the best point (the others held there):
-    ``{response: {factor: {"x" (factor's units), "mean", "std" (of the mean response)}}}``,
-    :data:`SLICE_POINTS` points across the range (the report draws them with the lab band)."""
+    ``{response: {factor: slice}}`` (x in the factor's units, the mean response and the
+    standard deviation of that mean), :data:`SLICE_POINTS` points across the range (the
+    report draws them with the lab band)."""
     grid = np.linspace(-1.0, 1.0, SLICE_POINTS)
     space = res.posterior.factors
-    out: dict[str, dict[str, dict[str, list[float]]]] = {}
+    out: dict[str, dict[str, SurrogateSlice]] = {}
     for name, sur in res.surrogates.items():
         out[name] = {}
         for j, factor in enumerate(res.posterior.names):
             x = np.tile(res.best_point, (SLICE_POINTS, 1))
             x[:, j] = grid
             mean, std = sur.predict(x)
-            out[name][factor] = {"x": space.to_actual(x)[:, j].tolist(),
-                                 "mean": mean.tolist(), "std": std.tolist()}
+            out[name][factor] = SurrogateSlice(x=space.to_actual(x)[:, j].tolist(),
+                                               mean=mean.tolist(), std=std.tolist())
     return out
 
 
 def _verify(ctx: st.Context, res: bayes.BayesResult,
-            predicted: Mapping[str, Mapping[str, float]]) -> Verification:
+            predicted: Mapping[str, BayesPrediction]) -> Verification:
     """The verification stage at the best point (the DOE path's rules and seeds).
 
     The stage reads the optimum from ``ctx.results.optimize``; without a response surface
     there is no Design-Expert confirmation (``confirmed`` None) and the number of runs is
     sized from the runs' own scatter.
     """
-    aor = predicted.get(ctx.lead.name, {}).get("mean")
-    pile = predicted.get(PILE, {}).get("mean")
+    aor, pile = (None if (p := predicted.get(name)) is None else p.mean
+                 for name in (ctx.lead.name, PILE))
     best = res.best_point_actual
     optimum = Optimum(
         target=ctx.target, chosen=best, predicted_lead=aor,
@@ -301,29 +313,41 @@ def _verify(ctx: st.Context, res: bayes.BayesResult,
 
 
 def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequence[str],
-             shrink: list[dict[str, Any]], cfg: bayes.BayesSettings) -> dict[str, Any]:
-    """What the stage stores (the report's source) and the result JSON's Bayesian part."""
-    out = res.to_dict()
-    out["ridges"] = out.pop("ridge")
-    out.pop("best")  # the optimum below
-    predicted = _predicted(res)
-    out.update(
-        ridge=[r["text"] for r in out["ridges"]], shrinkage=shrink, history=_history(res),
-        optimum=res.best_point_actual, predicted=predicted,
-        labs={r.name: {"mean": r.mean, "standard_error": r.standard_error, "unit": r.unit}
+             shrink: list[ShrinkageRow], cfg: bayes.BayesSettings) -> BayesSummary:
+    """What the stage stores (the report's source) and the result JSON's Bayesian part
+    (the marks are :func:`_marks`')."""
+    post, verdict = res.posterior, res.identifiability
+    names = post.names
+    ridges = [RidgeRow(text=r.text, parameters=list(r.parameters),
+                       direction_coded=list(r.direction), fraction=r.fraction)
+              for r in verdict.ridges]
+    return BayesSummary(
+        posterior={p.name: PosteriorInterval(mean=p.mean_actual, median=p.median_actual,
+                                             ci95_low=p.ci95_low_actual,
+                                             ci95_high=p.ci95_high_actual)
+                   for p in post.parameters},
+        correlation={n: dict(zip(names, map(float, row), strict=True))
+                     for n, row in zip(names, post.correlation, strict=True)},
+        acceptance_fraction=post.acceptance_fraction,
+        map=dict(zip(names, map(float, post.factors.to_actual(post.map_point)), strict=True)),
+        warnings=list(post.warnings), identifiable=verdict.identifiable, reason=verdict.reason,
+        n_runs=res.n_runs, stopped=res.stopped, ridges=ridges, ridge=[r.text for r in ridges],
+        shrinkage=shrink, history=_history(res), optimum=res.best_point_actual,
+        predicted=_predicted(res),
+        labs={r.name: BayesLab(mean=r.mean, standard_error=r.standard_error, unit=r.unit)
               for r in labs},
         notes=list(notes),
         settings={"max_runs": cfg.max_runs, "batch": cfg.batch, "tolerance": cfg.tolerance,
-                  "seed": cfg.seed, "n_start": cfg.start_runs(len(res.posterior.names)),
+                  "seed": cfg.seed, "n_start": cfg.start_runs(len(names)),
                   # only when asked for: a study without it stores what it always stored
                   **({"stable_rounds": cfg.stable_rounds, "stable_change": cfg.stable_change}
                      if cfg.stable_rounds else {})},
-        units={p.name: p.unit for p in res.posterior.parameters})
-    return out
+        units={p.name: p.unit for p in post.parameters},
+        samples=_samples(res), slices=_slices(res))
 
 
 def _marks(ctx: st.Context, res: bayes.BayesResult, labs: Sequence[bayes.Response],
-           space: doe.FactorSpace) -> list[dict[str, Any]]:
+           space: doe.FactorSpace) -> list[MarkedPoint]:
     """The study's marked points (``[[strategy.marks]]``) against the posterior: each one's
     values of the factors and the mass of the smallest highest-density region holding it
     (inside the 95 % credible region when at most 0.95)."""
@@ -333,9 +357,10 @@ def _marks(ctx: st.Context, res: bayes.BayesResult, labs: Sequence[bayes.Respons
         actual = np.array([[values[n] for n in space.names]])
         coded = space.to_coded(actual)
         mass = float(bayes.credibility(res.posterior, res.surrogates, labs, coded)[0])
-        out.append({"label": mark.label, "values": {n: float(values[n]) for n in space.names},
-                    "in_box": bool(np.all(np.abs(coded) <= 1.0)), "credibility": mass,
-                    "inside95": bool(mass <= 0.95)})
+        out.append(MarkedPoint(label=mark.label,
+                               values={n: float(values[n]) for n in space.names},
+                               in_box=bool(np.all(np.abs(coded) <= 1.0)), credibility=mass,
+                               inside95=bool(mass <= 0.95)))
     return out
 
 
@@ -363,31 +388,31 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     lead = ctx.labs.get(ctx.lead.name)
     n_lab = (lead.n if lead is not None else None) or 1
     shrink = _shrinkage(res, _candidates(ev, res.x, n_lab, cfg.seed), cfg.seed)
-    summary = _summary(res, labs, notes, shrink, cfg)
-    summary["marks"] = _marks(ctx, res, labs, space)
-    ctx.store.set_stage(STAGE, "done", {**summary, "samples": _samples(res),
-                                            "slices": _slices(res)}, inputs_hash=h)
-    ver = _verify(ctx, res, summary["predicted"])
+    summary = replace(_summary(res, labs, notes, shrink, cfg),
+                       marks=_marks(ctx, res, labs, space))
+    ctx.store.set_stage(STAGE, "done", summary.to_summary(), inputs_hash=h)
+    ver = _verify(ctx, res, summary.predicted)
     return _result(ctx, summary, ver)
 
 
-def _result(ctx: st.Context, summary: dict[str, Any], ver: Verification) -> dict[str, Any]:
+def _result(ctx: st.Context, summary: BayesSummary, ver: Verification) -> dict[str, Any]:
     opt: Optimum = ctx.results.optimize
-    aor = summary["predicted"].get(ctx.lead.name, {}).get("mean")
+    lead = summary.predicted.get(ctx.lead.name)
+    aor = None if lead is None else lead.mean
     result = {
-        "study": ctx.study.name, "strategy": STAGE, **summary,
+        "study": ctx.study.name, "strategy": STAGE, **summary.in_result(),
         "optimum_full": ver.params, "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
         **ctx.lead_keys(),
         "verification": ver.in_result(),
         "rounds": [refine.round_row(opt, ver)],
         # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
-        "n_runs": ctx.store.count(), "n_runs_strategy": summary["n_runs"],
+        "n_runs": ctx.store.count(), "n_runs_strategy": summary.n_runs,
         "n_runs_executed": ctx.runner.executed,
         "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
     }
     if ctx.several:  # the surrogates' means at the best point, as the DOE path's predictions
         result["responses"] = {
-            "predicted": {name: p.get("mean") for name, p in summary["predicted"].items()
+            "predicted": {name: p.mean for name, p in summary.predicted.items()
                           if name not in (ctx.lead.name, PILE)},
             "verification": ver.stored_responses()}
     ctx.store.set_meta("result", result)

@@ -24,13 +24,14 @@ from matplotlib.figure import Figure
 from demcal.report.html import badge
 from demcal.report.tables import Table
 from demcal.store import RunRecord
+from demcal.summaries.bayes import BayesSummary, MarkedPoint, SurrogateSlice
 
 #: marker and colour of the marked points on the corner plot, in order
 MARK_STYLES = (("o", "tab:green"), ("s", "tab:orange"), ("D", "tab:purple"),
                ("^", "tab:brown"), ("v", "tab:pink"), ("P", "tab:olive"), ("*", "tab:cyan"),
                ("h", "tab:gray"))
 
-__all__ = ["MARK_STYLES", "BayesView", "MarkRow", "ParameterRow", "Slice", "bayes_section",
+__all__ = ["MARK_STYLES", "BayesView", "ParameterRow", "bayes_section",
            "bayes_tables", "bayes_view", "corner_figure", "slices_figure"]
 
 #: The stage whose summary this section shows.
@@ -51,35 +52,14 @@ class ParameterRow:
 
 
 @dataclass(frozen=True)
-class Slice:
-    """A surrogate along one factor through the best point: the factor's values (its
-    units), the mean response and the standard deviation of that mean (the response's)."""
-
-    x: tuple[float, ...]
-    mean: tuple[float, ...]
-    std: tuple[float, ...]
-
-
-@dataclass(frozen=True)
-class MarkRow:
-    """A point held against the posterior (``[[strategy.marks]]``): its factors' values
-    (their units), the posterior mass of the smallest highest-density region holding it, and
-    whether that is inside the 95 % credible region."""
-
-    label: str
-    values: dict[str, float]
-    credibility: float
-    inside95: bool
-    in_box: bool
-
-
-@dataclass(frozen=True)
 class BayesView:
-    """The stored Bayesian summary as the report reads it.
+    """The stored Bayesian summary (:class:`~demcal.summaries.bayes.BayesSummary`) as the
+    report draws it.
 
     ``correlation``: rows in the order of ``parameters``; ``history``: per round (runs, the
     coded 95 % half-widths by factor, acceptance fraction); ``shrinkage``: (response, ridge,
-    expected shrinkage 0..1); ``samples``: thinned posterior samples by factor (actual units).
+    expected shrinkage 0..1); ``labs``: (mean, standard error); ``samples``: thinned
+    posterior samples by factor (actual units); ``slices``: ``{response: {factor: slice}}``.
     """
 
     parameters: tuple[ParameterRow, ...]
@@ -96,8 +76,8 @@ class BayesView:
     notes: tuple[str, ...]
     warnings: tuple[str, ...]
     samples: dict[str, tuple[float, ...]]
-    slices: dict[str, dict[str, Slice]]
-    marks: tuple[MarkRow, ...] = ()
+    slices: dict[str, dict[str, SurrogateSlice]]
+    marks: tuple[MarkedPoint, ...] = ()
 
     @property
     def names(self) -> list[str]:
@@ -105,36 +85,33 @@ class BayesView:
 
 
 def bayes_view(summary: Mapping[str, Any]) -> BayesView | None:
-    """The typed view of the stage's stored summary; None when the study has none."""
-    if not summary or "posterior" not in summary:
+    """The view of the stage's stored summary; None when the study has none.
+
+    Raises
+    ------
+    KeyError
+        A summary without the best point's value or a correlation of every factor (a
+        damaged store: the section says so instead).
+    """
+    s = BayesSummary.from_summary(summary)
+    if s is None:
         return None
-    units, best = summary.get("units") or {}, summary["optimum"]
-    params = tuple(ParameterRow(n, units.get(n) or "", p["mean"], p["median"], p["ci95_low"],
-                                p["ci95_high"], best[n])
-                   for n, p in summary["posterior"].items())
-    names = [p.name for p in params]
-    corr = summary["correlation"]
+    names = s.names
     return BayesView(
-        parameters=params,
-        correlation=tuple(tuple(float(corr[a][b]) for b in names) for a in names),
-        identifiable=bool(summary["identifiable"]), reason=str(summary["reason"]),
-        ridges=tuple(summary["ridge"]),
-        shrinkage=tuple((s["response"], s["ridge"], float(s["shrinkage"]))
-                        for s in summary.get("shrinkage") or []),
-        history=tuple((int(h["n_runs"]), dict(h["half_widths_coded"]),
-                       float(h["acceptance_fraction"])) for h in summary["history"]),
-        stopped=str(summary["stopped"]), n_runs=int(summary["n_runs"]),
-        labs={n: (float(v["mean"]), float(v["standard_error"]))
-              for n, v in (summary.get("labs") or {}).items()},
-        predicted={n: float(v["mean"]) for n, v in (summary.get("predicted") or {}).items()},
-        notes=tuple(summary.get("notes") or ()), warnings=tuple(summary.get("warnings") or ()),
-        samples={n: tuple(map(float, v)) for n, v in (summary.get("samples") or {}).items()},
-        slices={r: {f: Slice(tuple(v["x"]), tuple(v["mean"]), tuple(v["std"]))
-                    for f, v in per.items()}
-                for r, per in (summary.get("slices") or {}).items()},
-        marks=tuple(MarkRow(str(m["label"]), {k: float(v) for k, v in m["values"].items()},
-                            float(m["credibility"]), bool(m["inside95"]), bool(m["in_box"]))
-                    for m in summary.get("marks") or ()))
+        parameters=tuple(ParameterRow(n, s.units.get(n) or "", p.mean, p.median, p.ci95_low,
+                                      p.ci95_high, s.optimum[n])
+                         for n, p in s.posterior.items()),
+        correlation=tuple(tuple(float(s.correlation[a][b]) for b in names) for a in names),
+        identifiable=s.identifiable, reason=s.reason, ridges=tuple(s.ridge),
+        shrinkage=tuple((r.response, r.ridge, float(r.shrinkage)) for r in s.shrinkage),
+        history=tuple((h.n_runs, dict(h.half_widths_coded), float(h.acceptance_fraction))
+                      for h in s.history),
+        stopped=s.stopped, n_runs=s.n_runs,
+        labs={n: (float(v.mean), float(v.standard_error)) for n, v in s.labs.items()},
+        predicted={n: float(v.mean) for n, v in s.predicted.items()},
+        notes=tuple(s.notes), warnings=tuple(s.warnings),
+        samples={n: tuple(map(float, v)) for n, v in s.samples.items()},
+        slices=s.slices, marks=tuple(s.marks))
 
 
 def _posterior_table(view: BayesView) -> Table:

@@ -23,6 +23,7 @@ from demcal.report import responses as RS
 from demcal.report.data import Lead, ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
 from demcal.summaries import Optimum, Target, Verification, by_key, stored_key
+from demcal.summaries.bayes import BayesSummary
 from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
@@ -177,18 +178,18 @@ def material_card(data: ReportData) -> MaterialCard | None:
                         posterior=_posterior_block(data.stage("bayes").summary))
 
 
-def _posterior_block(bayes: Mapping[str, Any]) -> dict[str, Any]:
+def _posterior_block(stored: Mapping[str, Any]) -> dict[str, Any]:
     """The card's [posterior] from a Bayesian study's stage summary ({} for a DOE study):
     the verdict, the ridges, each parameter's interval and the correlation (SI)."""
-    if not bayes.get("posterior"):
+    bayes = BayesSummary.from_summary(stored)
+    if bayes is None or not bayes.posterior:
         return {}
-    keys = ("mean", "median", "ci95_low", "ci95_high")
-    return {"identifiable": bool(bayes["identifiable"]), "reason": str(bayes["reason"]),
-            "ridge": [str(r) for r in bayes.get("ridge") or []],
-            "parameters": {n: {k: float(p[k]) for k in keys}
-                           for n, p in bayes["posterior"].items()},
+    return {"identifiable": bool(bayes.identifiable), "reason": str(bayes.reason),
+            "ridge": [str(r) for r in bayes.ridge],
+            "parameters": {n: {k: float(v) for k, v in p.to_summary().items()}
+                           for n, p in bayes.posterior.items()},
             "correlation": {a: {b: float(r) for b, r in row.items()}
-                            for a, row in bayes["correlation"].items()}}
+                            for a, row in bayes.correlation.items()}}
 
 
 def write_material_card(study_dir: str | Path,

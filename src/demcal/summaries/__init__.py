@@ -4,7 +4,7 @@ card and the result JSON read back.
 A stage's summary lives in the run store as JSON. ``from_summary``
 (:meth:`RangeFind.from_summary`, :meth:`Screening.from_summary`,
 :meth:`Steepest.from_summary`, :meth:`Surface.from_summary`, :meth:`Optimum.from_summary`,
-:meth:`Verification.from_summary`) reads one written by any
+:meth:`Verification.from_summary`, :meth:`BayesSummary.from_summary`) reads one written by any
 release (a key it lacks takes its default, as older stores lack the newer keys; keys it does
 not know are left out), and ``to_summary`` writes this release's keys in a fixed order.
 Readers use the attributes, so renaming a field breaks the code that reads it and its tests,
@@ -15,6 +15,7 @@ file formats built from them (the result JSON).
 """
 
 from demcal.summaries._stored import by_key, stored_key
+from demcal.summaries.bayes import BayesSummary
 from demcal.summaries.design import DesignRun
 from demcal.summaries.optimum import Candidate, Goal, Optimum, ResponsesOptimum
 from demcal.summaries.provenance import EngineMeta, Versions
@@ -26,9 +27,8 @@ from demcal.summaries.surface import ResponseModel, Surface
 from demcal.summaries.target import Target, TargetPhoto
 from demcal.summaries.verification import ResponseVerification, Verification
 
-__all__ = ["Anchor", "AnchorRun", "Candidate", "DesignRun", "Effect", "EngineMeta", "Goal",
-           "Optimum", "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
+__all__ = ["Anchor", "AnchorRun", "BayesSummary", "Candidate", "DesignRun", "Effect", "EngineMeta",
+           "Goal", "Optimum", "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
            "ResponsesOptimum", "ScanFactor", "ScanPoint", "ScanReach", "Screening",
-           "ScreeningModel", "Steepest", "StudyFactor", "StudyMaterial", "StudyMeta",
-           "StudyTest", "Surface", "Target", "TargetPhoto", "Verification",
-           "Versions", "by_key", "stored_key"]
+           "ScreeningModel", "Steepest", "StudyFactor", "StudyMaterial", "StudyMeta", "StudyTest",
+           "Surface", "Target", "TargetPhoto", "Verification", "Versions", "by_key", "stored_key"]
