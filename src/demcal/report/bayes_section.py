@@ -1,8 +1,9 @@
 """The report's "Bayesian calibration" section (``[strategy] kind = "bayes"``).
 
-Reads the stored summary of the stage ``"bayes"`` (written by
-:mod:`demcal.calibrate.bayes_strategy`) once into a typed view (:class:`BayesView`), so a
-renamed key breaks :func:`bayes_view` and its test, not the page. Shows the posterior per
+Reads the stored summary of the stage ``"bayes"`` (a
+:class:`~demcal.summaries.bayes.BayesSummary`, written by
+:mod:`demcal.calibrate.bayes_strategy`) once into the view it draws (:class:`BayesView`), so a
+renamed field breaks :func:`bayes_view` and its test, not the page. Shows the posterior per
 parameter (95 % credible intervals in the factors' units), the identifiability verdict and
 its ridges, the expected shrinkage per response the runs report, the rounds of the loop, the
 runs in order, a corner plot of the stored posterior samples with the best point marked, and
