@@ -21,7 +21,8 @@ def _stored(marks: bool = True) -> dict:
         "ridge": ["a up 0.1 = b down 0.03"],
         "shrinkage": [{"response": "drum_deg", "ridge": "a up 0.1 = b down 0.03",
                        "shrinkage": 0.6, "extent_before": 1.2, "extent_after": 0.5,
-                       "effective_samples": 300.0}],
+                       "effective_samples": 300.0, "basis": "stated",
+                       "source": "a drum study"}],
         "history": [{"round": 1, "n_runs": 12, "half_widths_coded": {"a": 0.4, "b": 0.5},
                      "acceptance_fraction": 0.4, "warnings": []}],
         "optimum": {"a": 0.5, "b": 0.1},
@@ -56,8 +57,12 @@ def test_a_stored_summary_reads_typed_and_writes_back_the_same_keys():
 
 
 def test_an_older_store_without_marks_and_no_posterior_read():
-    s = BayesSummary.from_summary(_stored(marks=False))
+    old = _stored(marks=False)
+    for row in old["shrinkage"]:  # written before stated candidates
+        del row["basis"], row["source"]
+    s = BayesSummary.from_summary(old)
     assert s is not None and s.marks == []
+    assert s.shrinkage[0].basis == "runs" and s.shrinkage[0].source is None
     assert BayesSummary.from_summary(None) is None
     assert BayesSummary.from_summary({"error": "failed"}) is None
     odd = BayesSummary.from_summary({"posterior": {"a": {"mean": 1.0}}})

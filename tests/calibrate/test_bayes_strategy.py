@@ -159,8 +159,18 @@ BAYES_KEYS = ("posterior", "correlation", "acceptance_fraction", "map", "warning
               "history", "optimum", "predicted", "labs", "notes", "settings", "units", "marks")
 
 
+#: the analytic drum's own slopes (test_several_responses.ANALYTIC) stated as a test the study
+#: could add, with the standard error the runs' candidate is given (noise 0.2 over the
+#: angle's 5 lab repeats), and the drum itself stated too (the runs report it: not used)
+STATED = ('\n[[strategy.candidates]]\nname = "stated_drum_deg"\n'
+          'slopes = { "pp.static_friction" = 5.0, "pp.rolling_friction" = 60.0, '
+          '"pw.static_friction" = 1.0 }\nstandard_error = 0.0894\nsource = "its planted slopes"\n'
+          '\n[[strategy.candidates]]\nname = "drum_deg"\n'
+          'slopes = { "pp.rolling_friction" = 1.0 }\nstandard_error = 1.0\n')
+
+
 def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
-    res = calibrate(bayes_study(tmp_path, responses=False, strategy="max_runs = 33\n"),
+    res = calibrate(bayes_study(tmp_path, responses=False, strategy="max_runs = 33\n" + STATED),
                     workers=1)
     assert res["identifiable"] is False
     assert res["n_runs_strategy"] == 33 and res["stopped"] == "budget"
@@ -173,7 +183,15 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
     assert shrink["drum_deg"] > 0.5 and shrink["drum_deg"] > shrink["bulk_density_kg_m3"]
     assert list(friction[0]) == ["text", "parameters", "direction_coded", "fraction"]
     assert list(res["shrinkage"][0]) == ["response", "ridge", "shrinkage", "extent_before",
-                                         "extent_after", "effective_samples"]
+                                         "extent_after", "effective_samples", "basis", "source"]
+    # a test known only by its slopes: the same drum stated gives the runs' drum's shrinkage
+    stated = next(s for s in res["shrinkage"]
+                  if s["response"] == "stated_drum_deg" and s["ridge"] == friction[0]["text"])
+    assert stated["basis"] == "stated" and stated["source"] == "its planted slopes"
+    assert abs(stated["shrinkage"] - shrink["drum_deg"]) < 0.1, (stated, shrink)
+    drum = [s for s in res["shrinkage"] if s["response"] == "drum_deg"]
+    assert {s["basis"] for s in drum} == {"runs"}  # the runs beat the statement
+    assert any("candidate drum_deg: the runs report it" in n for n in res["notes"])
 
 
 def test_a_stable_ridge_stops_before_the_budget(tmp_path: Path) -> None:
@@ -208,6 +226,15 @@ def test_the_doe_path_is_unchanged_by_a_default_strategy(tmp_path: Path) -> None
     ("runs = 3", "strategy.runs"),
     ("stable_rounds = -1", "strategy.stable_rounds"),
     ("stable_change = 0", "strategy.stable_change"),
+    ('[[strategy.candidates]]\nname = "x"\nslopes = { "pw.rolling_friction" = 1.0 }\n'
+     "standard_error = 0.5", "strategy.candidates 'x': slopes of pw.rolling_friction, not a "
+     "factor"),
+    ('[[strategy.candidates]]\nname = "x"\nslopes = { "pp.static_friction" = 0.0 }\n'
+     "standard_error = 0.5", "every slope is 0"),
+    ('[[strategy.candidates]]\nname = "x"\nslopes = { "pp.static_friction" = 1.0 }\n'
+     "standard_error = 0", "strategy.candidates.0.standard_error"),
+    ('[[strategy.candidates]]\nname = "aor_deg"\nslopes = { "pp.static_friction" = 1.0 }\n'
+     "standard_error = 0.5", "already aims at this response"),
 ])
 def test_bad_strategy_settings_are_one_line_and_exit_2(tmp_path: Path, setting: str,
                                                        field: str) -> None:

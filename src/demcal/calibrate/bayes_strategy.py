@@ -235,14 +235,35 @@ def _candidates(ev: _Evaluator, x: np.ndarray, n_lab: int, seed: int) -> list[ba
     return out
 
 
+def _stated(ctx: st.Context, space: doe.FactorSpace,
+            reported: set[str]) -> tuple[list[bayes.Candidate], list[str]]:
+    """The study's stated candidates (``[[strategy.candidates]]``) as linear predictors over
+    the coded box, and a note for each one the runs report themselves (their surrogate is
+    taken instead: runs beat a statement)."""
+    out, notes = [], []
+    for c in ctx.study.strategy.candidates:
+        if c.name in reported:
+            notes.append(f"candidate {c.name}: the runs report it, so its shrinkage is the "
+                         "runs' surrogate's, not the stated slopes'")
+            continue
+        # a coded unit is half the factor's range
+        gradient = tuple(c.slopes.get(f.name, 0.0) * 0.5 * (f.high - f.low) for f in space)
+        out.append(bayes.Candidate(c.name, bayes.Sensitivity(gradient), c.standard_error))
+    return out, notes
+
+
 def _shrinkage(res: bayes.BayesResult, cands: Sequence[bayes.Candidate],
-               seed: int) -> list[ShrinkageRow]:
+               seed: int, sources: Mapping[str, str | None]) -> list[ShrinkageRow]:
+    """Each ridge's expected shrinkage per candidate; ``sources``: the stated candidates'
+    (by name; the others' are the runs')."""
     if not cands:
         return []
     rows = bayes.ridge_shrinkage(res.posterior, cands, seed=seed)
     return [ShrinkageRow(response=s.response, ridge=s.ridge, shrinkage=float(s.shrinkage),
                          extent_before=s.extent_before, extent_after=s.extent_after,
-                         effective_samples=s.effective_samples) for s in rows]
+                         effective_samples=s.effective_samples,
+                         basis="stated" if s.response in sources else "runs",
+                         source=sources.get(s.response)) for s in rows]
 
 
 def _predicted(res: bayes.BayesResult) -> dict[str, BayesPrediction]:
@@ -387,7 +408,12 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     res = bayes.calibrate_bayes(ev, space, labs, cfg)
     lead = ctx.labs.get(ctx.lead.name)
     n_lab = (lead.n if lead is not None else None) or 1
-    shrink = _shrinkage(res, _candidates(ev, res.x, n_lab, cfg.seed), cfg.seed)
+    cands = _candidates(ev, res.x, n_lab, cfg.seed)
+    stated, stated_notes = _stated(ctx, space, {c.name for c in cands})
+    sources = {c.name: c.source for c in ctx.study.strategy.candidates
+               if c.name in {s.name for s in stated}}
+    shrink = _shrinkage(res, [*cands, *stated], cfg.seed, sources)
+    notes = [*notes, *stated_notes]
     summary = replace(_summary(res, labs, notes, shrink, cfg),
                        marks=_marks(ctx, res, labs, space))
     ctx.store.set_stage(STAGE, "done", summary.to_summary(), inputs_hash=h)

@@ -330,6 +330,38 @@ class Mark(_M):
         return self
 
 
+class StatedCandidate(_M):
+    """A test the study could add, known only by how it moves with each factor.
+
+    The Bayesian strategy's shrinkage (how much a response would shrink each ridge) needs
+    runs of that response, or its slopes: a drum, a shear cell or a bulk density the study
+    has no runs of, stated from earlier runs, a published sensitivity study or the test's
+    physics. A factor without a slope is taken as not moving it (slope 0), so a missing
+    slope can only make the shrinkage smaller than it would be.
+    """
+
+    name: str = Field(min_length=1, max_length=100, description="the response's name "
+                      "(drum_dynamic_aor_deg)")
+    slopes: dict[str, float] = Field(min_length=1, max_length=20, description="change of the "
+                                     "response per unit of each factor (the factor's units), "
+                                     "by factor name")
+    standard_error: float = Field(gt=0, le=1e12, description="expected standard error of its "
+                                  "lab mean, in the response's unit")
+    source: str | None = Field(None, max_length=300, description="where the slopes come from "
+                               "(shown in the report)")
+
+    @model_validator(mode="after")
+    def _finite(self) -> StatedCandidate:
+        bad = [k for k, v in self.slopes.items() if not math.isfinite(v) or abs(v) > 1e12]
+        if bad:
+            raise ValueError(f"candidate {self.name!r}: slopes must be finite numbers; got "
+                             + ", ".join(f"{k}={self.slopes[k]!r}" for k in bad))
+        if not any(self.slopes.values()):
+            raise ValueError(f"candidate {self.name!r}: every slope is 0: the response would "
+                             "not move with any factor")
+        return self
+
+
 class Strategy(_M):
     """How the study searches: the DOE stages (the paper's workflow) or the Bayesian strategy.
 
@@ -357,6 +389,9 @@ class Strategy(_M):
                                  "interval's end that counts as none, coded units")
     marks: list[Mark] = Field(default_factory=list, max_length=50, description="points held "
                               "against the posterior (the report's corner plot)")
+    candidates: list[StatedCandidate] = Field(
+        default_factory=list, max_length=20, description="tests the study could add, by their "
+        "slopes: the expected shrinkage of each ridge if they were added")
 
     @model_validator(mode="after")
     def _start(self) -> Strategy:
@@ -608,7 +643,24 @@ def parse_study(data: dict[str, Any], *, base: Path | None = None) -> Study:
         if missing:
             raise InputError(f"study: strategy.marks {mark.label!r}: no value for the "
                              f"factor(s) {', '.join(missing)}")
+    _check_candidates(study)
     return study
+
+
+def _check_candidates(study: Study) -> None:
+    """A stated candidate's slopes name the study's factors, and it is not a response the
+    study already aims at."""
+    factors = {f.name for f in study.factors}
+    aimed = {r.name for r in study.responses} | ({"aor_deg"} if study.target else set())
+    for c in study.strategy.candidates:
+        unknown = sorted(set(c.slopes) - factors)
+        if unknown:
+            raise InputError(f"study: strategy.candidates {c.name!r}: slopes of "
+                             f"{', '.join(unknown)}, not a factor of the study (factors: "
+                             f"{', '.join(sorted(factors))})")
+        if c.name in aimed:
+            raise InputError(f"study: strategy.candidates {c.name!r}: the study already aims at "
+                             "this response; a candidate is a test it could add")
 
 
 def _read_mark(mark: Mark, base: Path | None) -> None:

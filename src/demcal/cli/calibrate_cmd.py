@@ -116,8 +116,10 @@ def _print_bayes(result: dict) -> None:
     console.print(f"{result['reason']} ({result['n_runs_strategy']} runs, stopped by "
                   f"{result['stopped']})", highlight=False)
     for s in result.get("shrinkage") or []:
+        basis = ("from its stated slopes" if s.get("basis") == "stated"
+                 else "from the runs' surrogate")
         console.print(f"adding {s['response']} would shrink the ridge '{s['ridge']}' by "
-                      f"{s['shrinkage']:.0%} (expected)", highlight=False)
+                      f"{s['shrinkage']:.0%} (expected, {basis})", highlight=False)
 
 
 def _print_rounds(result: dict) -> None:

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from demcal.report.html import badge
 from demcal.report.tables import Table
 from demcal.store import RunRecord
-from demcal.summaries.bayes import BayesSummary, MarkedPoint, SurrogateSlice
+from demcal.summaries.bayes import BayesSummary, MarkedPoint, ShrinkageRow, SurrogateSlice
 
 #: marker and colour of the marked points on the corner plot, in order
 MARK_STYLES = (("o", "tab:green"), ("s", "tab:orange"), ("D", "tab:purple"),
@@ -59,8 +59,9 @@ class BayesView:
 
     ``correlation``: rows in the order of ``parameters``; ``history``: per round (runs, the
     coded 95 % half-widths by factor, acceptance fraction); ``shrinkage``: (response, ridge,
-    expected shrinkage 0..1); ``labs``: (mean, standard error); ``samples``: thinned
-    posterior samples by factor (actual units); ``slices``: ``{response: {factor: slice}}``.
+    expected shrinkage 0..1, what it is estimated from); ``labs``: (mean, standard error);
+    ``samples``: thinned posterior samples by factor (actual units); ``slices``:
+    ``{response: {factor: slice}}``.
     """
 
     parameters: tuple[ParameterRow, ...]
@@ -68,7 +69,7 @@ class BayesView:
     identifiable: bool
     reason: str
     ridges: tuple[str, ...]
-    shrinkage: tuple[tuple[str, str, float], ...]
+    shrinkage: tuple[tuple[str, str, float, str], ...]
     history: tuple[tuple[int, dict[str, float], float], ...]
     stopped: str
     n_runs: int
@@ -104,7 +105,8 @@ def bayes_view(summary: Mapping[str, Any]) -> BayesView | None:
                          for n, p in s.posterior.items()),
         correlation=tuple(tuple(float(s.correlation[a][b]) for b in names) for a in names),
         identifiable=s.identifiable, reason=s.reason, ridges=tuple(s.ridge),
-        shrinkage=tuple((r.response, r.ridge, float(r.shrinkage)) for r in s.shrinkage),
+        shrinkage=tuple((r.response, r.ridge, float(r.shrinkage), _basis(r))
+                        for r in s.shrinkage),
         history=tuple((h.n_runs, dict(h.half_widths_coded), float(h.acceptance_fraction))
                       for h in s.history),
         stopped=s.stopped, n_runs=s.n_runs,
@@ -113,6 +115,13 @@ def bayes_view(summary: Mapping[str, Any]) -> BayesView | None:
         notes=tuple(s.notes), warnings=tuple(s.warnings),
         samples={n: tuple(map(float, v)) for n, v in s.samples.items()},
         slices=s.slices, marks=tuple(s.marks))
+
+
+def _basis(row: ShrinkageRow) -> str:
+    """What a shrinkage is estimated from, for people."""
+    if row.basis != "stated":
+        return "the runs' surrogate"
+    return "stated slopes" + (f" ({row.source})" if row.source else "")
 
 
 def _posterior_table(view: BayesView) -> Table:
@@ -146,9 +155,11 @@ def _responses_table(view: BayesView) -> Table:
 
 def _shrinkage_table(view: BayesView) -> Table:
     frame = pd.DataFrame([{"response": r, "ridge or widest axis": ridge,
-                           "expected shrinkage": s} for r, ridge, s in view.shrinkage])
+                           "expected shrinkage": s, "estimated from": basis}
+                          for r, ridge, s, basis in view.shrinkage])
     return Table("bayes_shrinkage", "Which response would shrink the region", frame,
-                 note="responses the runs report beside the study's; 0: no help, 1: gone")
+                 note="responses the runs report beside the study's, and the tests the study "
+                      "states the slopes of ([[strategy.candidates]]); 0: no help, 1: gone")
 
 
 def _marks_table(view: BayesView) -> Table:

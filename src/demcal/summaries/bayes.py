@@ -72,6 +72,11 @@ class ShrinkageRow(_KeyedEvery):
         95 % extent along the ridge, coded units.
     effective_samples : float
         Smallest effective sample size of the reweighted samples (few: a rough estimate).
+    basis : {"runs", "stated"}
+        Estimated from a surrogate of the runs' values of the response, or from the slopes
+        the study states (``[[strategy.candidates]]``).
+    source : str or None
+        Where stated slopes come from, as the study says.
     """
 
     response: str = ""
@@ -80,6 +85,8 @@ class ShrinkageRow(_KeyedEvery):
     extent_before: float = float("nan")
     extent_after: float = float("nan")
     effective_samples: float = float("nan")
+    basis: str = "runs"
+    source: str | None = None
 
 
 @dataclass(frozen=True)
