@@ -48,7 +48,7 @@ def test_corn_stalk_study_target_and_fixed_values(tmp_path):
     ctx = open_study(tmp_path / "study.toml")
     ctx.store.close()
     assert round(ctx.target, 2) == 44.12  # mean of the paper's Table 2
-    assert [f["symbol"] for f in ctx.factors] == [f"x{i}" for i in range(1, 9)]
+    assert [f.symbol for f in ctx.factors] == [f"x{i}" for i in range(1, 9)]
     assert ctx.fixed["particle.density"] == pytest_approx(114.36)
     assert ctx.fixed["pp.surface_energy"] == 0.00025  # centre of the 0-0.0005 J/m^2 range
     assert ctx.study.test.kind == "aor" and ctx.study.test.fidelity == "quick"

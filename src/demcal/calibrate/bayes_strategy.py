@@ -203,8 +203,7 @@ def _check_start(recs: Sequence[RunRecord], values: Mapping[str, np.ndarray]) ->
 
 
 def _space(ctx: st.Context) -> doe.FactorSpace:
-    return doe.FactorSpace([doe.Factor(f["name"], f["low"], f["high"], f.get("unit") or "")
-                            for f in ctx.factors])
+    return st.factor_space(ctx.factors)
 
 
 def _candidate(name: str, x: np.ndarray, y: np.ndarray, n_lab: int,
@@ -403,7 +402,7 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
         ctx.store.delete_stage(name)
     space = _space(ctx)
     h = ctx.begin(STAGE, {"settings": repr(cfg), "labs": [repr(r) for r in labs],
-                          "factors": ctx.factors})
+                          "factors": ctx.factor_rows()})
     ev = _Evaluator(ctx, space, tuple(r.name for r in labs))
     res = bayes.calibrate_bayes(ev, space, labs, cfg)
     lead = ctx.labs.get(ctx.lead.name)
@@ -434,7 +433,7 @@ def _result(ctx: st.Context, summary: BayesSummary, ver: Verification) -> dict[s
         # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
         "n_runs": ctx.store.count(), "n_runs_strategy": summary.n_runs,
         "n_runs_executed": ctx.runner.executed,
-        "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
+        "ranges": {f.name: [f.low, f.high] for f in ctx.factors},
     }
     if ctx.several:  # the surrogates' means at the best point, as the DOE path's predictions
         result["responses"] = {

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -23,6 +23,7 @@ from demcal.summaries import (
     RangeFind,
     Screening,
     Steepest,
+    StudyFactor,
     Surface,
     Verification,
 )
@@ -78,7 +79,8 @@ class Context:
     """State shared by the stages of one study.
 
     ``fixed``: full parameter set with every factor at its current centre (SI);
-    ``factors``: current ranges [{"name","symbol","low","high","unit"}];
+    ``factors``: each factor at its current range (range finding moves them:
+    :meth:`set_range`);
     ``records``: every run the stages used (for the pile classifier);
     ``target``, ``target_std``, ``target_n``: the lead response's lab mean, spread and count
     (std and count when known); ``responses``: every response aimed at, the lead first (the
@@ -92,7 +94,7 @@ class Context:
     runner: Runner
     fixed: dict[str, float]
     target: float
-    factors: list[dict[str, Any]]
+    factors: list[StudyFactor]
     records: list[RunRecord] = field(default_factory=list)
     results: StageResults = field(default_factory=StageResults)
     target_std: float | None = None
@@ -154,8 +156,21 @@ class Context:
         own = getattr(getattr(self.study.stages, stage), "replicates", None)
         return int(own if own is not None else self.study.replicates)
 
-    def factor(self, name: str) -> dict[str, Any]:
-        return next(f for f in self.factors if f["name"] == name)
+    def factor(self, name: str) -> StudyFactor:
+        """The factor ``name`` at its current range."""
+        return next(f for f in self.factors if f.name == name)
+
+    def set_range(self, name: str, low: float, high: float) -> None:
+        """Move the factor ``name`` to ``low``..``high`` (SI) and its fixed value (the value
+        the other factors' runs hold it at) to the new centre."""
+        self.factors = [replace(f, low=low, high=high) if f.name == name else f
+                        for f in self.factors]
+        self.fixed[name] = 0.5 * (low + high)
+
+    def factor_rows(self, factors: Sequence[StudyFactor] | None = None) -> list[dict[str, Any]]:
+        """``factors`` (default: the study's, at their current ranges) as the stages store
+        them and hash them as their inputs (``{"name", "symbol", "low", "high", "unit"}``)."""
+        return [f.to_summary() for f in (self.factors if factors is None else factors)]
 
     def seed(self, point: int, replicate: int, copy: int | None = None) -> int:
         """Seed of a run.
@@ -193,8 +208,9 @@ def clip(name: str, value: float) -> float:
     return float(min(max(value, lo), hi))
 
 
-def factor_space(factors: Sequence[dict[str, Any]]) -> doe.FactorSpace:
-    return doe.FactorSpace([doe.Factor(f["name"], f["low"], f["high"], f.get("unit") or "")
+def factor_space(factors: Sequence[StudyFactor]) -> doe.FactorSpace:
+    """The coded box of ``factors`` (the designs' and the fits')."""
+    return doe.FactorSpace([doe.Factor(f.name, float(f.low), float(f.high), f.unit or "")
                             for f in factors])
 
 

@@ -184,7 +184,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     fixed, physical = _fixed(study)
     store = RunStore(folder, lock=True, break_lock=break_lock)
     factors = [StudyFactor(name=f.name, symbol=f.symbol, low=f.low, high=f.high,
-                           unit=f.unit).to_summary() for f in study.factors]
+                           unit=f.unit) for f in study.factors]
     store.set_meta("study", study.model_dump(mode="json"))
     store.set_meta("study_file", str(path))
     store.set_meta("study_dir", str(folder))
@@ -193,7 +193,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     store.set_meta("physical", physical)
     store.set_meta("fixed_params", {k: v for k, v in fixed.items()
                                     if k not in {f.name for f in study.factors}})
-    store.set_meta("factors", factors)
+    store.set_meta("factors", [f.to_summary() for f in factors])
     store.set_meta("engine", engine_meta(study).to_summary())
     store.set_meta("versions", versions_meta(study).to_summary())
     ex = study.executor
@@ -219,7 +219,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     store.set_meta("lead", None if specs[0].name == AOR else {
         "name": specs[0].name, "unit": specs[0].unit, "mean": lead.mean, "std": lead.std,
         "n": lead.n})
-    return st.Context(study, store, runner, fixed, lead.mean, [dict(f) for f in factors],
+    return st.Context(study, store, runner, fixed, lead.mean, factors,
                       target_std=lead.std, target_n=lead.n, responses=specs, labs=labs)
 
 
@@ -317,9 +317,9 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
             continue
         if name == "steepest" and not s.steepest.enabled:
             sel = ctx.results.screening.selected
+            given = [ctx.factor(n) for n in sel]
             ctx.results.steepest = Steepest(levels={
-                n: [ctx.factor(n)["low"], 0.5 * (ctx.factor(n)["low"] + ctx.factor(n)["high"]),
-                    ctx.factor(n)["high"]] for n in sel})
+                f.name: [f.low, 0.5 * (f.low + f.high), f.high] for f in given})
             ctx.store.delete_stage(name)
             continue
         getattr(st, name)(ctx)
@@ -344,7 +344,7 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
         # or this one's under earlier settings), which n_runs counts
         "n_runs_used": len({r.key for r in ctx.records} | ctx.runner.beside_keys),
         "n_runs_executed": ctx.runner.executed,
-        "ranges": {f["name"]: [f["low"], f["high"]] for f in ctx.factors},
+        "ranges": {f.name: [f.low, f.high] for f in ctx.factors},
         "rsm_adequate": surface.adequate,
         "rsm_adequacy": surface.adequacy,
         "rsm_model": surface.model_kind,

@@ -51,8 +51,8 @@ def rangefind(ctx: Context) -> RangeFind:
     is scanned again (at most ``max_moves`` times).
     """
     opts = ctx.study.stages.rangefind
-    names = [ctx.study.factor(r).name for r in (opts.factors or [f["name"] for f in ctx.factors])]
-    ctx.begin("rangefind", {"factors": ctx.factors, "opts": opts.model_dump(mode="json"),
+    names = [ctx.study.factor(r).name for r in (opts.factors or [f.name for f in ctx.factors])]
+    ctx.begin("rangefind", {"factors": ctx.factor_rows(), "opts": opts.model_dump(mode="json"),
                             "fixed": ctx.fixed})
     hard = {ctx.study.factor(k).name: v for k, v in opts.hard_limits.items()}
     may_move = bool(hard) if opts.move_ranges is None else opts.move_ranges
@@ -69,9 +69,7 @@ def rangefind(ctx: Context) -> RangeFind:
                 or not _move_ranges(ctx, slopes, hard, ctx.target > hi, moves):
             break
     for scan in scans:
-        f = ctx.factor(scan.name)
-        f["low"], f["high"] = scan.new_low, scan.new_high
-        ctx.fixed[scan.name] = 0.5 * (f["low"] + f["high"])
+        ctx.set_range(scan.name, scan.new_low, scan.new_high)
     msg = _scan_message(ctx, (lo, hi), slopes)
     if moves:
         msg += "; ranges moved within hard limits: " + "; ".join(moves)
@@ -98,7 +96,7 @@ def _scan(ctx: Context, names: list[str]
     points, index = [], []
     for fi, name in enumerate(names):
         f = ctx.factor(name)
-        for j, v in enumerate(np.linspace(f["low"], f["high"], opts.points)):
+        for j, v in enumerate(np.linspace(f.low, f.high, opts.points)):
             pt = 100 * fi + j
             for r in range(ctx.reps("rangefind")):
                 points.append(Point(pt, r, ctx.full({name: float(v)}), ctx.seed(pt, r, 0)))
@@ -114,9 +112,9 @@ def _scan(ctx: Context, names: list[str]
         piles = ~np.isnan(ys)
         feas = _feasible(vals, piles)
         reason = None
-        new_low, new_high = f["low"], f["high"]
+        new_low, new_high = f.low, f.high
         if feas is None:
-            reason = (f"no pile anywhere in {f['low']:g}..{f['high']:g} "
+            reason = (f"no pile anywhere in {f.low:g}..{f.high:g} "
                       f"({', '.join(sorted({outcomes[pt] for _, pt in pts}))})")
         else:
             new_low, new_high = feas
@@ -127,7 +125,7 @@ def _scan(ctx: Context, names: list[str]
         if piles.sum() >= 2:
             lines[name] = tuple(float(c) for c in np.polyfit(vals[piles], ys[piles], 1))
         scans.append(ScanFactor(
-            name=name, symbol=f["symbol"], low=f["low"], high=f["high"], new_low=new_low,
+            name=name, symbol=f.symbol, low=f.low, high=f.high, new_low=new_low,
             new_high=new_high, reason=reason,
             points=[ScanPoint(value=float(v), outcome=outcomes[pt],
                               response=None if np.isnan(y[pt]) else float(y[pt]))
@@ -208,16 +206,15 @@ def _move_ranges(ctx: Context, slopes: Mapping[str, float],
         if name not in hard or s == 0:
             continue
         f = ctx.factor(name)
-        width = f["high"] - f["low"]
+        width = f.high - f.low
         shift = width / 2 * (1 if (s > 0) == want_up else -1)
         h_lo, h_hi = hard[name]
-        new_lo = min(max(f["low"] + shift, h_lo), h_hi - width)
+        new_lo = min(max(f.low + shift, h_lo), h_hi - width)
         new_lo = max(new_lo, h_lo)
         new_hi = min(new_lo + width, h_hi)
-        if abs(new_lo - f["low"]) > 1e-12 * max(1.0, width):
-            moves.append(f"{name}: {f['low']:g}..{f['high']:g} -> {new_lo:g}..{new_hi:g}")
-            f["low"], f["high"] = new_lo, new_hi
-            ctx.fixed[name] = 0.5 * (new_lo + new_hi)
+        if abs(new_lo - f.low) > 1e-12 * max(1.0, width):
+            moves.append(f"{name}: {f.low:g}..{f.high:g} -> {new_lo:g}..{new_hi:g}")
+            ctx.set_range(name, new_lo, new_hi)
             moved = True
     return moved
 
@@ -235,7 +232,7 @@ def _reach(ctx: Context, scans: Sequence[ScanFactor],
     steepest path's own model. None unless every factor of the study was scanned, formed at
     least two piles and has hard limits (a factor free to move can reach any angle).
     """
-    if {s.name for s in scans} != {f["name"] for f in ctx.factors}:
+    if {s.name for s in scans} != {f.name for f in ctx.factors}:
         return None
     centre, up, down = [], 0.0, 0.0
     for s in scans:

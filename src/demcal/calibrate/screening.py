@@ -29,7 +29,7 @@ __all__ = ["screening"]
 def screening(ctx: Context) -> Screening:
     """Plackett-Burman design, linear fit, effects and ANOVA, the significant factors."""
     opts = ctx.study.stages.screening
-    h = ctx.begin("screening", {"factors": ctx.factors, "opts": opts.model_dump(mode="json"),
+    h = ctx.begin("screening", {"factors": ctx.factor_rows(), "opts": opts.model_dump(mode="json"),
                                 "fixed": ctx.fixed, "reps": ctx.reps("screening")})
     space = factor_space(ctx.factors)
     try:
@@ -41,7 +41,7 @@ def screening(ctx: Context) -> Screening:
     excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
     ran = Screening(
         fidelity=ctx.own_fidelity("screening").get("fidelity"), design="plackett_burman",
-        n_runs=design.n_runs, alpha=opts.alpha, factors=[dict(f) for f in ctx.factors],
+        n_runs=design.n_runs, alpha=opts.alpha, factors=ctx.factor_rows(),
         dummies=[f"dummy{j + 1}" for j in range(design.dummies.shape[1])],
         runs=run_rows(design, y, outcomes, per_point), excluded_points=excluded)
     try:

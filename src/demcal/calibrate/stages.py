@@ -80,8 +80,9 @@ def rsm(ctx: Context) -> Surface:
     """
     opts = ctx.study.stages.rsm
     levels = ctx.results.steepest.levels
-    factors = [{**ctx.factor(n), "low": lv[0], "high": lv[2]} for n, lv in levels.items()]
-    h = ctx.begin("rsm", {"factors": factors, "opts": opts.model_dump(mode="json"),
+    factors = [replace(ctx.factor(n), low=lv[0], high=lv[2]) for n, lv in levels.items()]
+    rows = ctx.factor_rows(factors)
+    h = ctx.begin("rsm", {"factors": rows, "opts": opts.model_dump(mode="json"),
                           "fixed": ctx.fixed, "reps": ctx.reps("rsm"),
                           "crn": ctx.study.common_seeds})
     space = factor_space(factors)
@@ -102,7 +103,7 @@ def rsm(ctx: Context) -> Surface:
         y, outcomes, runs = point_runs(recs, design.n_runs, ctx.lead.name)
         excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
         design_rows = run_rows(design, y, outcomes, runs)
-        base = {"design": design_name, "factors": factors,  # what a failure stores
+        base = {"design": design_name, "factors": rows,  # what a failure stores
                 "runs": [r.to_summary() for r in design_rows], "excluded_points": excluded,
                 "replicates": n_reps}
         rep_design, y_rows = replicated(design, runs, n_reps)
@@ -145,7 +146,7 @@ def rsm(ctx: Context) -> Surface:
     responses, response_warnings = _other_responses(ctx, design, recs, n_reps)
     warnings += response_warnings
     surface = Surface(
-        design=design_name, factors=factors, runs=design_rows, excluded_points=excluded,
+        design=design_name, factors=rows, runs=design_rows, excluded_points=excluded,
         replicates=n_reps, responses=responses, anova=table.to_records(),
         fit=table.fit.to_dict(), lack_of_fit_p=lof_p, adequacy=stats_, rounds=rounds,
         model=choice["model"], removed_terms=choice["removed_terms"],

@@ -84,7 +84,7 @@ def steepest(ctx: Context) -> Steepest:
     opts = ctx.study.stages.steepest
     rs = ctx.results.screening_model
     selected = ctx.results.screening.selected
-    h = ctx.begin("steepest", {"sel": selected, "factors": ctx.factors,
+    h = ctx.begin("steepest", {"sel": selected, "factors": ctx.factor_rows(),
                                "opts": opts.model_dump(mode="json"), "fixed": ctx.fixed,
                                "coef": {k: float(v) for k, v in rs.coefficients_coded.items()},
                                **({"responses": [r.model_dump(mode="json")
