@@ -76,7 +76,7 @@ def test_the_old_store_s_values_read_as_the_generic_fields(tmp_path):
     assert [p.response for p in found.factors[0].points] == [p["aor_deg"] for p in raw["points"]]
     assert found.response_min == summaries["rangefind"]["response_min_deg"]
     screening = Screening.from_summary(summaries["screening"])
-    assert screening.ran and screening.names == [f["name"] for f in screening.factors or []]
+    assert screening.ran and screening.names == [f.name for f in screening.factors or []]
     first = summaries["screening"]["runs"][0]
     assert list(first) == DESIGN_RUN_KEYS
     assert screening.runs[0].value == first["aor_deg"]  # type: ignore[index]

@@ -10,7 +10,7 @@ import shutil
 import sqlite3
 from pathlib import Path
 
-from demcal.summaries import DesignRun, ResponseModel, Surface
+from demcal.summaries import DesignRun, ResponseModel, StudyFactor, Surface
 
 DATA = Path(__file__).parent / "data"
 
@@ -36,7 +36,7 @@ ADEQUACY = {"p_model": 1e-6, "lack_of_fit_p": 0.4, "r2": 0.99, "adj_r2": 0.98, "
 def _surface(**extra) -> Surface:
     """As :func:`demcal.calibrate.stages.rsm` builds it (``lack_of_fit_p`` None: no test)."""
     return Surface(
-        design="box_behnken", factors=FACTORS,
+        design="box_behnken", factors=[StudyFactor(**f) for f in FACTORS],
         runs=[DesignRun(point=0, coded={"pp.static_friction": -1.0},
                         actual={"pp.static_friction": 0.2}, value=35.0, outcome="pile",
                         replicates=[35.0], replicate_std=None)],

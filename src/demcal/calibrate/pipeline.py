@@ -236,7 +236,7 @@ def _responses(study: Study, target: Target | None) -> list[ResponseSpec]:
 def _design_json(design: str | None, factors: list[dict[str, Any]], runs: list[DesignRun],
                  excluded: list[int]) -> dict[str, Any]:
     """A designed stage's part of the result: its design, factors and each point's angle."""
-    return {"design": design, "factors": [f["name"] for f in factors],
+    return {"design": design, "factors": [f.name for f in factors],
             "responses": [{"point": r.point, "actual": r.actual, "aor_deg": r.value,
                            "outcome": r.outcome} for r in runs],
             "excluded_points": excluded}

@@ -41,7 +41,7 @@ def screening(ctx: Context) -> Screening:
     excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
     ran = Screening(
         fidelity=ctx.own_fidelity("screening").get("fidelity"), design="plackett_burman",
-        n_runs=design.n_runs, alpha=opts.alpha, factors=ctx.factor_rows(),
+        n_runs=design.n_runs, alpha=opts.alpha, factors=list(ctx.factors),
         dummies=[f"dummy{j + 1}" for j in range(design.dummies.shape[1])],
         runs=run_rows(design, y, outcomes, per_point), excluded_points=excluded)
     try:

@@ -146,7 +146,7 @@ def rsm(ctx: Context) -> Surface:
     responses, response_warnings = _other_responses(ctx, design, recs, n_reps)
     warnings += response_warnings
     surface = Surface(
-        design=design_name, factors=rows, runs=design_rows, excluded_points=excluded,
+        design=design_name, factors=factors, runs=design_rows, excluded_points=excluded,
         replicates=n_reps, responses=responses, anova=table.to_records(),
         fit=table.fit.to_dict(), lack_of_fit_p=lof_p, adequacy=stats_, rounds=rounds,
         model=choice["model"], removed_terms=choice["removed_terms"],

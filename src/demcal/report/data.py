@@ -242,10 +242,7 @@ class ReportData:
     @property
     def symbols(self) -> dict[str, str]:
         """Parameter name -> paper-style symbol (from the factors of the meta and stages)."""
-        factors = list(self.factors)
-        for name in ("screening", "rsm"):  # the stages store their factors in the same shape
-            factors += [StudyFactor.from_summary(f) for f in
-                        self.stage(name).summary.get("factors") or [] if isinstance(f, dict)]
+        factors = [*self.factors, *(self.screening.factors or []), *self.surface.factors]
         out: dict[str, str] = {}
         for f in factors:
             if f.name and f.symbol:

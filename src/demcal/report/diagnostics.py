@@ -64,7 +64,7 @@ def refit(found: Screening | Surface, stage: str) -> ResponseSurface:
     InputError
         No factors or runs, or a model that cannot be fitted.
     """
-    names = [str(f["name"]) for f in found.factors or []]
+    names = [f.name for f in found.factors or []]
     runs = found.runs or []
     if not names or not runs:
         raise InputError(f"{stage}: the summary has no factors or runs to fit")

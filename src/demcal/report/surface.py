@@ -17,7 +17,7 @@ import numpy as np
 
 from demcal.doe import model_matrix, parse_term
 from demcal.errors import InputError
-from demcal.summaries import Surface
+from demcal.summaries import StudyFactor, Surface
 
 __all__ = ["StoredSurface", "significant_pairs"]
 
@@ -55,8 +55,8 @@ class StoredSurface:
     def from_summary(cls, summary: Mapping[str, Any]) -> StoredSurface:
         """Build from the stored ``rsm`` summary; InputError if its coefficients cannot be
         read."""
-        return cls.from_model(summary.get("factors") or [], summary.get("coefficients_coded")
-                              or {})
+        return cls.from_model([StudyFactor.from_summary(f) for f in summary.get("factors") or []],
+                              summary.get("coefficients_coded") or {})
 
     @classmethod
     def from_surface(cls, surface: Surface) -> StoredSurface:
@@ -68,14 +68,14 @@ class StoredSurface:
         return dataclasses.replace(surf, points=points)
 
     @classmethod
-    def from_model(cls, factors: Sequence[Mapping[str, Any]], coefs: Mapping[str, Any]
+    def from_model(cls, factors: Sequence[StudyFactor], coefs: Mapping[str, Any]
                    ) -> StoredSurface:
         """Build from the factors (``name``, ``symbol``, ``low``, ``high``) and the coded
         coefficients by term; InputError if the coefficients cannot be read."""
         if not factors or not coefs:
             raise InputError("rsm summary: factors and coefficients_coded are needed")
-        names = tuple(str(f["name"]) for f in factors)
-        symbols = tuple(str(f.get("symbol") or f["name"]) for f in factors)
+        names = tuple(f.name for f in factors)
+        symbols = tuple(f.symbol or f.name for f in factors)
         terms = None
         for labels in (names, symbols):
             try:
@@ -87,8 +87,8 @@ class StoredSurface:
             raise InputError(f"rsm summary: coefficient terms {list(coefs)} do not use the "
                              f"factor names {list(names)}")
         values = np.array([math.nan if v is None else float(v) for v in coefs.values()])
-        return cls(names, symbols, np.array([float(f["low"]) for f in factors]),
-                   np.array([float(f["high"]) for f in factors]), terms, values)
+        return cls(names, symbols, np.array([float(f.low) for f in factors]),
+                   np.array([float(f.high) for f in factors]), terms, values)
 
     def to_coded(self, actual: np.ndarray) -> np.ndarray:
         """Actual settings (..., k) -> coded."""
@@ -121,8 +121,8 @@ def significant_pairs(surface: Surface, alpha: float = 0.05,
     When fewer than ``at_least`` interactions are significant, the pairs of the most
     significant main effects fill in (so a surface is always drawn for 2+ factors).
     """
-    names = [str(f["name"]) for f in surface.factors]
-    symbols = [str(f.get("symbol") or f["name"]) for f in surface.factors]
+    names = [f.name for f in surface.factors]
+    symbols = [f.symbol or f.name for f in surface.factors]
     pvals: dict[tuple[int, ...], float] = {}
     for rec in surface.anova:
         term, p = rec.get("term"), rec.get("p")

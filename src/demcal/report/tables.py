@@ -23,6 +23,7 @@ from demcal.summaries import (
     RangeFind,
     Screening,
     Steepest,
+    StudyFactor,
     Surface,
     Target,
     Verification,
@@ -244,9 +245,9 @@ def rangefind_responses_table(found: RangeFind) -> Table | None:
 
 
 # ------------------------------------------------------------------------------------ screening
-def _factor_symbols(factors: Sequence[Mapping[str, Any]], symbols: Mapping[str, str]
+def _factor_symbols(factors: Sequence[StudyFactor], symbols: Mapping[str, str]
                    ) -> list[tuple]:
-    return [(f["name"], f.get("symbol") or symbols.get(f["name"], f["name"])) for f in factors]
+    return [(f.name, f.symbol or symbols.get(f.name, f.name)) for f in factors]
 
 
 def screening_design_table(found: Screening, symbols: Mapping[str, str]) -> Table:

@@ -9,6 +9,7 @@ from typing import Any
 
 from demcal.summaries._stored import _Keyed, _read, _stored
 from demcal.summaries.design import DesignRun, design_runs
+from demcal.summaries.study_meta import StudyFactor
 
 __all__ = ["Effect", "Screening", "ScreeningModel"]
 
@@ -92,8 +93,8 @@ class Screening:
         The design's runs.
     alpha : float or None
         The significance level the factors are selected at.
-    factors : list of dict or None
-        ``{"name", "symbol", "low", "high", "unit"}``: the ranges screened.
+    factors : list of StudyFactor or None
+        The ranges screened.
     dummies : list of str or None
         The design's unused columns.
     runs : list of DesignRun or None
@@ -121,7 +122,7 @@ class Screening:
     design: str | None = None
     n_runs: int | None = None
     alpha: float | None = None
-    factors: list[dict[str, Any]] | None = None
+    factors: list[StudyFactor] | None = None
     dummies: list[str] | None = None
     runs: list[DesignRun] | None = None
     excluded_points: list[int] | None = None
@@ -139,6 +140,8 @@ class Screening:
         items = _read(cls, summary or {})
         if items.get("runs") is not None:
             items["runs"] = design_runs(items["runs"])
+        if items.get("factors") is not None:
+            items["factors"] = [StudyFactor.from_summary(f) for f in items["factors"]]
         if items.get("effects") is not None:
             items["effects"] = [Effect.from_summary(e) for e in items["effects"]]
         if items.get("responses") is not None:
@@ -163,4 +166,4 @@ class Screening:
     @property
     def names(self) -> list[str]:
         """The screened factors' names, in the design's order."""
-        return [str(f["name"]) for f in self.factors or []]
+        return [f.name for f in self.factors or []]

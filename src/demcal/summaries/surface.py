@@ -10,6 +10,7 @@ from typing import Any
 
 from demcal.summaries._stored import _Flat, _known, _plain
 from demcal.summaries.design import DesignRun, design_runs
+from demcal.summaries.study_meta import StudyFactor
 
 __all__ = ["ResponseModel", "Surface"]
 
@@ -61,8 +62,8 @@ class Surface:
     ----------
     design : str or None
         ``"box_behnken"`` or ``"ccd"``.
-    factors : list of dict
-        ``{"name", "symbol", "low", "high", "unit"}``: the ranges the design spans.
+    factors : list of StudyFactor
+        The ranges the design spans.
     runs : list of DesignRun
         Per design point: its settings, the lead response's mean over the replicates, its
         outcome and each replicate's value.
@@ -95,7 +96,7 @@ class Surface:
     """
 
     design: str | None = None
-    factors: list[dict[str, Any]] = field(default_factory=list)
+    factors: list[StudyFactor] = field(default_factory=list)
     runs: list[DesignRun] = field(default_factory=list)
     excluded_points: list[int] = field(default_factory=list)
     replicates: int | None = None
@@ -129,6 +130,7 @@ class Surface:
                                   for name, r in items["responses"].items()}
         for name in ("factors", "excluded_points", "anova", "warnings"):
             items[name] = items.get(name) or []
+        items["factors"] = [StudyFactor.from_summary(f) for f in items["factors"]]
         items["runs"] = design_runs(items.get("runs"))
         for name in ("fit", "coefficients_coded", "coefficients_actual"):
             items[name] = items.get(name) or {}
@@ -137,7 +139,7 @@ class Surface:
     @property
     def names(self) -> list[str]:
         """The factors' names, in the design's order."""
-        return [str(f["name"]) for f in self.factors]
+        return [f.name for f in self.factors]
 
     @property
     def model_kind(self) -> str:
