@@ -5,9 +5,10 @@ For each fidelity (``quick``, ``standard``) it runs, one run at a time in this p
 - ``--seeds`` replicates at the base point: the seed-to-seed standard deviation of the dynamic
   angle (and of the centre-of-mass angle), the mean surface fluctuation, the CPU time per run
   (``time.process_time``: all threads of this process, robust to other load) and its wall time;
-- ``--pair-seeds`` replicates at each end of two one-factor contrasts: particle-particle
-  sliding friction 0.3 against 0.7 and rolling friction 0.03 against 0.2, each contrast's
-  difference with its standard error (from the two ends' seed-to-seed scatter).
+- ``--pair-seeds`` replicates at each end of three one-factor contrasts: particle-particle
+  sliding friction 0.3 against 0.7, rolling friction 0.03 against 0.2 and surface energy 0
+  against 5e-4 J/m^2, each contrast's difference with its standard error (from the two ends'
+  seed-to-seed scatter).
 
 The base point is the ``corn_stalk_dry`` preset on a rough wall (``pw.static_friction`` 0.9:
 a drum's wall is roughened so that it carries the bed; at the preset's 0.55 the wall caps the
@@ -20,6 +21,8 @@ Usage::
     python benchmarks/drum_precision.py --fidelities quick --seeds 4 --pair-seeds 2
     python benchmarks/drum_precision.py --fidelities standard --drum frames=100 \
         --contrasts sliding_friction
+    python benchmarks/drum_precision.py --fidelities standard --drum frames=100 --seeds 0 \
+        --contrasts cohesion --json benchmarks/results/drum_cohesion_standard.json
 """
 
 from __future__ import annotations
@@ -41,6 +44,8 @@ BASE = {"pw.static_friction": 0.9}
 CONTRASTS = {
     "sliding_friction": ("pp.static_friction", 0.3, 0.7),
     "rolling_friction": ("pp.rolling_friction", 0.03, 0.2),
+    # the corn-stalk standard studies' range of surface energy (JKR cohesion), J/m^2
+    "cohesion": ("pp.surface_energy", 0.0, 5e-4),
 }
 
 
