@@ -192,6 +192,14 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
     drum = [s for s in res["shrinkage"] if s["response"] == "drum_deg"]
     assert {s["basis"] for s in drum} == {"runs"}  # the runs beat the statement
     assert any("candidate drum_deg: the runs report it" in n for n in res["notes"])
+    # the report says what each expectation is estimated from
+    from demcal.report import build_report
+
+    build_report(tmp_path)
+    table = json.loads((tmp_path / "report" / "report.json").read_text())["tables"][
+        "bayes_shrinkage"]
+    basis = [row[table["columns"].index("estimated from")] for row in table["rows"]]
+    assert "stated slopes (its planted slopes)" in basis and "the runs' surrogate" in basis
 
 
 def test_a_stable_ridge_stops_before_the_budget(tmp_path: Path) -> None:
