@@ -156,7 +156,8 @@ def test_the_stage_and_the_runs_are_stored(three: tuple[Path, dict]) -> None:
 #: the stored keys of the stage "bayes" (and of the result JSON), in their order
 BAYES_KEYS = ("posterior", "correlation", "acceptance_fraction", "map", "warnings",
               "identifiable", "reason", "n_runs", "stopped", "ridges", "ridge", "shrinkage",
-              "history", "optimum", "predicted", "labs", "notes", "settings", "units", "marks")
+              "history", "optimum", "predicted", "labs", "notes", "settings", "units", "marks",
+              "advice")
 
 
 #: the analytic drum's own slopes (test_several_responses.ANALYTIC) stated as a test the study
@@ -192,6 +193,9 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
     drum = [s for s in res["shrinkage"] if s["response"] == "drum_deg"]
     assert {s["basis"] for s in drum} == {"runs"}  # the runs beat the statement
     assert any("candidate drum_deg: the runs report it" in n for n in res["notes"])
+    # what to do next, per ridge, in a sentence (the command prints it)
+    advice = next(a for a in res["advice"] if friction[0]["text"] in a)
+    assert "would shrink it most" in advice and "drum_deg" in advice, res["advice"]
     # the report says what each expectation is estimated from
     from demcal.report import build_report
 

@@ -265,6 +265,27 @@ def _shrinkage(res: bayes.BayesResult, cands: Sequence[bayes.Candidate],
                          source=sources.get(s.response)) for s in rows]
 
 
+#: Below this expected shrinkage a candidate is said not to help much.
+HELPS = 0.2
+
+
+def _advice(rows: Sequence[ShrinkageRow]) -> list[str]:
+    """Per ridge (in order), the candidate that would shrink it most, in a sentence: what a
+    study of the angle alone does next."""
+    out = []
+    for ridge in dict.fromkeys(r.ridge for r in rows):
+        best = max((r for r in rows if r.ridge == ridge), key=lambda r: r.shrinkage)
+        basis = "its stated slopes" if best.basis == "stated" else "the runs' surrogate"
+        if best.shrinkage >= HELPS:
+            out.append(f"'{ridge}': adding {best.response} would shrink it most "
+                       f"({100 * best.shrinkage:.0f} % expected, from {basis})")
+        else:
+            out.append(f"'{ridge}': no candidate would shrink it much (best {best.response}, "
+                       f"{100 * best.shrinkage:.0f} %, from {basis}); it needs a test that weighs "
+                       "these parameters differently")
+    return out
+
+
 def _predicted(res: bayes.BayesResult) -> dict[str, BayesPrediction]:
     """Each surrogate's mean response and its standard deviation at the best point."""
     out = {}
@@ -352,7 +373,8 @@ def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequ
         map=dict(zip(names, map(float, post.factors.to_actual(post.map_point)), strict=True)),
         warnings=list(post.warnings), identifiable=verdict.identifiable, reason=verdict.reason,
         n_runs=res.n_runs, stopped=res.stopped, ridges=ridges, ridge=[r.text for r in ridges],
-        shrinkage=shrink, history=_history(res), optimum=res.best_point_actual,
+        shrinkage=shrink, advice=_advice(shrink), history=_history(res),
+        optimum=res.best_point_actual,
         predicted=_predicted(res),
         labs={r.name: BayesLab(mean=r.mean, standard_error=r.standard_error, unit=r.unit)
               for r in labs},

@@ -115,11 +115,9 @@ def _print_bayes(result: dict) -> None:
                       f"{p['ci95_low']:.4g}-{p['ci95_high']:.4g}", highlight=False)
     console.print(f"{result['reason']} ({result['n_runs_strategy']} runs, stopped by "
                   f"{result['stopped']})", highlight=False)
-    for s in result.get("shrinkage") or []:
-        basis = ("from its stated slopes" if s.get("basis") == "stated"
-                 else "from the runs' surrogate")
-        console.print(f"adding {s['response']} would shrink the ridge '{s['ridge']}' by "
-                      f"{s['shrinkage']:.0%} (expected, {basis})", highlight=False)
+    # per ridge, the candidate that helps most (every pair: the result's shrinkage, the report)
+    for line in result.get("advice") or []:
+        console.print(line, highlight=False)
 
 
 def _print_rounds(result: dict) -> None:

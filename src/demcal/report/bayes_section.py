@@ -80,6 +80,7 @@ class BayesView:
     samples: dict[str, tuple[float, ...]]
     slices: dict[str, dict[str, SurrogateSlice]]
     marks: tuple[MarkedPoint, ...] = ()
+    advice: tuple[str, ...] = ()
 
     @property
     def names(self) -> list[str]:
@@ -114,7 +115,7 @@ def bayes_view(summary: Mapping[str, Any]) -> BayesView | None:
         predicted={n: float(v.mean) for n, v in s.predicted.items()},
         notes=tuple(s.notes), warnings=tuple(s.warnings),
         samples={n: tuple(map(float, v)) for n, v in s.samples.items()},
-        slices=s.slices, marks=tuple(s.marks))
+        slices=s.slices, marks=tuple(s.marks), advice=tuple(s.advice))
 
 
 def _basis(row: ShrinkageRow) -> str:
@@ -280,6 +281,7 @@ class _Builder(Protocol):
 
 def _verdict(view: BayesView) -> str:
     ridges = "".join(f"<li>ridge: {escape(r)}</li>" for r in view.ridges)
+    ridges += "".join(f"<li>next test: {escape(a)}</li>" for a in view.advice)
     notes = "".join(f'<p class="warn">{escape(n)}</p>' for n in (*view.warnings, *view.notes))
     return (f"<p><b>Verdict:</b> {escape(view.reason)} ({view.n_runs} runs, stopped by "
             f"{escape(view.stopped)}).</p>"

@@ -204,6 +204,8 @@ class BayesSummary:
     units : dict of str to str
         Each factor's unit.
     marks : list of MarkedPoint
+    advice : list of str
+        Per ridge (or widest axis), the candidate that would shrink it most, in a sentence.
     samples : dict of str to list of float
         Thinned posterior samples by factor (the corner plot's).
     slices : dict of str to dict of str to SurrogateSlice
@@ -230,6 +232,7 @@ class BayesSummary:
     settings: dict[str, Any] = field(default_factory=dict)
     units: dict[str, str] = field(default_factory=dict)
     marks: list[MarkedPoint] = field(default_factory=list)
+    advice: list[str] = field(default_factory=list)
     samples: dict[str, list[float]] = field(default_factory=dict)
     slices: dict[str, dict[str, SurrogateSlice]] = field(default_factory=dict)
 
