@@ -28,6 +28,7 @@ from demcal.summaries import (
     Verification,
     Versions,
 )
+from demcal.summaries.physical_meta import PhysicalMeta
 
 __all__ = ["META_KEYS", "STAGES", "Lead", "ReportData", "StageView", "load_report_data"]
 
@@ -185,6 +186,11 @@ class ReportData:
         """The study's factors and their ranges as it gave them (meta ``factors``)."""
         return [StudyFactor.from_summary(f) for f in self.meta.get("factors") or []
                 if isinstance(f, dict)]
+
+    @property
+    def physical(self) -> PhysicalMeta:
+        """What the bench measured and derived (meta ``physical``; empty without)."""
+        return PhysicalMeta.from_summary(self.meta.get("physical"))
 
     @property
     def fixed_params(self) -> dict[str, float]:

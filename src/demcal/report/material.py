@@ -24,6 +24,7 @@ from demcal.report.data import Lead, ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
 from demcal.summaries import Optimum, Target, Verification, by_key, stored_key
 from demcal.summaries.bayes import BayesSummary
+from demcal.summaries.physical_meta import MeasuredQuantity
 from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
@@ -245,11 +246,11 @@ def _range_text(lo: Any, hi: Any) -> str:
     return f"{format_cell(a)}-{format_cell(b)}"
 
 
-def _spread_text(s: Mapping[str, Any]) -> str:
-    n = s.get("n_repeats")
-    if s.get("range_only"):
-        return f"n = {n}, range {_range_text(s.get('min'), s.get('max'))}"
-    std = _num(s.get("std"))
+def _spread_text(s: MeasuredQuantity) -> str:
+    n = s.n_repeats
+    if s.range_only:
+        return f"n = {n}, range {_range_text(s.minimum, s.maximum)}"
+    std = _num(s.std)
     out = f"n = {n}"
     if std is not None:
         out += f", std {format_cell(std)}"
@@ -263,36 +264,33 @@ def parameter_table(data: ReportData, card: MaterialCard | None = None) -> Table
     study's, after range finding); ``source`` is measured (with n and spread), literature
     or the material preset; ``used`` is the value in the material card.
     """
-    derived = ((data.meta.get("physical") or {}).get("derived") or {})
-    rows_by_name = {str(r.get("name")): r for r in derived.get("table") or []
-                    if isinstance(r, Mapping)}
-    summaries = derived.get("summaries") or {}
+    bench = data.physical
     factors = {f.name: f for f in data.factors}
     ranges = (data.meta.get("result") or {}).get("ranges") or {}
     fixed = data.fixed_params
     preset, overrides = data.study.material.preset, data.study.material.overrides
     rows = []
     for name, spec in PARAMETERS.items():
-        phys = rows_by_name.get(name) or {}
+        phys = bench.rows.get(name)
         given = factors.get(name)
-        symbol = (given.symbol if given else None) or phys.get("symbol") or spec.symbol
+        symbol = (given.symbol if given else None) or (phys and phys.symbol) or spec.symbol
         if given is not None:
             lo, hi = given.low, given.high
             value = _range_text(lo, hi)
             if name in ranges and list(ranges[name]) != [lo, hi]:
                 value += f" (searched {_range_text(*ranges[name])})"
-            source = phys.get("source") or "range given in the study"
+            source = (phys and phys.source) or "range given in the study"
         elif name in fixed:
             value = format_cell(_num(fixed[name]))
-            source = phys.get("source") or ("study file" if name in overrides or not preset
-                                            else f"material preset {preset}")
+            source = (phys and phys.source) or ("study file" if name in overrides or not preset
+                                                else f"material preset {preset}")
         elif phys:
-            value = phys.get("display", "")
-            source = phys.get("source", "")
+            value = phys.display or ""
+            source = phys.source or ""
         else:
             value, source = "", "not stored"
-        s = summaries.get(name)
-        if isinstance(s, Mapping) and "measured" in str(source) and "n =" not in str(source):
+        s = bench.summaries.get(name)
+        if s is not None and "measured" in str(source) and "n =" not in str(source):
             source = f"{source}; {_spread_text(s)}"
         used = card.parameters.get(name) if card is not None else None
         rows.append({"parameter": spec.description, "symbol": symbol, "value or range": value,
@@ -309,18 +307,15 @@ def parameter_table(data: ReportData, card: MaterialCard | None = None) -> Table
 
 def measurements_table(data: ReportData) -> Table:
     """The lab measurements, compact: quantity, unit, mean ± std, n, 95 % interval, range."""
-    derived = ((data.meta.get("physical") or {}).get("derived") or {})
-    summaries = dict(derived.get("summaries") or {})
+    bench = data.physical
     rows, names = [], set()
-    for key, s in summaries.items():
-        if isinstance(s, Mapping):
-            names.add(str(s.get("name") or key))
-            rows.append(_measurement_row(str(s.get("name") or key), s))
+    for key, s in bench.summaries.items():
+        names.add(str(s.name or key))
+        rows.append(_measurement_row(str(s.name or key), s))
     t = data.target or Target()
     if t.aor_deg is not None and "aor_deg" not in names:
-        tgt = derived.get("target_aor_deg")
-        if isinstance(tgt, Mapping):
-            rows.append(_measurement_row("aor_deg", tgt))
+        if bench.target_aor is not None:
+            rows.append(_measurement_row("aor_deg", bench.target_aor))
         else:
             rows.append({"quantity": "angle of repose (target)", "unit": "deg",
                          "mean": _num(t.aor_deg), "std": _num(t.std_deg),
@@ -348,14 +343,14 @@ def measurement_label(name: str) -> str:
     return f"{text} ({_WHO.get(who, who)})" if who else text
 
 
-def _measurement_row(name: str, s: Mapping[str, Any]) -> dict[str, Any]:
+def _measurement_row(name: str, s: MeasuredQuantity) -> dict[str, Any]:
     label = measurement_label(name)
-    level = _num(s.get("ci_level"))
-    lo, hi = _num(s.get("ci_low")), _num(s.get("ci_high"))
+    level = _num(s.ci_level)
+    lo, hi = _num(s.ci_low), _num(s.ci_high)
     ci = "" if lo is None or hi is None else _range_text(lo, hi)
     if ci and level is not None and not math.isclose(level, 0.95):
         ci += f" ({level * 100:g} %)"
-    return {"quantity": label, "unit": s.get("unit") or "-", "mean": _num(s.get("mean")),
-            "std": _num(s.get("std")), "n": s.get("n_repeats"), "95 % interval": ci,
-            "range": "" if _num(s.get("min")) == _num(s.get("max"))
-            else _range_text(s.get("min"), s.get("max"))}
+    return {"quantity": label, "unit": s.unit or "-", "mean": _num(s.mean),
+            "std": _num(s.std), "n": s.n_repeats, "95 % interval": ci,
+            "range": "" if _num(s.minimum) == _num(s.maximum)
+            else _range_text(s.minimum, s.maximum)}
