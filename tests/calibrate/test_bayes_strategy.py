@@ -204,6 +204,10 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
         "bayes_shrinkage"]
     basis = [row[table["columns"].index("estimated from")] for row in table["rows"]]
     assert "stated slopes (its planted slopes)" in basis and "the runs' surrogate" in basis
+    from demcal.virtual.material_card import read_material_card
+
+    card = read_material_card(tmp_path / "report" / "material.toml")
+    assert card.posterior["advice"] == res["advice"] and res["advice"]
 
 
 def test_a_stable_ridge_stops_before_the_budget(tmp_path: Path) -> None:
@@ -430,6 +434,7 @@ def test_the_material_card_holds_the_posterior(three: tuple[Path, dict]) -> None
     assert card == read_material_card(json_path)  # both files read back the same card
     post = card.posterior
     assert post["identifiable"] is True and post["ridge"] == []
+    assert post["advice"] == res["advice"]
     assert post["parameters"] == res["posterior"] and post["correlation"] == res["correlation"]
     assert all(card.parameters[n] == res["optimum_full"][n] for n in FACTORS)
     assert '[posterior.parameters."pp.static_friction"]' in toml_path.read_text()

@@ -181,12 +181,14 @@ def material_card(data: ReportData) -> MaterialCard | None:
 
 def _posterior_block(stored: Mapping[str, Any]) -> dict[str, Any]:
     """The card's [posterior] from a Bayesian study's stage summary ({} for a DOE study):
-    the verdict, the ridges, each parameter's interval and the correlation (SI)."""
+    the verdict, the ridges, what would shrink each, each parameter's interval and the
+    correlation (SI)."""
     bayes = BayesSummary.from_summary(stored)
     if bayes is None or not bayes.posterior:
         return {}
     return {"identifiable": bool(bayes.identifiable), "reason": str(bayes.reason),
             "ridge": [str(r) for r in bayes.ridge],
+            "advice": [str(a) for a in bayes.advice],
             "parameters": {n: {k: float(v) for k, v in p.to_summary().items()}
                            for n, p in bayes.posterior.items()},
             "correlation": {a: {b: float(r) for b, r in row.items()}
