@@ -251,6 +251,8 @@ def test_the_doe_path_is_unchanged_by_a_default_strategy(tmp_path: Path) -> None
      "standard_error = 0", "strategy.candidates.0.standard_error"),
     ('[[strategy.candidates]]\nname = "aor_deg"\nslopes = { "pp.static_friction" = 1.0 }\n'
      "standard_error = 0.5", "already aims at this response"),
+    ('[[strategy.candidates]]\nname = "pile_formed"\nslopes = { "pp.static_friction" = 1.0 }\n'
+     "standard_error = 0.5", "keeps for its pile indicator"),
 ])
 def test_bad_strategy_settings_are_one_line_and_exit_2(tmp_path: Path, setting: str,
                                                        field: str) -> None:

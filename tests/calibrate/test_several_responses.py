@@ -165,6 +165,7 @@ def test_result_json_names_every_response(tmp_path: Path) -> None:
      "low must be < high"),
     ('\n[[responses]]\nname = "x"\ntarget = 1.0\nimportance = 9\n', "importance"),
     ('\n[[responses]]\nname = "aor_deg"\ntarget = 40.0\n', "both give the angle"),
+    ('\n[[responses]]\nname = "pile_formed"\ntarget = 1.0\n', "pile indicator"),
 ])
 def test_bad_responses_get_one_line_and_exit_2(tmp_path: Path, extra: str, message: str
                                                 ) -> None:

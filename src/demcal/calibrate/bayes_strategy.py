@@ -32,7 +32,7 @@ import numpy as np
 from demcal import doe
 from demcal.calibrate import refine
 from demcal.calibrate import stages as st
-from demcal.calibrate.responses import LabValue, ResponseSpec
+from demcal.calibrate.responses import PILE, LabValue, ResponseSpec
 from demcal.calibrate.runner import Point
 from demcal.doe import bayes
 from demcal.errors import InputError, StudyError
@@ -65,8 +65,8 @@ STORED_SAMPLES = 800
 #: outcome (as the DOE path's pile classifier counts them), that the posterior conditions
 #: on being 1 (the lab formed a pile) with :data:`PILE_SE`. A run without a pile has no
 #: angle, so without it the surrogates would extrapolate the angle into the region where
-#: no pile forms and the posterior would sit there as happily as anywhere.
-PILE = "pile_formed"
+#: no pile forms and the posterior would sit there as happily as anywhere (its name:
+#: :data:`demcal.calibrate.responses.PILE`).
 #: Its standard error: where the indicator's surrogate reads 0.5 (the pile boundary) the
 #: likelihood is exp(-0.5 * 0.5^2 / 0.2^2) = 4 % of its value among piles; at 0, 4e-6.
 PILE_SE = 0.2

@@ -41,9 +41,22 @@ __all__ = ["AOR", "LabValue", "ResponseSpec", "aor_spec", "load_goals", "read_re
 
 #: The lift test's own response: its angle of repose, deg.
 AOR = ANGLE
+#: The Bayesian strategy's pile indicator, a pseudo-response (demcal.calibrate.bayes_strategy):
+#: a name no study response or candidate may take.
+PILE = "pile_formed"
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
 #: At most this many repeats in a measurements file.
 MAX_REPEATS = 100_000
+
+
+def _check_name(name: str) -> None:
+    """A response's name: a key a test can report, and not the pile indicator's."""
+    if not _NAME.match(name):
+        raise ValueError(f"name must be a letter or _ then letters, digits, _ or . (at most "
+                         f"64); got {name!r}")
+    if name == PILE:
+        raise ValueError(f"name {PILE!r} is the Bayesian strategy's pile indicator; name "
+                         "the response the test reports")
 
 
 class LabValue(BaseModel):
@@ -84,9 +97,7 @@ class ResponseSpec(BaseModel):
 
     @model_validator(mode="after")
     def _consistent(self) -> ResponseSpec:
-        if not _NAME.match(self.name):
-            raise ValueError(f"name must be a letter or _ then letters, digits, _ or . (at most "
-                             f"64); got {self.name!r}")
+        _check_name(self.name)
         for field in ("target", "std", "low", "high"):
             v = getattr(self, field)
             if v is not None and not math.isfinite(v):

@@ -36,7 +36,7 @@ from pydantic import (
     model_validator,
 )
 
-from demcal.calibrate.responses import AOR, ResponseSpec
+from demcal.calibrate.responses import AOR, PILE, ResponseSpec
 from demcal.errors import InputError, validation_message
 from demcal.execute.engine_spec import EngineSpec
 from demcal.limits import MAX_CHUNK, MAX_INPUT_FILE_BYTES, MAX_STUDY_SEED
@@ -661,6 +661,9 @@ def _check_candidates(study: Study) -> None:
         if c.name in aimed:
             raise InputError(f"study: strategy.candidates {c.name!r}: the study already aims at "
                              "this response; a candidate is a test it could add")
+        if c.name == PILE:  # the Bayesian strategy's own pile indicator
+            raise InputError(f"study: strategy.candidates {PILE!r}: a name the Bayesian "
+                             "strategy keeps for its pile indicator; name the test's response")
 
 
 def _read_mark(mark: Mark, base: Path | None) -> None:
