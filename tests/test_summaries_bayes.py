@@ -33,6 +33,7 @@ def _stored(marks: bool = True) -> dict:
         "units": {"a": "-", "b": "-"},
         "marks": [{"label": "DOE", "values": {"a": 0.45, "b": 0.12}, "in_box": True,
                    "credibility": 0.3, "inside95": True}],
+        "combinations": [{"responses": ["drum_deg"], "ridges": []}],
         "advice": ["'a up 0.1 = b down 0.03': adding drum_deg would shrink it most (60 % "
                    "expected, from its stated slopes)"],
         "samples": {"a": [0.5, 0.6], "b": [0.1, 0.09]},
@@ -40,7 +41,7 @@ def _stored(marks: bool = True) -> dict:
                                      "std": [0.5, 0.5]}}},
     }
     if not marks:  # a store written before marks and advice
-        del out["marks"], out["advice"]
+        del out["marks"], out["combinations"], out["advice"]
     return out
 
 
@@ -63,7 +64,7 @@ def test_an_older_store_without_marks_and_no_posterior_read():
     for row in old["shrinkage"]:  # written before stated candidates
         del row["basis"], row["source"]
     s = BayesSummary.from_summary(old)
-    assert s is not None and s.marks == [] and s.advice == []
+    assert s is not None and s.marks == [] and s.advice == [] and s.combinations == []
     assert s.shrinkage[0].basis == "runs" and s.shrinkage[0].source is None
     assert BayesSummary.from_summary(None) is None
     assert BayesSummary.from_summary({"error": "failed"}) is None

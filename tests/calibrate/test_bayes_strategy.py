@@ -157,7 +157,7 @@ def test_the_stage_and_the_runs_are_stored(three: tuple[Path, dict]) -> None:
 BAYES_KEYS = ("posterior", "correlation", "acceptance_fraction", "map", "warnings",
               "identifiable", "reason", "n_runs", "stopped", "ridges", "ridge", "shrinkage",
               "history", "optimum", "predicted", "labs", "notes", "settings", "units", "marks",
-              "advice")
+              "combinations", "advice")
 
 
 #: the analytic drum's own slopes (test_several_responses.ANALYTIC) stated as a test the study
@@ -196,6 +196,13 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
     # what to do next, per ridge, in a sentence (the command prints it)
     advice = next(a for a in res["advice"] if friction[0]["text"] in a)
     assert "would shrink it most" in advice and "drum_deg" in advice, res["advice"]
+    # the planted drum and bulk density together pin all three factors (the three-response
+    # study of test_three_responses_pin_the_planted_point does); one of them alone does not
+    combos = {tuple(c["responses"]): c for c in res["combinations"]}
+    assert combos[("bulk_density_kg_m3", "drum_deg")]["ridges"] == [], combos
+    assert combos[("drum_deg",)]["ridges"], combos
+    assert res["advice"][-1].startswith("adding ") and "would pin every parameter" in \
+        res["advice"][-1], res["advice"]
     # the report says what each expectation is estimated from
     from demcal.report import build_report
 
@@ -204,6 +211,10 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
         "bayes_shrinkage"]
     basis = [row[table["columns"].index("estimated from")] for row in table["rows"]]
     assert "stated slopes (its planted slopes)" in basis and "the runs' surrogate" in basis
+    pairs = json.loads((tmp_path / "report" / "report.json").read_text())["tables"][
+        "bayes_combinations"]
+    assert ["bulk_density_kg_m3 + drum_deg", "none: every parameter pinned"] in [
+        row[:2] for row in pairs["rows"]]
     from demcal.virtual.material_card import read_material_card
 
     card = read_material_card(tmp_path / "report" / "material.toml")

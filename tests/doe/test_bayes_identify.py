@@ -18,6 +18,7 @@ from demcal.doe.bayes import (
     fit_surrogate,
     identify,
     ridge_shrinkage,
+    ridges_after,
     sample_posterior,
 )
 from demcal.doe.bayes.identifiability import _chord
@@ -73,6 +74,29 @@ def test_the_density_test_is_reported_to_shrink_the_ridge_and_an_unrelated_one_n
     assert abs(by_name["x3_only"].shrinkage) < 0.2, by_name["x3_only"]
     assert by_name["density"].ridge == ridge.text
     assert by_name["density"].effective_samples > 30
+
+
+def test_what_the_tests_would_leave_with_one_or_two_more(angle_alone):
+    """The angle alone leaves two ridges; the density test alone pins rolling friction (one
+    ridge left), density and drum together pin all three factors, as the three-response
+    calibration below does; a test that sees only restitution leaves the friction ridge."""
+    res = angle_alone
+    assert len(res.identifiability.ridges) == 2
+    density = Candidate("density", fit_surrogate(
+        "density", res.x, engine(("density",), seed=3)(res.x)["density"]), 0.15)
+    drum = Candidate("drum", fit_surrogate(
+        "drum", res.x, engine(("drum",), seed=5)(res.x)["drum"]), 0.15)
+    one = ridges_after(res.posterior, [density])
+    both = ridges_after(res.posterior, [density, drum])
+    assert one.responses == ("density",) and both.responses == ("density", "drum")
+    assert len(one.ridges) == 1, one
+    assert both.ridges == (), both
+    # nothing added: the verdict's own ridges, by the Gaussian extent
+    assert len(ridges_after(res.posterior, []).ridges) == 2
+    x3_only = Candidate("x3_only", Sensitivity((0.0, 0.0, 4.0)), 0.15)
+    left = ridges_after(res.posterior, [x3_only])
+    assert any({"static_friction", "rolling_friction"} <= set(r.parameters)
+               for r in left.ridges), left
 
 
 def test_three_responses_are_identifiable(angle_alone):

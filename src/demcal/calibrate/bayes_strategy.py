@@ -22,6 +22,7 @@ of 44.1 deg, has 0.76 deg, 1.7 %). Either default is said in the result's ``note
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -43,6 +44,7 @@ from demcal.summaries.bayes import (
     BayesPrediction,
     BayesRound,
     BayesSummary,
+    CombinationRow,
     MarkedPoint,
     PosteriorInterval,
     RidgeRow,
@@ -267,11 +269,37 @@ def _shrinkage(res: bayes.BayesResult, cands: Sequence[bayes.Candidate],
 
 #: Below this expected shrinkage a candidate is said not to help much.
 HELPS = 0.2
+def _combinations(res: bayes.BayesResult,
+                  cands: Sequence[bayes.Candidate]) -> list[CombinationRow]:
+    """Each candidate alone and each pair: the ridges the tests would leave with them
+    (none for an identifiable posterior: nothing to pin)."""
+    if res.identifiability.identifiable:
+        return []
+    sets = [(c,) for c in cands] + list(itertools.combinations(cands, 2))
+    out = []
+    for group in sets:
+        r = bayes.ridges_after(res.posterior, group)
+        out.append(CombinationRow(responses=list(r.responses), ridges=[x.text for x in r.ridges]))
+    return out
 
 
-def _advice(rows: Sequence[ShrinkageRow]) -> list[str]:
-    """Per ridge (in order), the candidate that would shrink it most, in a sentence: what a
-    study of the angle alone does next."""
+def _pinning(rows: Sequence[CombinationRow]) -> str | None:
+    """The fewest candidates that would pin every parameter, in a sentence (or the set that
+    leaves fewest ridges, and what it leaves)."""
+    if not rows:
+        return None
+    best = min(rows, key=lambda r: (len(r.ridges), len(r.responses)))
+    added = " and ".join(best.responses)
+    if not best.ridges:
+        return f"adding {added} would pin every parameter (expected: no ridge left)"
+    return (f"no one or two of the candidates would pin every parameter: adding {added} "
+            f"would still leave {'; '.join(best.ridges)} (expected)")
+
+
+def _advice(rows: Sequence[ShrinkageRow], combos: Sequence[CombinationRow] = ()) -> list[str]:
+    """Per ridge (in order), the candidate that would shrink it most, then the fewest
+    candidates that would pin every parameter, in sentences: what a study of the angle
+    alone does next."""
     out = []
     for ridge in dict.fromkeys(r.ridge for r in rows):
         best = max((r for r in rows if r.ridge == ridge), key=lambda r: r.shrinkage)
@@ -283,7 +311,8 @@ def _advice(rows: Sequence[ShrinkageRow]) -> list[str]:
             out.append(f"'{ridge}': no candidate would shrink it much (best {best.response}, "
                        f"{100 * best.shrinkage:.0f} %, from {basis}); it needs a test that weighs "
                        "these parameters differently")
-    return out
+    pin = _pinning(combos)
+    return [*out, pin] if pin else out
 
 
 def _predicted(res: bayes.BayesResult) -> dict[str, BayesPrediction]:
@@ -373,7 +402,7 @@ def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequ
         map=dict(zip(names, map(float, post.factors.to_actual(post.map_point)), strict=True)),
         warnings=list(post.warnings), identifiable=verdict.identifiable, reason=verdict.reason,
         n_runs=res.n_runs, stopped=res.stopped, ridges=ridges, ridge=[r.text for r in ridges],
-        shrinkage=shrink, advice=_advice(shrink), history=_history(res),
+        shrinkage=shrink, history=_history(res),
         optimum=res.best_point_actual,
         predicted=_predicted(res),
         labs={r.name: BayesLab(mean=r.mean, standard_error=r.standard_error, unit=r.unit)
@@ -434,9 +463,11 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     sources = {c.name: c.source for c in ctx.study.strategy.candidates
                if c.name in {s.name for s in stated}}
     shrink = _shrinkage(res, [*cands, *stated], cfg.seed, sources)
+    combos = _combinations(res, [*cands, *stated])
     notes = [*notes, *stated_notes]
     summary = replace(_summary(res, labs, notes, shrink, cfg),
-                       marks=_marks(ctx, res, labs, space))
+                      marks=_marks(ctx, res, labs, space), combinations=combos,
+                      advice=_advice(shrink, combos))
     ctx.store.set_stage(STAGE, "done", summary.to_summary(), inputs_hash=h)
     ver = _verify(ctx, res, summary.predicted)
     return _result(ctx, summary, ver)

@@ -81,6 +81,7 @@ class BayesView:
     slices: dict[str, dict[str, SurrogateSlice]]
     marks: tuple[MarkedPoint, ...] = ()
     advice: tuple[str, ...] = ()
+    combinations: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = ()
 
     @property
     def names(self) -> list[str]:
@@ -115,7 +116,8 @@ def bayes_view(summary: Mapping[str, Any]) -> BayesView | None:
         predicted={n: float(v.mean) for n, v in s.predicted.items()},
         notes=tuple(s.notes), warnings=tuple(s.warnings),
         samples={n: tuple(map(float, v)) for n, v in s.samples.items()},
-        slices=s.slices, marks=tuple(s.marks), advice=tuple(s.advice))
+        slices=s.slices, marks=tuple(s.marks), advice=tuple(s.advice),
+        combinations=tuple((tuple(c.responses), tuple(c.ridges)) for c in s.combinations))
 
 
 def _basis(row: ShrinkageRow) -> str:
@@ -163,6 +165,15 @@ def _shrinkage_table(view: BayesView) -> Table:
                       "states the slopes of ([[strategy.candidates]]); 0: no help, 1: gone")
 
 
+def _combinations_table(view: BayesView) -> Table:
+    frame = pd.DataFrame([{"responses added": " + ".join(added),
+                           "ridges left": "; ".join(ridges) or "none: every parameter pinned"}
+                          for added, ridges in view.combinations])
+    return Table("bayes_combinations", "What one or two more responses would leave", frame,
+                 note="a linear-Gaussian update of the posterior by each response's slopes "
+                      "and lab standard error (expected, not measured)")
+
+
 def _marks_table(view: BayesView) -> Table:
     frame = pd.DataFrame([{"point": m.label, **m.values,
                            "inside the 95 % region": "yes" if m.inside95 else "no",
@@ -175,13 +186,15 @@ def _marks_table(view: BayesView) -> Table:
 
 
 def bayes_tables(view: BayesView) -> list[Table]:
-    """The section's tables: posterior, correlation, responses, marked points and
-    shrinkage (if any), rounds."""
+    """The section's tables: posterior, correlation, responses, marked points, shrinkage
+    and what one or two more responses would leave (if any), rounds."""
     out = [_posterior_table(view), _correlation_table(view), _responses_table(view)]
     if view.marks:
         out.append(_marks_table(view))
     if view.shrinkage:
         out.append(_shrinkage_table(view))
+    if view.combinations:
+        out.append(_combinations_table(view))
     return [*out, _history_table(view)]
 
 

@@ -20,7 +20,8 @@ from typing import Any
 
 from demcal.summaries._stored import _KeyedEvery, _plain
 
-__all__ = ["BayesLab", "BayesPrediction", "BayesRound", "BayesSummary", "MarkedPoint",
+__all__ = ["BayesLab", "BayesPrediction", "BayesRound", "BayesSummary", "CombinationRow",
+           "MarkedPoint",
            "PosteriorInterval", "RidgeRow", "ShrinkageRow", "SurrogateSlice"]
 
 
@@ -87,6 +88,23 @@ class ShrinkageRow(_KeyedEvery):
     effective_samples: float = float("nan")
     basis: str = "runs"
     source: str | None = None
+
+
+@dataclass(frozen=True)
+class CombinationRow(_KeyedEvery):
+    """What the tests would leave if the study added some candidates together.
+
+    Attributes
+    ----------
+    responses : list of str
+        The candidates added (one or two).
+    ridges : list of str
+        The ridges they would leave, in words (empty: every parameter pinned), by a
+        linear-Gaussian update of the posterior (:func:`demcal.doe.bayes.ridges_after`).
+    """
+
+    responses: list[str] = field(default_factory=list)
+    ridges: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -204,8 +222,11 @@ class BayesSummary:
     units : dict of str to str
         Each factor's unit.
     marks : list of MarkedPoint
+    combinations : list of CombinationRow
+        Each candidate alone and each pair of them: the ridges they would leave.
     advice : list of str
-        Per ridge (or widest axis), the candidate that would shrink it most, in a sentence.
+        Per ridge (or widest axis), the candidate that would shrink it most, and the fewest
+        candidates that would pin every parameter, in sentences.
     samples : dict of str to list of float
         Thinned posterior samples by factor (the corner plot's).
     slices : dict of str to dict of str to SurrogateSlice
@@ -232,6 +253,7 @@ class BayesSummary:
     settings: dict[str, Any] = field(default_factory=dict)
     units: dict[str, str] = field(default_factory=dict)
     marks: list[MarkedPoint] = field(default_factory=list)
+    combinations: list[CombinationRow] = field(default_factory=list)
     advice: list[str] = field(default_factory=list)
     samples: dict[str, list[float]] = field(default_factory=dict)
     slices: dict[str, dict[str, SurrogateSlice]] = field(default_factory=dict)
@@ -256,6 +278,7 @@ class BayesSummary:
             predicted=_by_name(BayesPrediction, stored.get("predicted")),
             labs=_by_name(BayesLab, stored.get("labs")),
             marks=_rows(MarkedPoint, stored.get("marks")),
+            combinations=_rows(CombinationRow, stored.get("combinations")),
             slices={str(r): _by_name(SurrogateSlice, per)
                     for r, per in (stored.get("slices") or {}).items()
                     if isinstance(per, Mapping)})

@@ -22,10 +22,12 @@ from demcal.doe.bayes.identifiability import (
     Candidate,
     Identifiability,
     Ridge,
+    RidgesAfter,
     Sensitivity,
     Shrinkage,
     identify,
     ridge_shrinkage,
+    ridges_after,
 )
 from demcal.doe.bayes.posterior import (
     ParameterSummary,
@@ -49,6 +51,7 @@ __all__ = [
     "Predictor",
     "Response",
     "Ridge",
+    "RidgesAfter",
     "Round",
     "SamplerSettings",
     "Sensitivity",
@@ -61,6 +64,7 @@ __all__ = [
     "identify",
     "log_posterior",
     "ridge_shrinkage",
+    "ridges_after",
     "sample_posterior",
     "surrogate_share",
 ]
