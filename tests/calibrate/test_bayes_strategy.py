@@ -219,6 +219,11 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
 
     card = read_material_card(tmp_path / "report" / "material.toml")
     assert card.posterior["advice"] == res["advice"] and res["advice"]
+    # and the command prints it (a resume: nothing runs)
+    out = CliRunner().invoke(app, ["calibrate", str(tmp_path / "study.toml"), "--no-report",
+                                   "--workers", "1"])
+    text = " ".join(out.output.split())
+    assert out.exit_code == 0 and "would pin every parameter" in text, out.output
 
 
 def test_a_stable_ridge_stops_before_the_budget(tmp_path: Path) -> None:
