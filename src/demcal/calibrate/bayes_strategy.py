@@ -236,12 +236,12 @@ def _candidates(ev: _Evaluator, x: np.ndarray, n_lab: int, seed: int) -> list[ba
     return out
 
 
-def _stated(ctx: st.Context, space: doe.FactorSpace,
-            reported: set[str]) -> tuple[list[bayes.Candidate], list[str]]:
+def _stated(ctx: st.Context, space: doe.FactorSpace, reported: set[str]
+            ) -> tuple[list[bayes.Candidate], dict[str, str | None], list[str]]:
     """The study's stated candidates (``[[strategy.candidates]]``) as linear predictors over
-    the coded box, and a note for each one the runs report themselves (their surrogate is
-    taken instead: runs beat a statement)."""
-    out, notes = [], []
+    the coded box, each one's source by name, and a note for each one the runs report
+    themselves (their surrogate is taken instead: runs beat a statement)."""
+    out, sources, notes = [], {}, []
     for c in ctx.study.strategy.candidates:
         if c.name in reported:
             notes.append(f"candidate {c.name}: the runs report it, so its shrinkage is the "
@@ -250,7 +250,8 @@ def _stated(ctx: st.Context, space: doe.FactorSpace,
         # a coded unit is half the factor's range
         gradient = tuple(c.slopes.get(f.name, 0.0) * 0.5 * (f.high - f.low) for f in space)
         out.append(bayes.Candidate(c.name, bayes.Sensitivity(gradient), c.standard_error))
-    return out, notes
+        sources[c.name] = c.source
+    return out, sources, notes
 
 
 def _shrinkage(res: bayes.BayesResult, cands: Sequence[bayes.Candidate],
@@ -267,8 +268,6 @@ def _shrinkage(res: bayes.BayesResult, cands: Sequence[bayes.Candidate],
                          source=sources.get(s.response)) for s in rows]
 
 
-#: Below this expected shrinkage a candidate is said not to help much.
-HELPS = 0.2
 def _combinations(res: bayes.BayesResult,
                   cands: Sequence[bayes.Candidate]) -> list[CombinationRow]:
     """Each candidate alone and each pair: the ridges the tests would leave with them
@@ -294,6 +293,10 @@ def _pinning(rows: Sequence[CombinationRow]) -> str | None:
         return f"adding {added} would pin every parameter (expected: no ridge left)"
     return (f"no one or two of the candidates would pin every parameter: adding {added} "
             f"would still leave {'; '.join(best.ridges)} (expected)")
+
+
+#: Below this expected shrinkage a candidate is said not to help much.
+HELPS = 0.2
 
 
 def _advice(rows: Sequence[ShrinkageRow], combos: Sequence[CombinationRow] = ()) -> list[str]:
@@ -459,9 +462,7 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     lead = ctx.labs.get(ctx.lead.name)
     n_lab = (lead.n if lead is not None else None) or 1
     cands = _candidates(ev, res.x, n_lab, cfg.seed)
-    stated, stated_notes = _stated(ctx, space, {c.name for c in cands})
-    sources = {c.name: c.source for c in ctx.study.strategy.candidates
-               if c.name in {s.name for s in stated}}
+    stated, sources, stated_notes = _stated(ctx, space, {c.name for c in cands})
     shrink = _shrinkage(res, [*cands, *stated], cfg.seed, sources)
     combos = _combinations(res, [*cands, *stated])
     notes = [*notes, *stated_notes]

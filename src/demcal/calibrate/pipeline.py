@@ -233,7 +233,7 @@ def _responses(study: Study, target: Target | None) -> list[ResponseSpec]:
     return [aor_spec(own_aor, target), *study.other_responses()]
 
 
-def _design_json(design: str | None, factors: list[dict[str, Any]], runs: list[DesignRun],
+def _design_json(design: str | None, factors: list[StudyFactor], runs: list[DesignRun],
                  excluded: list[int]) -> dict[str, Any]:
     """A designed stage's part of the result: its design, factors and each point's angle."""
     return {"design": design, "factors": [f.name for f in factors],

@@ -651,7 +651,7 @@ def _check_candidates(study: Study) -> None:
     """A stated candidate's slopes name the study's factors, and it is not a response the
     study already aims at."""
     factors = {f.name for f in study.factors}
-    aimed = {r.name for r in study.responses} | ({"aor_deg"} if study.target else set())
+    aimed = {r.name for r in study.responses} | ({AOR} if study.target else set())
     for c in study.strategy.candidates:
         unknown = sorted(set(c.slopes) - factors)
         if unknown:

@@ -270,7 +270,8 @@ def parameter_table(data: ReportData, card: MaterialCard | None = None) -> Table
     factors = {f.name: f for f in data.factors}
     ranges = (data.meta.get("result") or {}).get("ranges") or {}
     fixed = data.fixed_params
-    preset, overrides = data.study.material.preset, data.study.material.overrides
+    material = data.study.material
+    preset, overrides = material.preset, material.overrides
     rows = []
     for name, spec in PARAMETERS.items():
         phys = bench.rows.get(name)

@@ -17,7 +17,7 @@ shrinkage.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -150,17 +150,21 @@ def _words(posterior: Posterior,
     return tuple(map(float, steps)), tuple(factors[i].name for i in named), text
 
 
+def _axis(posterior: Posterior, v: np.ndarray, extent: Callable[[np.ndarray], float]
+          ) -> Ridge:
+    """The principal axis ``v`` (signed so its largest component is positive), its 95 %
+    extent as ``extent(v)`` measures it, its chord through the posterior mean, in words."""
+    v = v * np.sign(v[int(np.argmax(np.abs(v)))])
+    steps, names, text = _words(posterior, v)
+    return Ridge(direction=tuple(map(float, v)), steps=steps, extent=extent(v),
+                 chord=_chord(posterior.mean, v), parameters=names, text=text)
+
+
 def _axes(posterior: Posterior) -> list[Ridge]:
     vals, vecs = np.linalg.eigh(posterior.covariance)
     centred = posterior.samples - posterior.mean
-    out = []
-    for i in np.argsort(vals)[::-1]:
-        v = vecs[:, i]
-        v = v * np.sign(v[int(np.argmax(np.abs(v)))])
-        steps, names, text = _words(posterior, v)
-        out.append(Ridge(direction=tuple(map(float, v)), steps=steps,
-                         extent=_extent(centred @ v), chord=_chord(posterior.mean, v),
-                         parameters=names, text=text))
+    out = [_axis(posterior, vecs[:, i], lambda v: _extent(centred @ v))
+           for i in np.argsort(vals)[::-1]]
     return sorted(out, key=lambda r: -r.fraction)
 
 
@@ -391,15 +395,12 @@ def ridges_after(posterior: Posterior, candidates: Sequence[Candidate]) -> Ridge
         g = np.array(grads)
         gain = cov @ g.T @ np.linalg.inv(g @ cov @ g.T + np.diag(variances))
         cov = cov - gain @ g @ cov
-    vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
-    left = []
-    for lam, v in zip(vals, vecs.T, strict=True):
-        v = v * np.sign(v[int(np.argmax(np.abs(v)))])
-        steps, names, text = _words(posterior, v)
-        axis = Ridge(direction=tuple(map(float, v)), steps=steps,
-                     extent=2 * Z95 * float(np.sqrt(max(lam, 0.0))),
-                     chord=_chord(posterior.mean, v), parameters=names, text=text)
-        if axis.is_ridge:
-            left.append(axis)
+    sym = 0.5 * (cov + cov.T)
+    _, vecs = np.linalg.eigh(sym)
+
+    def gaussian(v: np.ndarray) -> float:  # 2 * 1.96 sd along v
+        return 2 * Z95 * float(np.sqrt(max(float(v @ sym @ v), 0.0)))
+
+    axes = [_axis(posterior, v, gaussian) for v in vecs.T]
     return RidgesAfter(tuple(c.name for c in candidates),
-                       tuple(sorted(left, key=lambda r: -r.fraction)))
+                       tuple(sorted((a for a in axes if a.is_ridge), key=lambda r: -r.fraction)))
