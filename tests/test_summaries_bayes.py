@@ -15,7 +15,8 @@ def _stored(marks: bool = True) -> dict:
                       "b": {"mean": 0.1, "median": 0.1, "ci95_low": 0.05, "ci95_high": 0.2}},
         "correlation": {"a": {"a": 1.0, "b": -0.9}, "b": {"a": -0.9, "b": 1.0}},
         "acceptance_fraction": 0.4, "map": {"a": 0.5, "b": 0.1}, "warnings": [],
-        "identifiable": False, "reason": "a ridge", "n_runs": 12, "stopped": "budget",
+        "identifiable": False, "reason": "a ridge", "n_runs": 16, "verification_runs": 4,
+        "stopped": "budget",
         "ridges": [{"text": "a up 0.1 = b down 0.03", "parameters": ["a", "b"],
                     "direction_coded": [0.7, -0.7], "fraction": 0.8}],
         "ridge": ["a up 0.1 = b down 0.03"],
@@ -40,8 +41,8 @@ def _stored(marks: bool = True) -> dict:
         "slices": {"aor_deg": {"a": {"x": [0.3, 0.7], "mean": [40.0, 48.0],
                                      "std": [0.5, 0.5]}}},
     }
-    if not marks:  # a store written before marks and advice
-        del out["marks"], out["combinations"], out["advice"]
+    if not marks:  # a store written before marks, advice and verification rounds
+        del out["marks"], out["combinations"], out["advice"], out["verification_runs"]
     return out
 
 
@@ -54,7 +55,7 @@ def test_a_stored_summary_reads_typed_and_writes_back_the_same_keys():
     assert s.labs["aor_deg"].standard_error == 0.76 and s.predicted["aor_deg"].std == 0.3
     assert s.marks == [MarkedPoint(label="DOE", values={"a": 0.45, "b": 0.12}, in_box=True,
                                    credibility=0.3, inside95=True)]
-    assert s.slices["aor_deg"]["a"].mean == [40.0, 48.0]
+    assert s.slices["aor_deg"]["a"].mean == [40.0, 48.0] and s.verification_runs == 4
     assert s.to_summary() == stored and list(s.to_summary()) == list(stored)
     assert list(s.in_result()) == [k for k in stored if k not in ("samples", "slices")]
 
@@ -65,6 +66,7 @@ def test_an_older_store_without_marks_and_no_posterior_read():
         del row["basis"], row["source"]
     s = BayesSummary.from_summary(old)
     assert s is not None and s.marks == [] and s.advice == [] and s.combinations == []
+    assert s.verification_runs == 0
     assert s.shrinkage[0].basis == "runs" and s.shrinkage[0].source is None
     assert BayesSummary.from_summary(None) is None
     assert BayesSummary.from_summary({"error": "failed"}) is None

@@ -155,9 +155,9 @@ def test_the_stage_and_the_runs_are_stored(three: tuple[Path, dict]) -> None:
 
 #: the stored keys of the stage "bayes" (and of the result JSON), in their order
 BAYES_KEYS = ("posterior", "correlation", "acceptance_fraction", "map", "warnings",
-              "identifiable", "reason", "n_runs", "stopped", "ridges", "ridge", "shrinkage",
-              "history", "optimum", "predicted", "labs", "notes", "settings", "units", "marks",
-              "combinations", "advice")
+              "identifiable", "reason", "n_runs", "verification_runs", "stopped", "ridges",
+              "ridge", "shrinkage", "history", "optimum", "predicted", "labs", "notes",
+              "settings", "units", "marks", "combinations", "advice")
 
 
 #: the analytic drum's own slopes (test_several_responses.ANALYTIC) stated as a test the study
@@ -234,6 +234,45 @@ def test_a_stable_ridge_stops_before_the_budget(tmp_path: Path) -> None:
     assert res["stopped"] == "stable" and res["n_runs_strategy"] < 60
     assert res["identifiable"] is False
     assert res["settings"]["stable_rounds"] == 2 and res["settings"]["stable_change"] == 0.1
+
+
+def test_a_missed_verification_becomes_data_for_the_next_round(tmp_path: Path) -> None:
+    """``max_rounds`` in Bayesian mode: a round that misses (here: a tolerance no mean can
+    meet) conditions the posterior on its runs and verifies the new best point on seeds of
+    its own; a resume runs nothing and ends where the first call did."""
+    path = bayes_study(tmp_path, responses=False, strategy="n_start = 12\nmax_runs = 12\n")
+    path.write_text(path.read_text().replace(
+        "[stages.verification]\nn = 4\n",
+        "[stages.verification]\nn = 4\nmax_rounds = 3\ntolerance_percent = 0.0001\n"))
+    res = calibrate(path, workers=1)
+    assert [r["round"] for r in res["rounds"]] == [1, 2, 3]
+    assert res["verification_runs"] == 8 and res["n_runs_strategy"] == 12
+    assert res["n_runs"] == res["n_runs_strategy"] + 8 + res["verification"]["n"]
+    assert [h["n_runs"] for h in res["history"]] == [12, 16, 20]
+    optima = [tuple(r["optimum"].values()) for r in res["rounds"]]
+    assert len(set(optima)) == 3  # each round's posterior has its own best point
+    assert res["optimum"] == res["rounds"][-1]["optimum"]
+    with RunStore(tmp_path) as store:
+        seeds = [r.seed for r in store.runs("verification")]
+        summary = next(s for s in store.stages() if s.name == "bayes").summary
+    assert len(seeds) == 12 and len(set(seeds)) == 12  # no pile of another round reused
+    assert summary["verification_runs"] == 8
+    again = calibrate(path, workers=1)
+    assert again["n_runs_executed"] == 0
+    for key in ("posterior", "optimum", "rounds", "verification"):
+        assert again[key] == res[key], key
+    out = CliRunner().invoke(app, ["calibrate", str(path), "--no-report", "--workers", "1"])
+    text = " ".join(out.output.split())
+    assert out.exit_code == 0, out.output
+    assert "the posterior conditioned on the earlier rounds' piles" in text, text
+    assert "(12 runs and 8 of the verification rounds', stopped by budget)" in text, text
+    from demcal.report import build_report
+
+    build_report(tmp_path)
+    table = json.loads((tmp_path / "report" / "report.json").read_text())["tables"][
+        "verification_rounds"]
+    assert "predicted AoR (deg)" in table["columns"] and len(table["rows"]) == 3
+    assert "offset" not in " ".join(table["columns"])  # no surface was aimed
 
 
 def test_the_doe_path_is_unchanged_by_a_default_strategy(tmp_path: Path) -> None:

@@ -15,6 +15,7 @@ from demcal.doe.bayes import (
     SamplerSettings,
     acquire_batch,
     calibrate_bayes,
+    condition_on,
     fit_surrogate,
     log_posterior,
     sample_posterior,
@@ -177,3 +178,41 @@ def test_a_ridge_that_stops_moving_stops_the_loop_with_the_budget_s_answer():
     assert runs[2].stopped == "stable" and runs[2].n_runs == 27 + 2 * 4
     assert not runs[2].identifiability.identifiable
     assert np.max(np.abs(runs[2].posterior.intervals - runs[0].posterior.intervals)) < 0.1
+
+
+def test_runs_added_at_a_missed_best_point_move_the_posterior_off_it():
+    # A verification that missed: 6 runs at the best point read 2 higher than the surrogate
+    # promised (a bump the start did not see). Conditioned on them, the surrogate must read
+    # what they read there, and the new best point must lie elsewhere, where the refitted
+    # surrogate meets the lab value again.
+    responses = lab(("aor", "density"))
+    cfg = BayesSettings(max_runs=16, batch=4, tolerance=0.25, seed=2, n_start=12,
+                        sampler=SamplerSettings(n_steps=1000, burn=300))
+    res = calibrate_bayes(engine(("aor", "density"), seed=2), FACTORS, responses, cfg)
+    best = res.best_point
+    promised = {n: float(s.predict(best)[0][0]) for n, s in res.surrogates.items()}
+    x_new = np.repeat(best[None, :], 6, axis=0)
+    y_new = {"aor": np.full(6, promised["aor"] + 2.0), "density": np.full(6, promised["density"])}
+    again = condition_on(res, x_new, y_new, responses, cfg)
+    assert again.n_runs == res.n_runs + 6 and len(again.history) == len(res.history) + 1
+    assert again.history[-1].n_runs == again.n_runs and again.stopped == res.stopped
+    assert again.x[-6:].tolist() == x_new.tolist()
+    reads = float(again.surrogates["aor"].predict(best)[0][0])
+    assert abs(reads - (promised["aor"] + 2.0)) < 0.6, reads
+    moved = again.best_point
+    assert np.linalg.norm(moved - best) > 0.1
+    aor_lab = responses[0].mean
+    assert abs(float(again.surrogates["aor"].predict(moved)[0][0]) - aor_lab) < 1.0
+
+
+def test_condition_on_refuses_what_it_cannot_add():
+    responses = lab(("aor",))
+    cfg = BayesSettings(max_runs=10, batch=2, seed=1, n_start=10,
+                        sampler=SamplerSettings(n_steps=400, burn=100))
+    res = calibrate_bayes(engine(("aor",), seed=1), FACTORS, responses, cfg)
+    with pytest.raises(InputError, match="3 columns"):
+        condition_on(res, np.zeros((2, 2)), {"aor": [30.0, 30.0]}, responses, cfg)
+    with pytest.raises(InputError, match="no values of response aor"):
+        condition_on(res, np.zeros((2, 3)), {"drum": [1.0, 1.0]}, responses, cfg)
+    with pytest.raises(InputError, match="returned 1 values of aor for 2 points"):
+        condition_on(res, np.zeros((2, 3)), {"aor": [30.0]}, responses, cfg)

@@ -225,12 +225,14 @@ def _candidate(name: str, x: np.ndarray, y: np.ndarray, n_lab: int,
     return bayes.Candidate(name, sur, scatter / math.sqrt(max(1, n_lab)))
 
 
-def _candidates(ev: _Evaluator, x: np.ndarray, n_lab: int, seed: int) -> list[bayes.Candidate]:
-    """Every response the loop's runs report that the study does not aim at."""
-    names = sorted({k for r in ev.records for k in r.responses} - set(ev.names))
+def _candidates(records: Sequence[RunRecord], aimed: Sequence[str], x: np.ndarray, n_lab: int,
+                seed: int) -> list[bayes.Candidate]:
+    """Every response the runs (``records``, one per row of ``x``) report that the study does
+    not aim at (``aimed``)."""
+    names = sorted({k for r in records for k in r.responses} - set(aimed))
     out = []
     for name in names:
-        y = np.array([_value(r, name) for r in ev.records])
+        y = np.array([_value(r, name) for r in records])
         if (c := _candidate(name, x, y, n_lab, seed)) is not None:
             out.append(c)
     return out
@@ -373,12 +375,14 @@ def _verify(ctx: st.Context, res: bayes.BayesResult,
     aor, pile = (None if (p := predicted.get(name)) is None else p.mean
                  for name in (ctx.lead.name, PILE))
     best = res.best_point_actual
+    k = ctx.rounds.number
     optimum = Optimum(
         target=ctx.target, chosen=best, predicted_lead=aor,
         candidates=[Candidate(params=best, predicted_lead=aor, pi_low=None, pi_high=None,
                               p_pile=None if pile is None else min(1.0, max(0.0, pile)))],
         # never taken for a DOE optimum if the study goes back to kind "doe"
-        opts=STAGE, source="the posterior's best sample (strategy bayes)")
+        opts=STAGE, source="the posterior's best sample (strategy bayes)",
+        round=k if k > 1 else None).in_round(ctx.rounds.optimize)
     # the report's overview and card
     ctx.store.set_stage("optimize", "done", optimum.to_summary())
     ctx.results.optimize = optimum
@@ -459,19 +463,61 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
                           "factors": ctx.factor_rows()})
     ev = _Evaluator(ctx, space, tuple(r.name for r in labs))
     res = bayes.calibrate_bayes(ev, space, labs, cfg)
+    records = list(ev.records)
+    summary = _summarise(ctx, _Conditioned(res, records, 0), labs, notes, cfg)
+    ctx.store.set_stage(STAGE, "done", summary.to_summary(), inputs_hash=h)
+    ver = _verify(ctx, res, summary.predicted)
+    opts = ctx.study.stages.verification
+    extra = 0
+    while ctx.rounds.number < opts.max_rounds and \
+            refine.needs_another_round(ver, opts.tolerance_percent):
+        # the missed round's runs become data at the point where the surrogates were wrong
+        runs = ctx.results.verification_runs
+        res = bayes.condition_on(res, _coded(space, ver.params, len(runs)),
+                                 {r.name: [_value(x, r.name) for x in runs] for r in labs},
+                                 labs, cfg)
+        records += runs
+        extra += len(runs)
+        ctx.rounds.optimize.append(ctx.results.optimize)
+        ctx.rounds.verification.append(ver)
+        ctx.rounds.number += 1
+        summary = _summarise(ctx, _Conditioned(res, records, extra), labs, notes, cfg)
+        ctx.store.set_stage(STAGE, "done", summary.to_summary(), inputs_hash=h)
+        ver = _verify(ctx, res, summary.predicted)
+    return _result(ctx, summary, ver)
+
+
+@dataclass(frozen=True, eq=False)
+class _Conditioned:
+    """A posterior and the runs it was conditioned on: ``records`` one per row of
+    ``result.x``, the last ``verification_runs`` of them earlier verification rounds'."""
+
+    result: bayes.BayesResult
+    records: list[RunRecord]
+    verification_runs: int
+
+
+def _coded(space: doe.FactorSpace, params: Mapping[str, float], n: int) -> np.ndarray:
+    """(n, k) coded rows of the factors' values in ``params`` (a verification's runs)."""
+    row = space.to_coded(np.array([[float(params[f]) for f in space.names]]))
+    return np.repeat(row, n, axis=0)
+
+
+def _summarise(ctx: st.Context, cond: _Conditioned, labs: Sequence[bayes.Response],
+               notes: Sequence[str], cfg: bayes.BayesSettings) -> BayesSummary:
+    """The stage's summary of a posterior: verdict, shrinkage per candidate, combinations,
+    advice and the study's marks."""
+    res = cond.result
+    space = res.posterior.factors
     lead = ctx.labs.get(ctx.lead.name)
     n_lab = (lead.n if lead is not None else None) or 1
-    cands = _candidates(ev, res.x, n_lab, cfg.seed)
+    cands = _candidates(cond.records, [r.name for r in labs], res.x, n_lab, cfg.seed)
     stated, sources, stated_notes = _stated(ctx, space, {c.name for c in cands})
     shrink = _shrinkage(res, [*cands, *stated], cfg.seed, sources)
     combos = _combinations(res, [*cands, *stated])
-    notes = [*notes, *stated_notes]
-    summary = replace(_summary(res, labs, notes, shrink, cfg),
-                      marks=_marks(ctx, res, labs, space), combinations=combos,
-                      advice=_advice(shrink, combos))
-    ctx.store.set_stage(STAGE, "done", summary.to_summary(), inputs_hash=h)
-    ver = _verify(ctx, res, summary.predicted)
-    return _result(ctx, summary, ver)
+    return replace(_summary(res, labs, [*notes, *stated_notes], shrink, cfg),
+                   marks=_marks(ctx, res, labs, space), combinations=combos,
+                   advice=_advice(shrink, combos), verification_runs=cond.verification_runs)
 
 
 def _result(ctx: st.Context, summary: BayesSummary, ver: Verification) -> dict[str, Any]:
@@ -483,9 +529,12 @@ def _result(ctx: st.Context, summary: BayesSummary, ver: Verification) -> dict[s
         "optimum_full": ver.params, "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
         **ctx.lead_keys(),
         "verification": ver.in_result(),
-        "rounds": [refine.round_row(opt, ver)],
+        "rounds": [refine.round_row(o, v) for o, v in
+                   zip([*ctx.rounds.optimize, opt], [*ctx.rounds.verification, ver],
+                       strict=True)],
         # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
-        "n_runs": ctx.store.count(), "n_runs_strategy": summary.n_runs,
+        "n_runs": ctx.store.count(),
+        "n_runs_strategy": summary.n_runs - summary.verification_runs,
         "n_runs_executed": ctx.runner.executed,
         "ranges": {f.name: [f.low, f.high] for f in ctx.factors},
     }

@@ -59,6 +59,9 @@ class StageResults:
         Every other response's model at the response surface (several responses).
     goals : list of ResponseGoal
         The desirability goals of the several-response optimum.
+    verification_runs : list of RunRecord
+        The last verification round's runs (the Bayesian strategy conditions on a round that
+        missed).
     """
 
     rangefind: RangeFind | None = None
@@ -72,6 +75,7 @@ class StageResults:
     rsm_model: doe.ResponseSurface | None = None
     response_fits: dict[str, ResponseFit] | None = None
     goals: list[doe.ResponseGoal] = field(default_factory=list)
+    verification_runs: list[RunRecord] = field(default_factory=list)
 
 
 @dataclass

@@ -50,6 +50,8 @@ class Rounds:
         quadratic: :func:`offset_weight`), so w = N h / (N h + 1), the best linear estimate
         of the surface's error there (s^2 cancels).
         """
+        if model is None:  # no surface to offset: the Bayesian strategy refits its surrogates
+            return Offset()
         pool: list[int] = []
         for j in range(len(self.verification) - 1, -1, -1):
             pool.insert(0, j)

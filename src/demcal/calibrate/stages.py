@@ -339,4 +339,5 @@ def verification(ctx: Context) -> Verification:
     ver = ver.in_round(ctx.rounds.verification)
     ctx.store.set_stage("verification", "done", ver.to_summary(), inputs_hash=h)
     ctx.results.verification = ver
+    ctx.results.verification_runs = list(recs)
     return ver

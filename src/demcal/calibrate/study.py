@@ -295,7 +295,8 @@ class VerificationOptions(_M):
         1, ge=1, le=5, description="verification rounds: while a round's mean is not "
         "confirmed by the surface, or the target lies outside its 95 % interval, aim the "
         "surface by the offset its piles measured, re-optimise and verify again on fresh "
-        "seeds (demcal.calibrate.refine; 1: no refinement)")
+        "seeds (demcal.calibrate.refine; strategy bayes: condition the posterior on its "
+        "runs and verify the new best point; 1: no refinement)")
     tolerance_percent: float | None = Field(
         None, gt=0, le=100, description="acceptance criterion: a round whose mean misses the "
         "target by more than this (% of the target) also calls for another round, within "

@@ -113,7 +113,9 @@ def _print_bayes(result: dict) -> None:
     for name, p in result["posterior"].items():
         console.print(f"{name}: median {p['median']:.4g}, 95 % credible interval "
                       f"{p['ci95_low']:.4g}-{p['ci95_high']:.4g}", highlight=False)
-    console.print(f"{result['reason']} ({result['n_runs_strategy']} runs, stopped by "
+    extra = result.get("verification_runs") or 0
+    also = f" and {extra} of the verification rounds'" if extra else ""
+    console.print(f"{result['reason']} ({result['n_runs_strategy']} runs{also}, stopped by "
                   f"{result['stopped']})", highlight=False)
     # per ridge, the candidate that helps most (every pair: the result's shrinkage, the report)
     for line in result.get("advice") or []:
@@ -136,10 +138,13 @@ def _print_rounds(result: dict) -> None:
             " measured)")
         console.print(f"round {r['round']}: {params}{aimed}: verification {mean} on "
                       f"{r['n_piles']} piles, {word}", highlight=False)
-    console.print(f"the optimum above is round {rounds[-1]['round']}'s: each later round aimed "
-                  "the surface by the offset the earlier rounds' piles measured (all of it "
-                  "after an unconfirmed round, the piles' share of the information after "
-                  "confirmed ones; stages.verification.max_rounds)", highlight=False)
+    how = ("took the best point of the posterior conditioned on the earlier rounds' piles "
+           "as well (stages.verification.max_rounds)" if result.get("strategy") == "bayes"
+           else "aimed the surface by the offset the earlier rounds' piles measured (all of "
+           "it after an unconfirmed round, the piles' share of the information after "
+           "confirmed ones; stages.verification.max_rounds)")
+    console.print(f"the optimum above is round {rounds[-1]['round']}'s: each later round {how}",
+                  highlight=False)
 
 
 def _print_verification(result: dict) -> None:

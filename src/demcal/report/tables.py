@@ -528,9 +528,18 @@ def verification_rounds_table(optimum: Optimum, verification: Verification,
                      "relative error %": _num(v.relative_error_percent),
                      "confirmation": "" if conf is None else
                      ("confirmed" if conf else "not confirmed")})
-    cols = ["round", *[symbols.get(n, n) for n in names], "measured offset (deg)",
-            "share applied", "surface offset (deg)", "piles",
-            "mean AoR (deg)", "std (deg)", "relative error %", "confirmation"]
+    factors = [symbols.get(n, n) for n in names]
+    piles = ["piles", "mean AoR (deg)", "std (deg)", "relative error %"]
+    if optimum.opts == "bayes":  # no surface to aim: each round's posterior has more runs
+        for row, o in zip(rows, opts, strict=True):
+            row["predicted AoR (deg)"] = _num(o.predicted_lead)
+        return Table("verification_rounds", "Verification rounds: each later round verifies "
+                     "the best point of the posterior conditioned on the earlier rounds' "
+                     "piles as well (the surrogates learn where they were wrong); the study's "
+                     "answer is the last round's",
+                     _frame(rows, ["round", *factors, "predicted AoR (deg)", *piles]))
+    cols = ["round", *factors, "measured offset (deg)", "share applied",
+            "surface offset (deg)", *piles, "confirmation"]
     return Table("verification_rounds", "Verification rounds: each later round aims the "
                  "surface by the offset the earlier rounds' piles measured (all of it after "
                  "an unconfirmed round; after confirmed ones the share the piles' information "

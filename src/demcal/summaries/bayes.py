@@ -202,7 +202,12 @@ class BayesSummary:
     reason : str
         The verdict in a sentence.
     n_runs : int
-        Runs of the loop (start and rounds).
+        Runs the posterior is conditioned on: the loop's (start and rounds) and
+        ``verification_runs``.
+    verification_runs : int
+        Of them, the runs of verification rounds that missed
+        (``stages.verification.max_rounds`` > 1): data at the best points where the
+        surrogates were wrong.
     stopped : str
         ``tolerance``, ``stable`` or ``budget``.
     ridges : list of RidgeRow
@@ -241,6 +246,7 @@ class BayesSummary:
     identifiable: bool = False
     reason: str = ""
     n_runs: int = 0
+    verification_runs: int = 0
     stopped: str = ""
     ridges: list[RidgeRow] = field(default_factory=list)
     ridge: list[str] = field(default_factory=list)

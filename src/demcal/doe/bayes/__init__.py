@@ -17,7 +17,14 @@ See docs/bayes.md.
 """
 
 from demcal.doe.bayes.acquisition import acquire_batch, surrogate_share
-from demcal.doe.bayes.driver import BayesResult, BayesSettings, Evaluate, Round, calibrate_bayes
+from demcal.doe.bayes.driver import (
+    BayesResult,
+    BayesSettings,
+    Evaluate,
+    Round,
+    calibrate_bayes,
+    condition_on,
+)
 from demcal.doe.bayes.identifiability import (
     Candidate,
     Identifiability,
@@ -59,6 +66,7 @@ __all__ = [
     "Surrogate",
     "acquire_batch",
     "calibrate_bayes",
+    "condition_on",
     "credibility",
     "fit_surrogate",
     "identify",

@@ -16,12 +16,12 @@ from demcal.doe.bayes.acquisition import acquire_batch
 from demcal.doe.bayes.identifiability import Identifiability, identify
 from demcal.doe.bayes.posterior import Posterior, SamplerSettings, sample_posterior
 from demcal.doe.bayes.responses import Response, check_responses
-from demcal.doe.bayes.surrogate import Surrogate, fit_surrogate
+from demcal.doe.bayes.surrogate import Surrogate, coded_points, fit_surrogate
 from demcal.doe.designs import latin_hypercube
 from demcal.doe.factors import as_factor_space
 from demcal.errors import InputError
 
-__all__ = ["BayesResult", "BayesSettings", "Evaluate", "Round", "calibrate_bayes"]
+__all__ = ["BayesResult", "BayesSettings", "Evaluate", "Round", "calibrate_bayes", "condition_on"]
 
 #: ``evaluate(points_coded) -> {response name: (n,) values}``; NaN marks a failed run.
 Evaluate = Callable[[np.ndarray], Mapping[str, Any]]
@@ -296,6 +296,61 @@ def calibrate_bayes(evaluate: Evaluate, factors: Any, responses: Sequence[Respon
     return BayesResult(posterior=posterior, identifiability=identify(posterior),
                        surrogates=surrogates, x=x, y={n: v for n, (v, _) in data.items()},
                        history=tuple(history), stopped=stopped)
+
+
+def condition_on(result: BayesResult, x_new: Any, y_new: Mapping[str, Any],
+                 responses: Sequence[Response], settings: BayesSettings) -> BayesResult:
+    """The result conditioned on more runs as well: the surrogates refitted on every run, the
+    posterior sampled again and its verdict redone; one more :class:`Round` in the history.
+
+    This is how a verification that missed becomes data: its runs sit at the best point, where
+    the surrogates were wrong, so the refitted ones know the response there and the next best
+    point moves along the ridge to where the runs (not the first fit) say the lab value lies.
+
+    Parameters
+    ----------
+    result : BayesResult
+        Of :func:`calibrate_bayes` (or of an earlier call), its surrogates with a learned
+        noise term (runs given without variances).
+    x_new : (m, k) array_like of float
+        Coded settings of the runs to add.
+    y_new : mapping of str to (m,) array_like of float
+        Their values of every response (NaN for a failed run).
+    responses : sequence of Response
+        The lab values, as given to :func:`calibrate_bayes`.
+    settings : BayesSettings
+        As given to :func:`calibrate_bayes` (seed and sampler).
+
+    Returns
+    -------
+    BayesResult
+        ``stopped`` as ``result``'s.
+
+    Raises
+    ------
+    InputError
+        Points of the wrong width, values missing or of the wrong length, or a result whose
+        runs came with variances.
+    """
+    x_new = coded_points(x_new, result.x.shape[1], "x_new")
+    if any(s.noise_var is not None for s in result.surrogates.values()):
+        raise InputError("condition_on: the result's runs came with variances; runs without "
+                         "them cannot be added")
+    data = {}
+    for r in check_responses(responses):
+        if r.name not in y_new:
+            raise InputError(f"condition_on: no values of response {r.name}")
+        new = _column(y_new[r.name], r.name, len(x_new))
+        data[r.name] = (np.concatenate([result.y[r.name], new]), None)
+    x = np.vstack([result.x, x_new])
+    surrogates = _fit_all(x, data, settings.seed)
+    space = result.posterior.factors
+    posterior = sample_posterior(surrogates, responses, space, settings.sampler)
+    step = Round(len(x), tuple(map(float, posterior.half_widths)),
+                 posterior.acceptance_fraction, posterior.warnings)
+    return BayesResult(posterior=posterior, identifiability=identify(posterior),
+                       surrogates=surrogates, x=x, y={n: v for n, (v, _) in data.items()},
+                       history=(*result.history, step), stopped=result.stopped)
 
 
 def _stop(posterior: Posterior, settings: BayesSettings, n_runs: int,
