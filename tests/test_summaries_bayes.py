@@ -37,12 +37,16 @@ def _stored(marks: bool = True) -> dict:
         "combinations": [{"responses": ["drum_deg"], "ridges": []}],
         "advice": ["'a up 0.1 = b down 0.03': adding drum_deg would shrink it most (60 % "
                    "expected, from its stated slopes)"],
+        "surrogate_checks": [{"response": "aor_deg", "n": 12, "rms_z": 1.1, "max_abs_z": 3.4,
+                              "limit": 3.04, "worst": {"a": 0.6, "b": 0.2}, "value": 50.0,
+                              "predicted": 46.0, "rms_error": 1.5}],
         "samples": {"a": [0.5, 0.6], "b": [0.1, 0.09]},
         "slices": {"aor_deg": {"a": {"x": [0.3, 0.7], "mean": [40.0, 48.0],
                                      "std": [0.5, 0.5]}}},
     }
     if not marks:  # a store written before marks, advice and verification rounds
         del out["marks"], out["combinations"], out["advice"], out["verification_runs"]
+        del out["surrogate_checks"]
     return out
 
 
@@ -56,6 +60,8 @@ def test_a_stored_summary_reads_typed_and_writes_back_the_same_keys():
     assert s.marks == [MarkedPoint(label="DOE", values={"a": 0.45, "b": 0.12}, in_box=True,
                                    credibility=0.3, inside95=True)]
     assert s.slices["aor_deg"]["a"].mean == [40.0, 48.0] and s.verification_runs == 4
+    assert s.surrogate_checks[0].worst == {"a": 0.6, "b": 0.2}
+    assert s.surrogate_checks[0].misses_a_run  # 3.4 beyond the limit 3.04
     assert s.to_summary() == stored and list(s.to_summary()) == list(stored)
     assert list(s.in_result()) == [k for k in stored if k not in ("samples", "slices")]
 
@@ -66,7 +72,7 @@ def test_an_older_store_without_marks_and_no_posterior_read():
         del row["basis"], row["source"]
     s = BayesSummary.from_summary(old)
     assert s is not None and s.marks == [] and s.advice == [] and s.combinations == []
-    assert s.verification_runs == 0
+    assert s.verification_runs == 0 and s.surrogate_checks == []
     assert s.shrinkage[0].basis == "runs" and s.shrinkage[0].source is None
     assert BayesSummary.from_summary(None) is None
     assert BayesSummary.from_summary({"error": "failed"}) is None

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from test_several_responses import ANALYTIC, FACTORS, PLANTED, write_study
 from typer.testing import CliRunner
@@ -157,7 +158,7 @@ def test_the_stage_and_the_runs_are_stored(three: tuple[Path, dict]) -> None:
 BAYES_KEYS = ("posterior", "correlation", "acceptance_fraction", "map", "warnings",
               "identifiable", "reason", "n_runs", "verification_runs", "stopped", "ridges",
               "ridge", "shrinkage", "history", "optimum", "predicted", "labs", "notes",
-              "settings", "units", "marks", "combinations", "advice")
+              "settings", "units", "marks", "combinations", "advice", "surrogate_checks")
 
 
 #: the analytic drum's own slopes (test_several_responses.ANALYTIC) stated as a test the study
@@ -273,6 +274,46 @@ def test_a_missed_verification_becomes_data_for_the_next_round(tmp_path: Path) -
         "verification_rounds"]
     assert "predicted AoR (deg)" in table["columns"] and len(table["rows"]) == 3
     assert "offset" not in " ".join(table["columns"])  # no surface was aimed
+
+
+def test_a_lab_value_out_of_reach_is_a_printed_warning(tmp_path: Path) -> None:
+    """The posterior's warnings reach the terminal, not only the result JSON."""
+    path = bayes_study(tmp_path, responses=False, strategy="n_start = 12\nmax_runs = 12\n")
+    text = path.read_text()
+    path.write_text(text.replace(text[text.index("[target]"):].split("\n")[1],
+                                 "aor_deg = 80.0", 1))
+    out = CliRunner().invoke(app, ["calibrate", str(path), "--no-report", "--workers", "1"])
+    assert out.exit_code == 0, out.output
+    words = " ".join(out.output.split())
+    assert "warning: aor_deg: the best point gives" in words, words
+    assert "the lab value lies outside what the runs reach" in words
+    assert "warning: pp.static_friction: the posterior piles at its high bound" in words
+
+
+def test_a_run_the_surrogate_does_not_follow_is_said() -> None:
+    """The surrogates' leave-one-out check in the summary: a response with a jump the
+    kernel cannot follow is said, naming the run; the pile indicator is not judged."""
+    from demcal.calibrate.bayes_strategy import PILE, _surrogate_checks
+    from demcal.doe import Factor, FactorSpace, bayes
+
+    space = FactorSpace([Factor("static_friction", 0.2, 0.8), Factor("rolling_friction", 0, 0.2),
+                         Factor("restitution", 0.3, 0.7)])
+
+    def evaluate(x):
+        jump = 30 + 5 * np.sign(x[:, 0]) + 0.05 * np.sin(7 * x[:, 1] + 3 * x[:, 2])
+        return {"aor_deg": jump, PILE: np.ones(len(x))}
+
+    labs = [bayes.Response("aor_deg", 31.0, 0.2), bayes.Response(PILE, 1.0, 0.2)]
+    res = bayes.calibrate_bayes(evaluate, space, labs, bayes.BayesSettings(
+        max_runs=30, n_start=30, seed=0,
+        sampler=bayes.SamplerSettings(n_steps=400, burn=100)))
+    rows, warnings = _surrogate_checks(res)
+    assert [r.response for r in rows] == ["aor_deg"]
+    row = rows[0]
+    assert row.n == 30 and row.misses_a_run and row.max_abs_z > row.limit, row
+    assert abs(space.to_coded(np.array([list(row.worst.values())]))[0, 0]) < 0.3
+    assert len(warnings) == 1 and warnings[0].startswith("aor_deg: the run at static_friction")
+    assert "the surrogate does not follow the response there" in warnings[0]
 
 
 def test_the_doe_path_is_unchanged_by_a_default_strategy(tmp_path: Path) -> None:

@@ -49,6 +49,7 @@ from demcal.summaries.bayes import (
     PosteriorInterval,
     RidgeRow,
     ShrinkageRow,
+    SurrogateCheckRow,
     SurrogateSlice,
 )
 
@@ -364,6 +365,32 @@ def _slices(res: bayes.BayesResult) -> dict[str, dict[str, SurrogateSlice]]:
     return out
 
 
+def _surrogate_checks(res: bayes.BayesResult) -> tuple[list[SurrogateCheckRow], list[str]]:
+    """Each response's surrogate against its own runs (leave-one-out; the pile indicator, a
+    0/1 step by design, left out), and a warning for each that misses a run."""
+    rows, warn = [], []
+    space = res.posterior.factors
+    for name, sur in res.surrogates.items():
+        if name == PILE:
+            continue
+        c = bayes.check_surrogate(sur)
+        at = space.to_actual(sur.x[c.worst][None, :])[0]
+        row = SurrogateCheckRow(
+            response=name, n=c.n, rms_z=c.rms_z, max_abs_z=c.max_abs_z, limit=c.limit,
+            worst=dict(zip(space.names, map(float, at), strict=True)),
+            value=float(sur.y[c.worst]), predicted=c.predicted, rms_error=c.rms_error)
+        rows.append(row)
+        if c.misses_a_run:
+            where = ", ".join(f"{n} {v:.3g}" for n, v in row.worst.items())
+            warn.append(f"{name}: the run at {where} gave {row.value:.4g} where the other "
+                        f"runs predict {row.predicted:.4g}, {c.max_abs_z:.1f} standard "
+                        f"deviations off (beyond the limit {c.limit:.1f} for {c.n} runs): the "
+                        "surrogate does not follow the response there (a local feature or "
+                        "an outlier run), so the posterior is surer near it than the runs "
+                        "allow")
+    return rows, warn
+
+
 def _verify(ctx: st.Context, res: bayes.BayesResult,
             predicted: Mapping[str, BayesPrediction]) -> Verification:
     """The verification stage at the best point (the DOE path's rules and seeds).
@@ -395,6 +422,7 @@ def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequ
     (the marks are :func:`_marks`')."""
     post, verdict = res.posterior, res.identifiability
     names = post.names
+    checks, missed = _surrogate_checks(res)
     ridges = [RidgeRow(text=r.text, parameters=list(r.parameters),
                        direction_coded=list(r.direction), fraction=r.fraction)
               for r in verdict.ridges]
@@ -407,7 +435,8 @@ def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequ
                      for n, row in zip(names, post.correlation, strict=True)},
         acceptance_fraction=post.acceptance_fraction,
         map=dict(zip(names, map(float, post.factors.to_actual(post.map_point)), strict=True)),
-        warnings=list(post.warnings), identifiable=verdict.identifiable, reason=verdict.reason,
+        warnings=[*post.warnings, *missed], identifiable=verdict.identifiable,
+        reason=verdict.reason,
         n_runs=res.n_runs, stopped=res.stopped, ridges=ridges, ridge=[r.text for r in ridges],
         shrinkage=shrink, history=_history(res),
         optimum=res.best_point_actual,
@@ -421,7 +450,7 @@ def _summary(res: bayes.BayesResult, labs: Sequence[bayes.Response], notes: Sequ
                   **({"stable_rounds": cfg.stable_rounds, "stable_change": cfg.stable_change}
                      if cfg.stable_rounds else {})},
         units={p.name: p.unit for p in post.parameters},
-        samples=_samples(res), slices=_slices(res))
+        surrogate_checks=checks, samples=_samples(res), slices=_slices(res))
 
 
 def _marks(ctx: st.Context, res: bayes.BayesResult, labs: Sequence[bayes.Response],

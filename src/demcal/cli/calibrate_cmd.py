@@ -120,6 +120,8 @@ def _print_bayes(result: dict) -> None:
     # per ridge, the candidate that helps most (every pair: the result's shrinkage, the report)
     for line in result.get("advice") or []:
         console.print(line, highlight=False)
+    for line in result.get("warnings") or []:  # the posterior's and its surrogates'
+        console.print(styled(("warning:", "yellow"), " " + line))
 
 
 def _print_rounds(result: dict) -> None:

@@ -25,7 +25,13 @@ from matplotlib.figure import Figure
 from demcal.report.html import badge
 from demcal.report.tables import Table
 from demcal.store import RunRecord
-from demcal.summaries.bayes import BayesSummary, MarkedPoint, ShrinkageRow, SurrogateSlice
+from demcal.summaries.bayes import (
+    BayesSummary,
+    MarkedPoint,
+    ShrinkageRow,
+    SurrogateCheckRow,
+    SurrogateSlice,
+)
 
 #: marker and colour of the marked points on the corner plot, in order
 MARK_STYLES = (("o", "tab:green"), ("s", "tab:orange"), ("D", "tab:purple"),
@@ -82,6 +88,7 @@ class BayesView:
     marks: tuple[MarkedPoint, ...] = ()
     advice: tuple[str, ...] = ()
     combinations: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = ()
+    checks: tuple[SurrogateCheckRow, ...] = ()
 
     @property
     def names(self) -> list[str]:
@@ -117,7 +124,8 @@ def bayes_view(summary: Mapping[str, Any]) -> BayesView | None:
         notes=tuple(s.notes), warnings=tuple(s.warnings),
         samples={n: tuple(map(float, v)) for n, v in s.samples.items()},
         slices=s.slices, marks=tuple(s.marks), advice=tuple(s.advice),
-        combinations=tuple((tuple(c.responses), tuple(c.ridges)) for c in s.combinations))
+        combinations=tuple((tuple(c.responses), tuple(c.ridges)) for c in s.combinations),
+        checks=tuple(s.surrogate_checks))
 
 
 def _basis(row: ShrinkageRow) -> str:
@@ -185,9 +193,25 @@ def _marks_table(view: BayesView) -> Table:
                       "outside the factor box)")
 
 
+def _checks_table(view: BayesView) -> Table:
+    frame = pd.DataFrame([{
+        "response": c.response, "runs": c.n, "rms error (one run)": c.rms_error,
+        "rms z": c.rms_z, "largest z": c.max_abs_z, "limit": c.limit,
+        "that run": c.value, "the others predict": c.predicted,
+        "verdict": "misses that run" if c.misses_a_run else "follows its runs"}
+        for c in view.checks])
+    return Table("bayes_surrogate_checks", "The surrogates against their own runs "
+                 "(each run predicted from the others)", frame,
+                 note="z: a run's error over the spread the surrogate predicts for one run "
+                      "(rms about 1 when right); limit: the Bonferroni limit for that many "
+                      "runs at 5 %, as Design-Expert's outlier plot; a run beyond it is one "
+                      "the surrogate does not follow (a local feature or an outlier)")
+
+
 def bayes_tables(view: BayesView) -> list[Table]:
-    """The section's tables: posterior, correlation, responses, marked points, shrinkage
-    and what one or two more responses would leave (if any), rounds."""
+    """The section's tables: posterior, correlation, responses, marked points, shrinkage,
+    what one or two more responses would leave and the surrogates' checks (if any),
+    rounds."""
     out = [_posterior_table(view), _correlation_table(view), _responses_table(view)]
     if view.marks:
         out.append(_marks_table(view))
@@ -195,6 +219,8 @@ def bayes_tables(view: BayesView) -> list[Table]:
         out.append(_shrinkage_table(view))
     if view.combinations:
         out.append(_combinations_table(view))
+    if view.checks:
+        out.append(_checks_table(view))
     return [*out, _history_table(view)]
 
 

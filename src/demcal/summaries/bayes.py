@@ -21,8 +21,8 @@ from typing import Any
 from demcal.summaries._stored import _KeyedEvery, _plain
 
 __all__ = ["BayesLab", "BayesPrediction", "BayesRound", "BayesSummary", "CombinationRow",
-           "MarkedPoint",
-           "PosteriorInterval", "RidgeRow", "ShrinkageRow", "SurrogateSlice"]
+           "MarkedPoint", "PosteriorInterval", "RidgeRow", "ShrinkageRow", "SurrogateCheckRow",
+           "SurrogateSlice"]
 
 
 @dataclass(frozen=True)
@@ -88,6 +88,49 @@ class ShrinkageRow(_KeyedEvery):
     effective_samples: float = float("nan")
     basis: str = "runs"
     source: str | None = None
+
+
+@dataclass(frozen=True)
+class SurrogateCheckRow(_KeyedEvery):
+    """A surrogate's runs, each predicted from the others
+    (:func:`demcal.doe.bayes.check_surrogate`).
+
+    Attributes
+    ----------
+    response : str
+    n : int
+        Runs it was fitted on.
+    rms_z : float
+        Root mean square of the standardised leave-one-out errors (about 1 when right).
+    max_abs_z : float
+        The largest of them, at ``worst``.
+    limit : float
+        The Bonferroni limit for ``n`` runs (5 %): a run beyond it is one the surrogate
+        does not follow.
+    worst : dict of str to float
+        That run's factors (their units).
+    value : float
+        That run's response.
+    predicted : float
+        What the other runs' surrogate predicts there.
+    rms_error : float
+        Root mean square of the leave-one-out errors, the response's unit.
+    """
+
+    response: str = ""
+    n: int = 0
+    rms_z: float = float("nan")
+    max_abs_z: float = float("nan")
+    limit: float = float("nan")
+    worst: dict[str, float] = field(default_factory=dict)
+    value: float = float("nan")
+    predicted: float = float("nan")
+    rms_error: float = float("nan")
+
+    @property
+    def misses_a_run(self) -> bool:
+        """A run lies beyond the limit."""
+        return self.max_abs_z > self.limit
 
 
 @dataclass(frozen=True)
@@ -232,6 +275,9 @@ class BayesSummary:
     advice : list of str
         Per ridge (or widest axis), the candidate that would shrink it most, and the fewest
         candidates that would pin every parameter, in sentences.
+    surrogate_checks : list of SurrogateCheckRow
+        Each response's surrogate against its own runs (leave-one-out), the pile indicator's
+        left out.
     samples : dict of str to list of float
         Thinned posterior samples by factor (the corner plot's).
     slices : dict of str to dict of str to SurrogateSlice
@@ -261,6 +307,7 @@ class BayesSummary:
     marks: list[MarkedPoint] = field(default_factory=list)
     combinations: list[CombinationRow] = field(default_factory=list)
     advice: list[str] = field(default_factory=list)
+    surrogate_checks: list[SurrogateCheckRow] = field(default_factory=list)
     samples: dict[str, list[float]] = field(default_factory=dict)
     slices: dict[str, dict[str, SurrogateSlice]] = field(default_factory=dict)
 
@@ -285,6 +332,7 @@ class BayesSummary:
             labs=_by_name(BayesLab, stored.get("labs")),
             marks=_rows(MarkedPoint, stored.get("marks")),
             combinations=_rows(CombinationRow, stored.get("combinations")),
+            surrogate_checks=_rows(SurrogateCheckRow, stored.get("surrogate_checks")),
             slices={str(r): _by_name(SurrogateSlice, per)
                     for r, per in (stored.get("slices") or {}).items()
                     if isinstance(per, Mapping)})

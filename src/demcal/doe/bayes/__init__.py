@@ -17,6 +17,7 @@ See docs/bayes.md.
 """
 
 from demcal.doe.bayes.acquisition import acquire_batch, surrogate_share
+from demcal.doe.bayes.checks import SurrogateCheck, check_surrogate
 from demcal.doe.bayes.driver import (
     BayesResult,
     BayesSettings,
@@ -64,8 +65,10 @@ __all__ = [
     "Sensitivity",
     "Shrinkage",
     "Surrogate",
+    "SurrogateCheck",
     "acquire_batch",
     "calibrate_bayes",
+    "check_surrogate",
     "condition_on",
     "credibility",
     "fit_surrogate",
