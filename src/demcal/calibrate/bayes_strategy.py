@@ -490,30 +490,34 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     space = _space(ctx)
     h = ctx.begin(STAGE, {"settings": repr(cfg), "labs": [repr(r) for r in labs],
                           "factors": ctx.factor_rows()})
+    loop = _Loop(cfg, tuple(labs), tuple(notes), space, h)
     ev = _Evaluator(ctx, space, tuple(r.name for r in labs))
-    res = bayes.calibrate_bayes(ev, space, labs, cfg)
-    records = list(ev.records)
-    summary = _summarise(ctx, _Conditioned(res, records, 0), labs, notes, cfg)
-    ctx.store.set_stage(STAGE, "done", summary.to_summary(), inputs_hash=h)
-    ver = _verify(ctx, res, summary.predicted)
+    cond = _Conditioned(bayes.calibrate_bayes(ev, space, labs, cfg), list(ev.records), 0)
+    summary, ver = _verified_round(ctx, loop, cond)
     opts = ctx.study.stages.verification
-    extra = 0
     while ctx.rounds.number < opts.max_rounds and \
             refine.needs_another_round(ver, opts.tolerance_percent):
         # the missed round's runs become data at the point where the surrogates were wrong
         runs = ctx.results.verification_runs
-        res = bayes.condition_on(res, _coded(space, ver.params, len(runs)),
-                                 {r.name: [_value(x, r.name) for x in runs] for r in labs},
-                                 labs, cfg)
-        records += runs
-        extra += len(runs)
-        ctx.rounds.optimize.append(ctx.results.optimize)
-        ctx.rounds.verification.append(ver)
-        ctx.rounds.number += 1
-        summary = _summarise(ctx, _Conditioned(res, records, extra), labs, notes, cfg)
-        ctx.store.set_stage(STAGE, "done", summary.to_summary(), inputs_hash=h)
-        ver = _verify(ctx, res, summary.predicted)
+        y = {r.name: [_value(x, r.name) for x in runs] for r in labs}
+        cond = _Conditioned(
+            bayes.condition_on(cond.result, _coded(space, ver.params, len(runs)), y, labs, cfg),
+            [*cond.records, *runs], cond.verification_runs + len(runs))
+        ctx.rounds.advance(ctx.results.optimize, ver)
+        summary, ver = _verified_round(ctx, loop, cond)
     return _result(ctx, summary, ver)
+
+
+@dataclass(frozen=True)
+class _Loop:
+    """What every round of one study shares: settings, lab values, notes on them, the coded
+    box and the stage's inputs hash."""
+
+    settings: bayes.BayesSettings
+    labs: tuple[bayes.Response, ...]
+    notes: tuple[str, ...]
+    space: doe.FactorSpace
+    inputs_hash: str
 
 
 @dataclass(frozen=True, eq=False)
@@ -526,26 +530,32 @@ class _Conditioned:
     verification_runs: int
 
 
+def _verified_round(ctx: st.Context, loop: _Loop,
+                    cond: _Conditioned) -> tuple[BayesSummary, Verification]:
+    """Store the stage's summary of the posterior ``cond``, then verify its best point."""
+    summary = _summarise(ctx, loop, cond)
+    ctx.store.set_stage(STAGE, "done", summary.to_summary(), inputs_hash=loop.inputs_hash)
+    return summary, _verify(ctx, cond.result, summary.predicted)
+
+
 def _coded(space: doe.FactorSpace, params: Mapping[str, float], n: int) -> np.ndarray:
     """(n, k) coded rows of the factors' values in ``params`` (a verification's runs)."""
     row = space.to_coded(np.array([[float(params[f]) for f in space.names]]))
     return np.repeat(row, n, axis=0)
 
 
-def _summarise(ctx: st.Context, cond: _Conditioned, labs: Sequence[bayes.Response],
-               notes: Sequence[str], cfg: bayes.BayesSettings) -> BayesSummary:
+def _summarise(ctx: st.Context, loop: _Loop, cond: _Conditioned) -> BayesSummary:
     """The stage's summary of a posterior: verdict, shrinkage per candidate, combinations,
     advice and the study's marks."""
-    res = cond.result
-    space = res.posterior.factors
+    res, cfg, labs = cond.result, loop.settings, loop.labs
     lead = ctx.labs.get(ctx.lead.name)
     n_lab = (lead.n if lead is not None else None) or 1
     cands = _candidates(cond.records, [r.name for r in labs], res.x, n_lab, cfg.seed)
-    stated, sources, stated_notes = _stated(ctx, space, {c.name for c in cands})
+    stated, sources, stated_notes = _stated(ctx, loop.space, {c.name for c in cands})
     shrink = _shrinkage(res, [*cands, *stated], cfg.seed, sources)
     combos = _combinations(res, [*cands, *stated])
-    return replace(_summary(res, labs, [*notes, *stated_notes], shrink, cfg),
-                   marks=_marks(ctx, res, labs, space), combinations=combos,
+    return replace(_summary(res, labs, [*loop.notes, *stated_notes], shrink, cfg),
+                   marks=_marks(ctx, res, labs, loop.space), combinations=combos,
                    advice=_advice(shrink, combos), verification_runs=cond.verification_runs)
 
 

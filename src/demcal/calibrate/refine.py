@@ -74,6 +74,4 @@ def run_rounds(ctx: st.Context) -> Verification:
         if ctx.rounds.number >= opts.max_rounds or \
                 not needs_another_round(ver, opts.tolerance_percent):
             return ver
-        ctx.rounds.optimize.append(ctx.results.optimize)  # their history is dropped
-        ctx.rounds.verification.append(ver)                 # when they are stored again
-        ctx.rounds.number += 1
+        ctx.rounds.advance(ctx.results.optimize, ver)

@@ -31,6 +31,13 @@ class Rounds:
     verification: list[Verification] = field(default_factory=list)
     stored: dict[int, Optimum] | None = None
 
+    def advance(self, optimum: Optimum, verification: Verification) -> None:
+        """Finish the round now running with its optimum and verification; the next begins
+        (their histories are dropped when they are stored again: :meth:`in_round`)."""
+        self.optimize.append(optimum)
+        self.verification.append(verification)
+        self.number += 1
+
     def offset(self, model: Any) -> Offset:
         """The surface's offset measured by the finished rounds (:class:`Offset`).
 
