@@ -520,6 +520,20 @@ def test_a_template_engine_with_three_responses(tmp_path: Path) -> None:
         assert p["ci95_high"] - p["ci95_low"] <= 0.25 * (hi - lo), (name, p)
     assert res["verification"]["consistent"] is True
     assert "pile_formed" in res["labs"]  # an external engine may end without a pile
+    # the same engine and the angle alone: a ridge, named in the two frictions
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    for name in ("engine.py", "input.txt.template"):
+        (alone / name).write_text((tmp_path / name).read_text())
+    text = "\n".join(lines).replace('kind = "bayes"', 'kind = "bayes"\nmax_runs = 33')
+    for name in ("drum_deg", "bulk_density_kg_m3"):
+        text = text.replace(f'[[responses]]\nname = "{name}"\ntarget = {truth[name]!r}\n'
+                            'std = 0.5\nn = 5\n', "")
+    (alone / "study.toml").write_text(text)
+    res = calibrate(alone / "study.toml", workers=1)
+    assert list(res["labs"]) == ["aor_deg", "pile_formed"]
+    assert res["identifiable"] is False and res["n_runs_strategy"] == 33, res["reason"]
+    assert any(FRICTIONS <= set(r["parameters"]) for r in res["ridges"]), res["reason"]
 
 
 def test_the_material_card_holds_the_posterior(three: tuple[Path, dict]) -> None:
