@@ -274,6 +274,11 @@ def test_a_missed_verification_becomes_data_for_the_next_round(tmp_path: Path) -
         "verification_rounds"]
     assert "predicted AoR (deg)" in table["columns"] and len(table["rows"]) == 3
     assert "offset" not in " ".join(table["columns"])  # no surface was aimed
+    history = json.loads((tmp_path / "report" / "report.json").read_text())["tables"][
+        "bayes_history"]
+    assert [row[1] for row in history["rows"]] == [12, 16, 20]
+    assert "after 12 runs; the rows after it are the posterior conditioned on the " \
+        "verification rounds' piles as well (8 runs in all)" in history["note"], history
 
 
 def test_a_lab_value_out_of_reach_is_a_printed_warning(tmp_path: Path) -> None:

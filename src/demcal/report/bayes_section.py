@@ -89,6 +89,7 @@ class BayesView:
     advice: tuple[str, ...] = ()
     combinations: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...] = ()
     checks: tuple[SurrogateCheckRow, ...] = ()
+    verification_runs: int = 0
 
     @property
     def names(self) -> list[str]:
@@ -125,7 +126,7 @@ def bayes_view(summary: Mapping[str, Any]) -> BayesView | None:
         samples={n: tuple(map(float, v)) for n, v in s.samples.items()},
         slices=s.slices, marks=tuple(s.marks), advice=tuple(s.advice),
         combinations=tuple((tuple(c.responses), tuple(c.ridges)) for c in s.combinations),
-        checks=tuple(s.surrogate_checks))
+        checks=tuple(s.surrogate_checks), verification_runs=s.verification_runs)
 
 
 def _basis(row: ShrinkageRow) -> str:
@@ -153,8 +154,11 @@ def _history_table(view: BayesView) -> Table:
     frame = pd.DataFrame([{"round": i + 1, "runs": n,
                            **{f"half-width {k} (coded)": v for k, v in hw.items()},
                            "acceptance": acc} for i, (n, hw, acc) in enumerate(view.history)])
-    return Table("bayes_history", "Rounds of the loop", frame,
-                 note=f"stopped by {view.stopped} after {view.n_runs} runs")
+    note = f"stopped by {view.stopped} after {view.n_runs - view.verification_runs} runs"
+    if view.verification_runs:
+        note += (f"; the rows after it are the posterior conditioned on the verification "
+                 f"rounds' piles as well ({view.verification_runs} runs in all)")
+    return Table("bayes_history", "Rounds of the loop", frame, note=note)
 
 
 def _responses_table(view: BayesView) -> Table:
