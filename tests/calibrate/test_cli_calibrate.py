@@ -105,3 +105,22 @@ def test_a_target_out_of_reach_of_the_hard_limits_stops_after_range_finding(stud
     study_file.write_text(study_file.read_text().replace("aor_deg = 80.0", "aor_deg = 40.0"))
     res = CliRunner().invoke(app, ["calibrate", str(study_file), "--workers", "1"])
     assert res.exit_code == 0, res.output
+
+
+@pytest.mark.parametrize(("strategy", "words"), [
+    ("bayes", "the next round conditions the posterior on these piles too and verifies its "
+              "new best point"),
+    ("doe", "the next round aims the surface by the offset these piles measured"),
+])
+def test_a_missed_target_says_what_another_round_would_do(strategy: str, words: str) -> None:
+    """The corn-stalk Bayesian study's first round: 47.01 deg against 44.12, outside."""
+    from demcal.cli import _common
+    from demcal.cli.calibrate_cmd import _print_verification
+
+    result = {"strategy": strategy, "target_aor_deg": 44.116, "rounds": [{"round": 1}],
+              "verification": {"aor_mean_deg": 47.007, "target_in_interval": False}}
+    with _common.console.capture() as cap:
+        _print_verification(result)
+    text = " ".join(cap.get().split())
+    assert "the calibrated angle is +2.89 deg from it (after 1 round(s); with a higher " \
+        "stages.verification.max_rounds " + words in text, text

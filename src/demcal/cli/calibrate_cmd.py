@@ -182,10 +182,16 @@ def _print_verification(result: dict) -> None:
                              "whether a round meets it is partly chance"), highlight=False)
     if v.get("target_in_interval") is False:
         off = v["aor_mean_deg"] - result["target_aor_deg"]
+        rounds = len(result.get("rounds") or [1])
+        again = ("conditions the posterior on these piles too and verifies its new best point"
+                 if result.get("strategy") == "bayes" else
+                 "aims the surface by the offset these piles measured")
         console.print(styled(("note:", "yellow"), f" the target {result['target_aor_deg']:.2f}"
                              f"{u} lies outside the verification's 95 % interval: the "
                              f"calibrated {'angle' if u == ' deg' else 'value'} is "
-                             f"{off:+.2f}{u} from it"), highlight=False)
+                             f"{off:+.2f}{u} from it (after {rounds} round(s); with a higher "
+                             f"stages.verification.max_rounds the next round {again})"),
+                      highlight=False)
 
 
 def _print_demonstration_worth(result: dict) -> None:
