@@ -95,6 +95,7 @@ def test_three_responses_pin_the_planted_point(three: tuple[Path, dict]) -> None
         assert p["ci95_high"] - p["ci95_low"] <= 0.25 * (hi - lo), (name, p)
         assert p["ci95_low"] <= p["median"] <= p["ci95_high"]
     assert res["ridge"] == []
+    assert not any(n.startswith("replicates") for n in res["notes"])  # replicates = 1
     assert set(res["correlation"]) == set(FACTORS)
     # verified at the best point on fresh seeds, every response judged against its lab
     ver = res["verification"]
@@ -242,7 +243,7 @@ def test_a_missed_verification_becomes_data_for_the_next_round(tmp_path: Path) -
     meet) conditions the posterior on its runs and verifies the new best point on seeds of
     its own; a resume runs nothing and ends where the first call did."""
     path = bayes_study(tmp_path, responses=False, strategy="n_start = 12\nmax_runs = 12\n")
-    path.write_text(path.read_text().replace(
+    path.write_text(path.read_text().replace("replicates = 1", "replicates = 3").replace(
         "[stages.verification]\nn = 4\n",
         "[stages.verification]\nn = 4\nmax_rounds = 3\ntolerance_percent = 0.0001\n"))
     res = calibrate(path, workers=1)
@@ -250,6 +251,8 @@ def test_a_missed_verification_becomes_data_for_the_next_round(tmp_path: Path) -
     assert res["verification_runs"] == 8 and res["n_runs_strategy"] == 12
     assert res["n_runs"] == res["n_runs_strategy"] + 8 + res["verification"]["n"]
     assert [h["n_runs"] for h in res["history"]] == [12, 16, 20]
+    # the study's replicates are the DOE path's: one seed per point here, and it says so
+    assert any(n.startswith("replicates = 3 (seeds per design point") for n in res["notes"])
     optima = [tuple(r["optimum"].values()) for r in res["rounds"]]
     assert len(set(optima)) == 3  # each round's posterior has its own best point
     assert res["optimum"] == res["rounds"][-1]["optimum"]

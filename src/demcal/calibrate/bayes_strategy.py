@@ -485,6 +485,11 @@ def run_bayes(ctx: st.Context) -> dict[str, Any]:
     """
     cfg = settings(ctx)
     labs, notes = lab_responses(ctx)
+    if (reps := ctx.study.replicates or 1) > 1:
+        notes.append(f"replicates = {reps} (seeds per design point, the DOE path's stages') "
+                     "is not used: the strategy runs one seed per point, since a new point "
+                     "tells the surrogates more than a replicate and they learn the seed "
+                     "scatter themselves")
     for name in DOE_STAGES:  # a study that ran the DOE path before: its runs stay
         ctx.store.delete_stage(name)
     space = _space(ctx)
