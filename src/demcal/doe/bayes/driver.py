@@ -18,7 +18,7 @@ from demcal.doe.bayes.posterior import Posterior, SamplerSettings, sample_poster
 from demcal.doe.bayes.responses import Response, check_responses
 from demcal.doe.bayes.surrogate import Surrogate, coded_points, fit_surrogate
 from demcal.doe.designs import latin_hypercube
-from demcal.doe.factors import as_factor_space
+from demcal.doe.factors import FactorSpace, as_factor_space
 from demcal.errors import InputError
 
 __all__ = ["BayesResult", "BayesSettings", "Evaluate", "Round", "calibrate_bayes", "condition_on"]
@@ -240,6 +240,18 @@ def _fit_all(x: np.ndarray, data: Mapping[str, tuple[np.ndarray, np.ndarray | No
             for name, (vals, var) in data.items()}
 
 
+def _fit_and_sample(x: np.ndarray, data: Mapping[str, tuple[np.ndarray, np.ndarray | None]],
+                    responses: Sequence[Response], space: FactorSpace, settings: BayesSettings
+                    ) -> tuple[dict[str, Surrogate], Posterior, Round]:
+    """One round's surrogates on every run so far, the posterior they give, and the round's
+    row of the history."""
+    surrogates = _fit_all(x, data, settings.seed)
+    posterior = sample_posterior(surrogates, responses, space, settings.sampler)
+    step = Round(len(x), tuple(map(float, posterior.half_widths)),
+                 posterior.acceptance_fraction, posterior.warnings)
+    return surrogates, posterior, step
+
+
 def calibrate_bayes(evaluate: Evaluate, factors: Any, responses: Sequence[Response],
                     settings: BayesSettings | None = None) -> BayesResult:
     """Calibrate by Bayesian inference over the coded box, with Gaussian-process surrogates.
@@ -280,10 +292,8 @@ def calibrate_bayes(evaluate: Evaluate, factors: Any, responses: Sequence[Respon
     history: list[Round] = []
     intervals: list[np.ndarray] = []
     while True:
-        surrogates = _fit_all(x, data, settings.seed)
-        posterior = sample_posterior(surrogates, responses, space, settings.sampler)
-        history.append(Round(len(x), tuple(map(float, posterior.half_widths)),
-                             posterior.acceptance_fraction, posterior.warnings))
+        surrogates, posterior, step = _fit_and_sample(x, data, responses, space, settings)
+        history.append(step)
         intervals.append(posterior.intervals)
         stopped = _stop(posterior, settings, len(x), intervals)
         if stopped:
@@ -336,18 +346,15 @@ def condition_on(result: BayesResult, x_new: Any, y_new: Mapping[str, Any],
     if any(s.noise_var is not None for s in result.surrogates.values()):
         raise InputError("condition_on: the result's runs came with variances; runs without "
                          "them cannot be added")
-    data = {}
+    new = {}
     for r in check_responses(responses):
         if r.name not in y_new:
             raise InputError(f"condition_on: no values of response {r.name}")
-        new = _column(y_new[r.name], r.name, len(x_new))
-        data[r.name] = (np.concatenate([result.y[r.name], new]), None)
+        new[r.name] = (_column(y_new[r.name], r.name, len(x_new)), None)
+    data = _append({n: (result.y[n], None) for n in new}, new)
     x = np.vstack([result.x, x_new])
-    surrogates = _fit_all(x, data, settings.seed)
-    space = result.posterior.factors
-    posterior = sample_posterior(surrogates, responses, space, settings.sampler)
-    step = Round(len(x), tuple(map(float, posterior.half_widths)),
-                 posterior.acceptance_fraction, posterior.warnings)
+    surrogates, posterior, step = _fit_and_sample(x, data, responses, result.posterior.factors,
+                                                  settings)
     return BayesResult(posterior=posterior, identifiability=identify(posterior),
                        surrogates=surrogates, x=x, y={n: v for n, (v, _) in data.items()},
                        history=(*result.history, step), stopped=result.stopped)
