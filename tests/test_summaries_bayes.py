@@ -39,7 +39,8 @@ def _stored(marks: bool = True) -> dict:
                    "expected, from its stated slopes)"],
         "surrogate_checks": [{"response": "aor_deg", "n": 12, "rms_z": 1.1, "max_abs_z": 3.4,
                               "limit": 3.04, "worst": {"a": 0.6, "b": 0.2}, "value": 50.0,
-                              "predicted": 46.0, "rms_error": 1.5}],
+                              "predicted": 46.0, "rms_error": 1.5, "judged": True,
+                              "misses_a_run": True}],
         "samples": {"a": [0.5, 0.6], "b": [0.1, 0.09]},
         "slices": {"aor_deg": {"a": {"x": [0.3, 0.7], "mean": [40.0, 48.0],
                                      "std": [0.5, 0.5]}}},
@@ -78,3 +79,20 @@ def test_an_older_store_without_marks_and_no_posterior_read():
     assert BayesSummary.from_summary({"error": "failed"}) is None
     odd = BayesSummary.from_summary({"posterior": {"a": {"mean": 1.0}}})
     assert odd is not None and math.isnan(odd.posterior["a"].ci95_low)
+
+
+def test_the_report_s_verdict_on_a_surrogate_is_the_study_s():
+    """The check's verdict is stored, not derived again: a check on too few runs is no
+    verdict even with a z beyond the limit (the study warned of nothing)."""
+    from demcal.report.bayes_section import bayes_tables, bayes_view
+
+    def verdict(**row) -> str:
+        stored = _stored()
+        stored["surrogate_checks"][0].update(row)
+        table = next(t for t in bayes_tables(bayes_view(stored))
+                     if t.key == "bayes_surrogate_checks")
+        return table.records()["rows"][0][-1]
+
+    assert verdict() == "misses that run"
+    assert verdict(misses_a_run=False) == "follows its runs"
+    assert verdict(n=8, judged=False, misses_a_run=False) == "too few runs to judge"

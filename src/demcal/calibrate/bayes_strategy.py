@@ -378,9 +378,10 @@ def _surrogate_checks(res: bayes.BayesResult) -> tuple[list[SurrogateCheckRow], 
         row = SurrogateCheckRow(
             response=name, n=c.n, rms_z=c.rms_z, max_abs_z=c.max_abs_z, limit=c.limit,
             worst=dict(zip(space.names, map(float, at), strict=True)),
-            value=float(sur.y[c.worst]), predicted=c.predicted, rms_error=c.rms_error)
+            value=float(sur.y[c.worst]), predicted=c.predicted, rms_error=c.rms_error,
+            judged=c.judged, misses_a_run=c.misses_a_run)
         rows.append(row)
-        if c.misses_a_run:
+        if row.misses_a_run:
             where = ", ".join(f"{n} {v:.3g}" for n, v in row.worst.items())
             warn.append(f"{name}: the run at {where} gave {row.value:.4g} where the other "
                         f"runs predict {row.predicted:.4g}, {c.max_abs_z:.1f} standard "

@@ -202,7 +202,8 @@ def _checks_table(view: BayesView) -> Table:
         "response": c.response, "runs": c.n, "rms error (one run)": c.rms_error,
         "rms z": c.rms_z, "largest z": c.max_abs_z, "limit": c.limit,
         "that run": c.value, "the others predict": c.predicted,
-        "verdict": "misses that run" if c.misses_a_run else "follows its runs"}
+        "verdict": ("misses that run" if c.misses_a_run else "follows its runs") if c.judged
+        else "too few runs to judge"}
         for c in view.checks])
     return Table("bayes_surrogate_checks", "The surrogates against their own runs "
                  "(each run predicted from the others)", frame,

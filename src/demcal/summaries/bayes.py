@@ -115,6 +115,10 @@ class SurrogateCheckRow(_KeyedEvery):
         What the other runs' surrogate predicts there.
     rms_error : float
         Root mean square of the leave-one-out errors, the response's unit.
+    judged : bool
+        Enough runs to judge the surrogate.
+    misses_a_run : bool
+        Judged, and a run lies beyond the limit (the study warned of it).
     """
 
     response: str = ""
@@ -126,11 +130,8 @@ class SurrogateCheckRow(_KeyedEvery):
     value: float = float("nan")
     predicted: float = float("nan")
     rms_error: float = float("nan")
-
-    @property
-    def misses_a_run(self) -> bool:
-        """A run lies beyond the limit."""
-        return self.max_abs_z > self.limit
+    judged: bool = False
+    misses_a_run: bool = False
 
 
 @dataclass(frozen=True)
