@@ -10,6 +10,7 @@ from demcal.cli import _common
 from demcal.cli.calibrate_cmd import _print_result
 from demcal.display import readable
 from demcal.report.material import card_table
+from demcal.summaries import CalibrationResult
 from demcal.virtual.material_card import MaterialCard, read_material_card
 from demcal.virtual.presets import preset_parameters
 
@@ -59,7 +60,7 @@ def test_the_console_prints_the_calibrated_parameters_rounded():
               "verification": {"aor_mean_deg": None, "aor_std_deg": None,
                                "relative_error_percent": None, "n": 0}}
     with _common.console.capture() as cap:
-        _print_result(result)
+        _print_result(CalibrationResult.from_summary(result))
     text = cap.get()
     assert "0.3 " in text and "114.36 " in text and "0.45 " in text
     assert "0.30000000000000004" not in text and "114.36000000000001" not in text

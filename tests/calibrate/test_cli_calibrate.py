@@ -116,9 +116,12 @@ def test_a_missed_target_says_what_another_round_would_do(strategy: str, words: 
     """The corn-stalk Bayesian study's first round: 47.01 deg against 44.12, outside."""
     from demcal.cli import _common
     from demcal.cli.calibrate_cmd import _print_verification
+    from demcal.summaries import BayesSummary, CalibrationResult, ResultRound, Verification
 
-    result = {"strategy": strategy, "target_aor_deg": 44.116, "rounds": [{"round": 1}],
-              "verification": {"aor_mean_deg": 47.007, "target_in_interval": False}}
+    result = CalibrationResult(
+        study="corn stalk", optimum={}, optimum_full={}, predicted_lead=None, target=44.116,
+        verification=Verification(mean=47.007, target_in_interval=False),
+        rounds=[ResultRound(round=1)], bayes=BayesSummary() if strategy == "bayes" else None)
     with _common.console.capture() as cap:
         _print_verification(result)
     text = " ".join(cap.get().split())

@@ -9,6 +9,7 @@ import pytest
 from demcal.calibrate.study import load_study
 from demcal.cli import _common
 from demcal.cli.calibrate_cmd import _is_quick_demonstration, _print_demonstration_worth
+from demcal.summaries import CalibrationResult
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "corn_stalk"
 
@@ -40,8 +41,9 @@ def test_the_bayesian_study_marks_every_committed_doe_optimum():
 
 
 def _printed(result: dict) -> str:
+    """What the note prints for the result JSON ``result`` (read as the command reads it)."""
     with _common.console.capture() as cap:
-        _print_demonstration_worth(result)
+        _print_demonstration_worth(CalibrationResult.from_summary(result))
     return " ".join(cap.get().split())
 
 

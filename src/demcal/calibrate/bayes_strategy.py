@@ -26,7 +26,6 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
 
@@ -38,7 +37,7 @@ from demcal.calibrate.runner import Point
 from demcal.doe import bayes
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord
-from demcal.summaries import Candidate, Optimum, Verification
+from demcal.summaries import CalibrationResult, Candidate, Optimum, ResultResponses, Verification
 from demcal.summaries.bayes import (
     BayesLab,
     BayesPrediction,
@@ -472,8 +471,8 @@ def _marks(ctx: st.Context, res: bayes.BayesResult, labs: Sequence[bayes.Respons
     return out
 
 
-def run_bayes(ctx: st.Context) -> dict[str, Any]:
-    """Calibrate the study by the Bayesian strategy; return the result JSON.
+def run_bayes(ctx: st.Context) -> CalibrationResult:
+    """Calibrate the study by the Bayesian strategy; return its result.
 
     Stores the stage ``"bayes"`` (its summary: posterior, verdict, ridges, shrinkage, rounds,
     thinned samples) and, through :func:`demcal.calibrate.stages.verification`, the stage
@@ -565,28 +564,24 @@ def _summarise(ctx: st.Context, loop: _Loop, cond: _Conditioned) -> BayesSummary
                    advice=_advice(shrink, combos), verification_runs=cond.verification_runs)
 
 
-def _result(ctx: st.Context, summary: BayesSummary, ver: Verification) -> dict[str, Any]:
+def _result(ctx: st.Context, summary: BayesSummary, ver: Verification) -> CalibrationResult:
     opt: Optimum = ctx.results.optimize
     lead = summary.predicted.get(ctx.lead.name)
-    aor = None if lead is None else lead.mean
-    result = {
-        "study": ctx.study.name, "strategy": STAGE, **summary.in_result(),
-        "optimum_full": ver.params, "predicted_aor_deg": aor, "target_aor_deg": ctx.target,
-        **ctx.lead_keys(),
-        "verification": ver.in_result(),
-        "rounds": [refine.round_row(o, v) for o, v in
-                   zip([*ctx.rounds.optimize, opt], [*ctx.rounds.verification, ver],
-                       strict=True)],
-        # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
-        "n_runs": ctx.store.count(),
-        "n_runs_strategy": summary.n_runs - summary.verification_runs,
-        "n_runs_executed": ctx.runner.executed,
-        "ranges": {f.name: [f.low, f.high] for f in ctx.factors},
-    }
+    several = None
     if ctx.several:  # the surrogates' means at the best point, as the DOE path's predictions
-        result["responses"] = {
-            "predicted": {name: p.mean for name, p in summary.predicted.items()
-                          if name not in (ctx.lead.name, PILE)},
-            "verification": ver.stored_responses()}
-    ctx.store.set_meta("result", result)
+        several = ResultResponses(
+            predicted={name: p.mean for name, p in summary.predicted.items()
+                       if name not in (ctx.lead.name, PILE)},
+            verification=ver.responses)
+    result = CalibrationResult(
+        study=ctx.study.name, optimum=dict(summary.optimum), optimum_full=ver.params,
+        predicted_lead=None if lead is None else lead.mean, target=ctx.target,
+        lead=ctx.lead_label(), verification=ver,
+        rounds=refine.round_rows([*ctx.rounds.optimize, opt], [*ctx.rounds.verification, ver]),
+        # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
+        n_runs=ctx.store.count(), n_runs_executed=ctx.runner.executed,
+        n_runs_strategy=summary.n_runs - summary.verification_runs,
+        ranges={f.name: [f.low, f.high] for f in ctx.factors}, responses=several,
+        bayes=summary)
+    ctx.store.set_meta("result", result.to_summary())
     return result

@@ -135,14 +135,12 @@ class Context:
         """The lead as the stages' messages name it: ``the AoR`` for the angle."""
         return self.lead_name.words
 
-    def lead_keys(self) -> dict[str, Any]:
-        """The result JSON's ``lead`` (name and unit) where the lead is not the angle: its
-        keys named for the angle (``target_aor_deg``, ``predicted_aor_deg``,
-        ``verification.aor_mean_deg``, ...) then hold the lead's values. Nothing for the
-        angle, whose result is what it always was."""
-        if self.lead_name.is_angle:
-            return {}
-        return {"lead": {"name": self.lead.name, "unit": self.lead.unit}}
+    def lead_label(self) -> LeadName | None:
+        """The result's ``lead`` where the lead is not the angle: the result's keys named for
+        the angle (``target_aor_deg``, ``predicted_aor_deg``, ``verification.aor_mean_deg``,
+        ...) then hold the lead's values. None for the angle, whose result is what it always
+        was."""
+        return None if self.lead_name.is_angle else self.lead_name
 
     def measured(self, record: RunRecord) -> float | None:
         """The lead response of a run, where the run measured it (outcome ``pile``)."""

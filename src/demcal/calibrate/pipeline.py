@@ -28,12 +28,15 @@ from demcal.execute.tasks import TestDef
 from demcal.store import STAGES as STAGE_TITLES
 from demcal.store import RunStore
 from demcal.summaries import (
+    CalibrationResult,
     DesignRun,
     Optimum,
+    ResultResponses,
     Screening,
     Steepest,
     StudyFactor,
     Surface,
+    SurfaceFacts,
     Verification,
     by_key,
 )
@@ -282,7 +285,8 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
 def calibrate(study_file: str | Path, *, workers: int | None = None, dask: Any = None,
               external: bool = False,
               progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
-    """Run (or resume) the study; return the result JSON (also stored as meta "result").
+    """Run (or resume) the study; return the result JSON (also stored as meta "result";
+    :meth:`CalibrationResult.from_summary` reads it typed).
 
     Raises :class:`demcal.calibrate.runner.ExternalPending` in external mode when a stage
     needs runs done outside demcal.
@@ -290,12 +294,12 @@ def calibrate(study_file: str | Path, *, workers: int | None = None, dask: Any =
     ctx = open_study(study_file, workers=workers, dask=dask, external=external,
                      progress=progress)
     try:
-        return run_stages(ctx)
+        return run_stages(ctx).to_summary()
     finally:
         ctx.store.close()
 
 
-def run_stages(ctx: st.Context) -> dict[str, Any]:
+def run_stages(ctx: st.Context) -> CalibrationResult:
     """The stages in order (disabled ones skipped), then the result; with ``[strategy]
     kind = "bayes"`` the Bayesian strategy and its verification instead."""
     if ctx.study.strategy.kind == "bayes":  # imported here: scikit-learn only when used
@@ -328,33 +332,25 @@ def run_stages(ctx: st.Context) -> dict[str, Any]:
     opt: Optimum = ctx.results.optimize
     surface: Surface = ctx.results.rsm
     ver: Verification = ctx.results.verification
-    rounds = [refine.round_row(o, v) for o, v in zip(
-        [*opt.rounds, opt], [*ver.rounds, ver], strict=True)]
-    result = {
-        "study": ctx.study.name,
-        "optimum": opt.chosen,
-        "optimum_full": ver.params,
-        "predicted_aor_deg": opt.predicted_lead,
-        "target_aor_deg": ctx.target,
-        **ctx.lead_keys(),
-        "verification": ver.in_result(),
-        "rounds": rounds,
-        "n_runs": ctx.store.count(),
+    several = None
+    if ctx.several and opt.responses is not None:  # every response against its lab value
+        several = ResultResponses(goals=list(opt.responses.goals),
+                                  desirability=opt.responses.desirability,
+                                  predicted=dict(opt.best.predicted),
+                                  verification=ver.responses)
+    result = CalibrationResult(
+        study=ctx.study.name, optimum=opt.chosen, optimum_full=ver.params,
+        predicted_lead=opt.predicted_lead, target=ctx.target, lead=ctx.lead_label(),
+        verification=ver, rounds=refine.round_rows([*opt.rounds, opt], [*ver.rounds, ver]),
+        n_runs=ctx.store.count(),
         # the runs this study's stages used: a reused store may hold others (another study's,
         # or this one's under earlier settings), which n_runs counts
-        "n_runs_used": len({r.key for r in ctx.records} | ctx.runner.beside_keys),
-        "n_runs_executed": ctx.runner.executed,
-        "ranges": {f.name: [f.low, f.high] for f in ctx.factors},
-        "rsm_adequate": surface.adequate,
-        "rsm_adequacy": surface.adequacy,
-        "rsm_model": surface.model_kind,
-        "rsm_removed_terms": [] if surface.removed_terms is None else surface.removed_terms,
-        "stages": _stage_json(ctx),
-    }
-    if ctx.several and opt.responses is not None:  # every response against its lab value
-        result["responses"] = {
-            "goals": [g.to_summary() for g in opt.responses.goals],
-            "desirability": opt.responses.desirability, "predicted": opt.best.predicted,
-            "verification": ver.stored_responses()}
-    ctx.store.set_meta("result", result)
+        n_runs_used=len({r.key for r in ctx.records} | ctx.runner.beside_keys),
+        n_runs_executed=ctx.runner.executed,
+        ranges={f.name: [f.low, f.high] for f in ctx.factors},
+        surface=SurfaceFacts(adequate=surface.adequate, adequacy=surface.adequacy,
+                             model=surface.model_kind,
+                             removed_terms=list(surface.removed_terms or [])),
+        stages=_stage_json(ctx), responses=several)
+    ctx.store.set_meta("result", result.to_summary())
     return result

@@ -21,12 +21,11 @@ let the 30 design rows hold the surface where it was. The study's answer is the 
 
 from __future__ import annotations
 
-from typing import Any
-
 from demcal.calibrate import stages as st
-from demcal.summaries import Optimum, Verification, by_key
+from demcal.summaries import Optimum, Verification
+from demcal.summaries.result import ResultRound
 
-__all__ = ["needs_another_round", "round_row", "run_rounds"]
+__all__ = ["needs_another_round", "round_rows", "run_rounds"]
 
 
 def needs_another_round(verification: Verification,
@@ -46,16 +45,10 @@ def needs_another_round(verification: Verification,
     return missed or verification.confirmed is False or verification.target_in_interval is False
 
 
-def round_row(optimum: Optimum, verification: Verification) -> dict[str, Any]:
-    """One round in a few numbers: its optimum, prediction, the offset it was aimed by (a
-    refinement round) and verification (deg)."""
-    verified = ("n_piles", "mean", "std", "relative_error_percent", "half_width", "ci_low",
-                "ci_high", "confirm_pi_low", "confirm_pi_high", "confirmed",
-                "target_in_interval", "within_tolerance", "p_value")
-    aimed = [k for k in ("surface_offset", "measured_offset", "offset_weight")
-             if getattr(optimum, k) is not None]
-    return {"round": verification.round_number, "optimum": optimum.chosen,
-            **by_key(optimum, ("predicted_lead", *aimed)), **by_key(verification, verified)}
+def round_rows(optima: list[Optimum], verifications: list[Verification]) -> list[ResultRound]:
+    """One row per round, oldest first: its optimum, prediction, the offset it was aimed by (a
+    refinement round) and verification."""
+    return [ResultRound.of(o, v) for o, v in zip(optima, verifications, strict=True)]
 
 
 def run_rounds(ctx: st.Context) -> Verification:

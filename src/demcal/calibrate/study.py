@@ -672,13 +672,17 @@ def _read_mark(mark: Mark, base: Path | None) -> None:
     parameter where it has them); its path is taken from ``base``."""
     import json
 
+    from demcal.summaries.result import CalibrationResult
+
     if mark.result is None:
         return
     if base is not None:
         mark.result = str((base / mark.result).resolve())
     try:
-        data = json.loads(Path(str(mark.result)).read_text())
-        values = data.get("optimum_full") or data["optimum"]
+        result = CalibrationResult.from_summary(json.loads(Path(str(mark.result)).read_text()))
+        values = result.optimum_full or result.optimum
+        if not values:
+            raise KeyError("optimum")
         mark.values = {str(k): float(v) for k, v in values.items()}
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
         raise InputError(f"study: strategy.marks {mark.label!r}: {mark.result}: not a demcal "

@@ -31,170 +31,174 @@ from demcal.cli._common import (
 )
 from demcal.display import readable
 from demcal.errors import InputError
-from demcal.lead import LeadName
+from demcal.summaries.result import CalibrationResult
 
 
-def _print_result(result: dict) -> None:
-    table = Table(title=f"calibrated parameters ({result['study']})")
+def _print_result(result: CalibrationResult) -> None:
+    table = Table(title=f"calibrated parameters ({result.study})")
     table.add_column("parameter")
     table.add_column("value", justify="right")
-    for name, value in result["optimum"].items():
+    for name, value in result.optimum.items():
         table.add_row(name, readable(value))
     console.print(table)
-    v = result["verification"]
-    mean = "n/a" if v["aor_mean_deg"] is None else f"{v['aor_mean_deg']:.2f}"
-    std = "n/a" if v["aor_std_deg"] is None else f"{v['aor_std_deg']:.2f}"
-    rel = "n/a" if v["relative_error_percent"] is None else \
-        f"{v['relative_error_percent']:.2f} %"
-    lead = LeadName.of_result(result)
+    v = result.verification
+    mean = "n/a" if v.mean is None else f"{v.mean:.2f}"
+    std = "n/a" if v.std is None else f"{v.std:.2f}"
+    rel = "n/a" if v.relative_error_percent is None else f"{v.relative_error_percent:.2f} %"
+    lead = result.lead_name
     name, u = lead.label, lead.after_number()
-    console.print(f"target {name} {result['target_aor_deg']:.2f}{u}; predicted "
-                  f"{result['predicted_aor_deg']:.2f}{u}; verification ({v['n']} runs): "
-                  f"{mean} +/- {std}{u}, relative error {rel}; {_runs_stored(result)}")
+    predicted = "n/a" if result.predicted_lead is None else f"{result.predicted_lead:.2f}{u}"
+    console.print(f"target {name} {result.target:.2f}{u}; predicted {predicted}; "
+                  f"verification ({v.n} runs): {mean} +/- {std}{u}, relative error {rel}; "
+                  f"{_runs_stored(result)}")
     _print_verification(result)
     _print_responses(result)
     _print_bayes(result)
-    a = result.get("rsm_adequacy") or {}
+    _print_surface(result)
+
+
+def _print_surface(result: CalibrationResult) -> None:
+    """The response surface's fit statistics and, when it is not adequate, a warning."""
+    s = result.surface
+    if s is None:  # the Bayesian strategy's: no response surface
+        return
+    a = s.adequacy
     if a:
         def f(key: str, fmt: str) -> str:
             return "n/a" if a.get(key) is None else format(a[key], fmt)
-        model = result.get("rsm_model", "quadratic")
-        which = "full quadratic" if model == "quadratic" else (
-            "reduced (removed " + (", ".join(result.get("rsm_removed_terms") or []) or "none")
-            + ")")
-        console.print(f"response surface ({which}): adjusted R^2 {f('adj_r2', '.3f')}, "
+        console.print(f"response surface ({s.label()}): adjusted R^2 {f('adj_r2', '.3f')}, "
                       f"predicted R^2 "
                       f"{f('pred_r2', '.3f')}, Adeq Precision {f('adeq_precision', '.2f')}, "
                       f"model p {f('p_model', '.3g')}, lack of fit p {f('lack_of_fit_p', '.3g')}",
                       highlight=False)
-    if not result.get("rsm_adequate", True):
+    if not s.adequate:  # None too: a surface whose adequacy could not be judged
         console.print(styled(("warning:", "yellow"), " the response-surface model is not "
                              "adequate (see the rsm stage's warnings): its optimum is a guess "
                              "within the noise"))
 
 
-def _runs_stored(result: dict) -> str:
+def _runs_stored(result: CalibrationResult) -> str:
     """How many runs the store holds, how many this study used, how many ran now."""
-    stored, used = result["n_runs"], result.get("n_runs_used", result["n_runs"])
+    stored = result.n_runs
+    used = stored if result.n_runs_used is None else result.n_runs_used
     other = "" if used >= stored else (
         f", {stored - used} of them not used by this study's stages (another study's, or "
         "this study's under earlier settings)")
-    return f"{stored} runs stored{other} ({result['n_runs_executed']} run now)"
+    return f"{stored} runs stored{other} ({result.n_runs_executed} run now)"
 
 
-def _print_responses(result: dict) -> None:
+def _print_responses(result: CalibrationResult) -> None:
     """Every response beside the angle: its lab value, the surface's prediction at the
     optimum and its verification (several-response studies)."""
-    several = result.get("responses")
-    if not several:
+    several = result.responses
+    if several is None:
         return
-    predicted = several.get("predicted") or {}  # the Bayesian strategy's: posterior means
-    for name, check in (several.get("verification") or {}).items():
-        lab = (check.get("lab") or {}).get("mean")
-        mean, std = check.get("mean"), check.get("std")
+    predicted = several.predicted  # the Bayesian strategy's: posterior means
+    for name, check in (several.verification or {}).items():
+        lab = (check.lab or {}).get("mean")
         verdict = {True: "consistent", False: "NOT consistent", None: "not judged"}[
-            check.get("consistent")]
+            check.consistent]
         console.print(
             f"{name}: lab {readable(lab) if lab is not None else 'n/a'}; predicted "
             f"{'n/a' if predicted.get(name) is None else readable(predicted[name], 5)}; "
-            f"verification ({check['n']} "
-            f"runs): {'n/a' if mean is None else readable(mean, 5)} +/- "
-            f"{'n/a' if std is None else readable(std, 3)}, {verdict} with the lab",
+            f"verification ({check.n} "
+            f"runs): {'n/a' if check.mean is None else readable(check.mean, 5)} +/- "
+            f"{'n/a' if check.std is None else readable(check.std, 3)}, {verdict} with the lab",
             highlight=False)
-    if several.get("desirability") is not None:
-        console.print(f"overall desirability at the optimum: {several['desirability']:.3f}",
+    if several.desirability is not None:
+        console.print(f"overall desirability at the optimum: {several.desirability:.3f}",
                       highlight=False)
 
 
-def _print_bayes(result: dict) -> None:
+def _print_bayes(result: CalibrationResult) -> None:
     """The posterior's 95 % intervals and the identifiability verdict (strategy bayes)."""
-    if result.get("strategy") != "bayes":
+    b = result.bayes
+    if b is None:
         return
-    for name, p in result["posterior"].items():
-        console.print(f"{name}: median {p['median']:.4g}, 95 % credible interval "
-                      f"{p['ci95_low']:.4g}-{p['ci95_high']:.4g}", highlight=False)
-    extra = result.get("verification_runs") or 0
+    for name, p in b.posterior.items():
+        console.print(f"{name}: median {p.median:.4g}, 95 % credible interval "
+                      f"{p.ci95_low:.4g}-{p.ci95_high:.4g}", highlight=False)
+    extra = b.verification_runs
     also = f" and {extra} of the verification rounds'" if extra else ""
-    console.print(f"{result['reason']} ({result['n_runs_strategy']} runs{also}, stopped by "
-                  f"{result['stopped']})", highlight=False)
+    console.print(f"{b.reason} ({result.n_runs_strategy} runs{also}, stopped by "
+                  f"{b.stopped})", highlight=False)
     # per ridge, the candidate that helps most (every pair: the result's shrinkage, the report)
-    for line in result.get("advice") or []:
+    for line in b.advice:
         console.print(line, highlight=False)
-    for line in result.get("warnings") or []:  # the posterior's and its surrogates'
+    for line in b.warnings:  # the posterior's and its surrogates'
         console.print(styled(("warning:", "yellow"), " " + line))
 
 
-def _print_rounds(result: dict) -> None:
+def _print_rounds(result: CalibrationResult) -> None:
     """One line per verification round when the study refined its optimum."""
-    rounds = result.get("rounds") or []
+    rounds = result.rounds
     if len(rounds) < 2:
         return
     for r in rounds:
-        mean = "n/a" if r["aor_mean_deg"] is None else f"{r['aor_mean_deg']:.2f} deg"
+        mean = "n/a" if r.mean is None else f"{r.mean:.2f} deg"
         word = {True: "confirmed", False: "not confirmed", None: "no confirmation"}[
-            r["confirmed"]]
-        params = ", ".join(f"{k} {readable(v, 4)}" for k, v in r["optimum"].items())
-        aimed = "" if r.get("surface_offset_deg") is None else (
-            f" (aimed by {r['surface_offset_deg']:+.2f} deg: "
-            f"{r.get('offset_weight', 1.0):.2f} of the {r.get('measured_offset_deg', 0.0):+.2f}"
-            " measured)")
-        console.print(f"round {r['round']}: {params}{aimed}: verification {mean} on "
-                      f"{r['n_piles']} piles, {word}", highlight=False)
+            r.confirmed]
+        params = ", ".join(f"{k} {readable(v, 4)}" for k, v in r.optimum.items())
+        aimed = "" if r.surface_offset is None else (
+            f" (aimed by {r.surface_offset:+.2f} deg: "
+            f"{1.0 if r.offset_weight is None else r.offset_weight:.2f} of the "
+            f"{r.measured_offset or 0.0:+.2f} measured)")
+        console.print(f"round {r.round}: {params}{aimed}: verification {mean} on "
+                      f"{r.n_piles} piles, {word}", highlight=False)
     how = ("took the best point of the posterior conditioned on the earlier rounds' piles "
-           "as well (stages.verification.max_rounds)" if result.get("strategy") == "bayes"
+           "as well (stages.verification.max_rounds)" if result.strategy == "bayes"
            else "aimed the surface by the offset the earlier rounds' piles measured (all of "
            "it after an unconfirmed round, the piles' share of the information after "
            "confirmed ones; stages.verification.max_rounds)")
-    console.print(f"the optimum above is round {rounds[-1]['round']}'s: each later round {how}",
+    console.print(f"the optimum above is round {rounds[-1].round}'s: each later round {how}",
                   highlight=False)
 
 
-def _print_verification(result: dict) -> None:
+def _print_verification(result: CalibrationResult) -> None:
     """The verification against the measurement, the surface's promise and the target."""
     _print_rounds(result)
-    v = result["verification"]
-    u = LeadName.of_result(result).after_number()
-    if v.get("p_value") is not None:
-        verdict = ("consistent with", "") if v["consistent"] else ("differs from", "yellow")
-        console.print(styled(f"verification: 95 % interval {v['ci_low_deg']:.2f}-"
-                             f"{v['ci_high_deg']:.2f}{u}, ", verdict, " the measurement "
-                             f"(p = {v['p_value']:.3g}, {v['test']})"))
-    if v.get("confirmed") is not None:
-        word = ("confirmed", "") if v["confirmed"] else ("not confirmed", "yellow")
+    v = result.verification
+    u = result.lead_name.after_number()
+    n_rounds = max(len(result.rounds), 1)
+    if v.p_value is not None:
+        verdict = ("consistent with", "") if v.consistent else ("differs from", "yellow")
+        console.print(styled(f"verification: 95 % interval {v.ci_low:.2f}-"
+                             f"{v.ci_high:.2f}{u}, ", verdict, " the measurement "
+                             f"(p = {v.p_value:.3g}, {v.test})"))
+    if v.confirmed is not None:
+        word = ("confirmed", "") if v.confirmed else ("not confirmed", "yellow")
         console.print(styled(
             f"confirmation: the response surface"
-            f"{' (corrected by the last offset)' if len(result.get('rounds') or []) > 1 else ''}"
-            f" predicted {result['predicted_aor_deg']:.2f}"
-            f"{u}, 95 % interval for the mean of {v['n']} runs "
-            f"{v['confirm_pi_low_deg']:.2f}-{v['confirm_pi_high_deg']:.2f}: ", word))
-    if v.get("within_tolerance") is False:
+            f"{' (corrected by the last offset)' if n_rounds > 1 else ''}"
+            f" predicted {result.predicted_lead:.2f}"
+            f"{u}, 95 % interval for the mean of {v.n} runs "
+            f"{v.confirm_pi_low:.2f}-{v.confirm_pi_high:.2f}: ", word))
+    tol, hw, target = v.tolerance_percent, v.half_width, result.target
+    if v.within_tolerance is False:
         console.print(styled(("note:", "yellow"), f" the verification misses the target by "
-                             f"{v['relative_error_percent']:.2f} %, more than the study's "
-                             f"tolerance of {v['tolerance_percent']:g} % (after "
-                             f"{len(result.get('rounds') or [1])} round(s); raise "
+                             f"{v.relative_error_percent:.2f} %, more than the study's "
+                             f"tolerance of {tol:g} % (after {n_rounds} round(s); raise "
                              "stages.verification.max_rounds to refine further)"),
                       highlight=False)
-    tol, hw = v.get("tolerance_percent"), v.get("half_width_deg")
-    if tol is not None and hw is not None and tol * result["target_aor_deg"] / 100 < hw:
+    if tol is not None and hw is not None and tol * target / 100 < hw:
         console.print(styled(("note:", "yellow"), f" the tolerance ({tol:g} % = "
-                             f"{tol * result['target_aor_deg'] / 100:.2f}{u}) is narrower "
+                             f"{tol * target / 100:.2f}{u}) is narrower "
                              f"than the verification's 95 % interval (+/- {hw:.2f}{u}): "
                              "whether a round meets it is partly chance"), highlight=False)
-    if v.get("target_in_interval") is False:
-        off = v["aor_mean_deg"] - result["target_aor_deg"]
-        rounds = len(result.get("rounds") or [1])
+    if v.target_in_interval is False and v.mean is not None:
+        off = v.mean - target
         again = ("conditions the posterior on these piles too and verifies its new best point"
-                 if result.get("strategy") == "bayes" else
+                 if result.strategy == "bayes" else
                  "aims the surface by the offset these piles measured")
-        console.print(styled(("note:", "yellow"), f" the target {result['target_aor_deg']:.2f}"
+        console.print(styled(("note:", "yellow"), f" the target {target:.2f}"
                              f"{u} lies outside the verification's 95 % interval: the "
                              f"calibrated {'angle' if u == ' deg' else 'value'} is "
-                             f"{off:+.2f}{u} from it (after {rounds} round(s); with a higher "
+                             f"{off:+.2f}{u} from it (after {n_rounds} round(s); with a higher "
                              f"stages.verification.max_rounds the next round {again})"),
                       highlight=False)
 
 
-def _print_demonstration_worth(result: dict) -> None:
+def _print_demonstration_worth(result: CalibrationResult) -> None:
     """The last lines of a quick-fidelity study: what its answer is worth.
 
     A first run of the README's main command is the quick demonstration; its verification
@@ -202,10 +206,10 @@ def _print_demonstration_worth(result: dict) -> None:
     the product's accuracy. So its end says so, with the interval it measured, and names the
     study to run for a calibration to use.
     """
-    v = result["verification"]
-    lo, hi = v.get("ci_low_deg"), v.get("ci_high_deg")
+    v = result.verification
+    lo, hi = v.ci_low, v.ci_high
     interval = (f"its verification's 95 % interval is {lo:.1f}-{hi:.1f} deg "
-                f"(+/- {(hi - lo) / 2:.1f} deg on {v['n']} piles)"
+                f"(+/- {(hi - lo) / 2:.1f} deg on {v.n} piles)"
                 if lo is not None and hi is not None else
                 "its verification has no interval (too few piles)")
     console.print(styled(("this is a demonstration:", "yellow"),
@@ -332,7 +336,7 @@ def calibrate_cmd(
     # every file first (the JSON, the card or report), the console last: a console that
     # is gone (a closed pipe, a hung-up terminal) or blocks costs no result
     if json_out is not None:
-        json_out.write_text(json.dumps(result, indent=2))
+        json_out.write_text(json.dumps(result.to_summary(), indent=2))
     lines, report_path = _write_card_or_report(study_dir, report)
     _print_result(result)
     if json_out is not None:

@@ -16,6 +16,7 @@ from demcal.errors import InputError, StoreError
 from demcal.lead import LeadName
 from demcal.store import STAGES, STORE_NAME, RunRecord, RunStore
 from demcal.summaries import (
+    CalibrationResult,
     EngineMeta,
     Optimum,
     RangeFind,
@@ -169,6 +170,25 @@ class ReportData:
     def optimum(self) -> Optimum:
         """The optimize stage's summary, typed (empty when the stage has not run or failed)."""
         return Optimum.from_summary(self.stage("optimize").summary)
+
+    @property
+    def result(self) -> CalibrationResult | None:
+        """The finished calibration's result (meta ``result``), typed; None before it ends.
+
+        Raises
+        ------
+        StoreError
+            A result that is not one demcal writes (a damaged or crafted store).
+        """
+        stored = self.meta.get("result")
+        if not stored:
+            return None
+        try:
+            return CalibrationResult.from_summary(stored)
+        except (TypeError, ValueError, KeyError, AttributeError) as exc:
+            raise StoreError(f"{self.study_dir}: meta 'result' is not what demcal writes there "
+                             f"({exc}); the store is damaged (`demcal calibrate` with its "
+                             "study file writes it anew)") from None
 
     @property
     def study(self) -> StudyMeta:

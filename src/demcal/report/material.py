@@ -150,9 +150,9 @@ def material_card(data: ReportData) -> MaterialCard | None:
     """
     ver = data.verification
     opt = data.optimum
-    result = data.meta.get("result") or {}
-    chosen = opt.chosen or result.get("optimum") or {}
-    params = ver.params or result.get("optimum_full")
+    result = data.result
+    chosen = opt.chosen or (result.optimum if result is not None else {})
+    params = ver.params or (result.optimum_full if result is not None else None)
     if not params:
         if not chosen:
             return None
@@ -268,7 +268,7 @@ def parameter_table(data: ReportData, card: MaterialCard | None = None) -> Table
     """
     bench = data.physical
     factors = {f.name: f for f in data.factors}
-    ranges = (data.meta.get("result") or {}).get("ranges") or {}
+    ranges = {} if (result := data.result) is None else result.ranges
     fixed = data.fixed_params
     material = data.study.material
     preset, overrides = material.preset, material.overrides

@@ -4,7 +4,8 @@ card and the result JSON read back.
 A stage's summary lives in the run store as JSON. ``from_summary``
 (:meth:`RangeFind.from_summary`, :meth:`Screening.from_summary`,
 :meth:`Steepest.from_summary`, :meth:`Surface.from_summary`, :meth:`Optimum.from_summary`,
-:meth:`Verification.from_summary`, :meth:`BayesSummary.from_summary`) reads one written by any
+:meth:`Verification.from_summary`, :meth:`BayesSummary.from_summary`, and the result JSON's
+:meth:`CalibrationResult.from_summary`) reads one written by any
 release (a key it lacks takes its default, as older stores lack the newer keys; keys it does
 not know are left out), and ``to_summary`` writes this release's keys in a fixed order.
 Readers use the attributes, so renaming a field breaks the code that reads it and its tests,
@@ -20,6 +21,7 @@ from demcal.summaries.design import DesignRun
 from demcal.summaries.optimum import Candidate, Goal, Optimum, ResponsesOptimum
 from demcal.summaries.provenance import EngineMeta, Versions
 from demcal.summaries.rangefind import RangeFind, ScanFactor, ScanPoint, ScanReach
+from demcal.summaries.result import CalibrationResult, ResultResponses, ResultRound, SurfaceFacts
 from demcal.summaries.screening import Effect, Screening, ScreeningModel
 from demcal.summaries.steepest import Anchor, AnchorRun, PathStep, Steepest
 from demcal.summaries.study_meta import StudyFactor, StudyMaterial, StudyMeta, StudyTest
@@ -27,8 +29,9 @@ from demcal.summaries.surface import ResponseModel, Surface
 from demcal.summaries.target import Target, TargetPhoto
 from demcal.summaries.verification import ResponseVerification, Verification
 
-__all__ = ["Anchor", "AnchorRun", "BayesSummary", "Candidate", "DesignRun", "Effect", "EngineMeta",
-           "Goal", "Optimum", "PathStep", "RangeFind", "ResponseModel", "ResponseVerification",
-           "ResponsesOptimum", "ScanFactor", "ScanPoint", "ScanReach", "Screening",
-           "ScreeningModel", "Steepest", "StudyFactor", "StudyMaterial", "StudyMeta", "StudyTest",
-           "Surface", "Target", "TargetPhoto", "Verification", "Versions", "by_key", "stored_key"]
+__all__ = ["Anchor", "AnchorRun", "BayesSummary", "CalibrationResult", "Candidate", "DesignRun",
+           "Effect", "EngineMeta", "Goal", "Optimum", "PathStep", "RangeFind", "ResponseModel",
+           "ResponseVerification", "ResponsesOptimum", "ResultResponses", "ResultRound",
+           "ScanFactor", "ScanPoint", "ScanReach", "Screening", "ScreeningModel", "Steepest",
+           "StudyFactor", "StudyMaterial", "StudyMeta", "StudyTest", "Surface", "SurfaceFacts",
+           "Target", "TargetPhoto", "Verification", "Versions", "by_key", "stored_key"]

@@ -1,0 +1,113 @@
+"""The result JSON, typed (demcal.summaries.result.CalibrationResult): both strategies build
+it, the console, the material card and the marks read its attributes, and it writes the file
+format every release wrote."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from demcal.errors import StoreError
+from demcal.lead import LeadName
+from demcal.report.data import ReportData
+from demcal.summaries import CalibrationResult, ResultRound, Verification
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+RESULTS = sorted(EXAMPLES.glob("**/result*.json"))
+#: results written by this release's code: written back key for key, in order
+CURRENT = ["corn_stalk/result_standard.json", "corn_stalk/result_bayes_standard.json",
+           "corn_stalk/result_lammps_small.json", "two_responses/result.json",
+           "several_responses/result.json", "aor_and_drum/result.json"]
+
+
+def _lost(stored: object, again: object, where: str = "") -> list[str]:
+    """What ``stored`` holds that ``again`` does not hold the same (keys ``again`` adds are
+    allowed: a result of an earlier release lacks the newer keys)."""
+    if isinstance(stored, dict):
+        if not isinstance(again, dict):
+            return [where]
+        return [lost for k, v in stored.items()
+                for lost in ([f"{where}/{k} (gone)"] if k not in again
+                             else _lost(v, again[k], f"{where}/{k}"))]
+    if isinstance(stored, list):
+        if not isinstance(again, list) or len(stored) != len(again):
+            return [f"{where} (length)"]
+        return [lost for i, (a, b) in enumerate(zip(stored, again, strict=True))
+                for lost in _lost(a, b, f"{where}[{i}]")]
+    return [] if stored == again else [f"{where}: {stored!r} -> {again!r}"]
+
+
+def test_every_example_has_a_result_to_read():
+    assert len(RESULTS) >= 10
+    assert all((EXAMPLES / name).is_file() for name in CURRENT)
+
+
+@pytest.mark.parametrize("path", RESULTS, ids=lambda p: str(p.relative_to(EXAMPLES)))
+def test_every_committed_result_reads_back_with_all_it_holds(path: Path):
+    stored = json.loads(path.read_text())
+    assert _lost(stored, CalibrationResult.from_summary(stored).to_summary()) == []
+
+
+@pytest.mark.parametrize("name", CURRENT)
+def test_a_result_of_this_release_is_written_back_exactly(name: str):
+    stored = json.loads((EXAMPLES / name).read_text())
+    again = CalibrationResult.from_summary(stored).to_summary()
+    assert again == stored
+    assert list(again) == list(stored)  # the key order too: a re-run's file diffs nothing
+
+
+def test_the_doe_result_s_fields_are_its_keys():
+    stored = json.loads((EXAMPLES / "corn_stalk" / "result_standard.json").read_text())
+    r = CalibrationResult.from_summary(stored)
+    assert r.strategy == "doe" and r.bayes is None and r.lead is None
+    assert r.lead_name == LeadName()
+    assert r.optimum == stored["optimum"] and r.optimum_full == stored["optimum_full"]
+    assert r.target == stored["target_aor_deg"]
+    assert r.predicted_lead == stored["predicted_aor_deg"]
+    v = stored["verification"]
+    assert (r.verification.mean, r.verification.std, r.verification.n) == (
+        v["aor_mean_deg"], v["aor_std_deg"], v["n"])
+    assert r.verification.ci_low == v["ci_low_deg"]
+    assert r.surface is not None and r.surface.model == stored["rsm_model"]
+    assert r.surface.adequate is stored["rsm_adequate"]
+    assert r.n_runs == stored["n_runs"] and r.n_runs_used == stored.get("n_runs_used")
+    assert [x.round for x in r.rounds] == [x["round"] for x in stored["rounds"]]
+    assert r.rounds[-1].mean == stored["rounds"][-1]["aor_mean_deg"]
+    assert r.ranges == stored["ranges"]
+
+
+def test_the_bayesian_result_s_fields_are_its_keys():
+    stored = json.loads((EXAMPLES / "corn_stalk" / "result_bayes_standard.json").read_text())
+    r = CalibrationResult.from_summary(stored)
+    assert r.strategy == "bayes" and r.surface is None and r.stages is None
+    b = r.bayes
+    assert b is not None and b.identifiable is stored["identifiable"] is False
+    assert b.optimum == r.optimum == stored["optimum"]
+    # the result's n_runs counts the store; the posterior's, its loop and rounds
+    assert r.n_runs == stored["n_runs"]
+    assert b.n_runs == stored["n_runs_strategy"] + stored["verification_runs"]
+    assert [x.mean for x in r.rounds] == [x["aor_mean_deg"] for x in stored["rounds"]]
+    assert not any(x.aimed for x in r.rounds)  # the posterior's rounds: no offset
+
+
+def test_a_lead_that_is_not_the_angle_is_named_and_read_back():
+    r = CalibrationResult(study="s", optimum={"a": 1.0}, optimum_full={"a": 1.0},
+                          predicted_lead=0.5, target=0.52, verification=Verification(n=3),
+                          lead=LeadName(name="drum_deg_per_rpm", unit="deg/rpm"),
+                          rounds=[ResultRound(round=1, n_piles=3, mean=0.51)])
+    stored = r.to_summary()
+    assert stored["lead"] == {"name": "drum_deg_per_rpm", "unit": "deg/rpm"}
+    assert stored["target_aor_deg"] == 0.52  # the angle's key holds the lead's value
+    again = CalibrationResult.from_summary(stored)
+    assert again.lead_name.label == "drum_deg_per_rpm"
+    assert again.to_summary() == stored
+    assert "surface_offset_deg" not in stored["rounds"][0]  # a round aimed by no offset
+
+
+def test_a_damaged_result_in_a_store_is_one_line(tmp_path: Path):
+    data = ReportData(study_dir=tmp_path, meta={"result": {"optimum": 5}}, stages={}, runs=[])
+    with pytest.raises(StoreError, match="meta 'result' is not what demcal writes"):
+        _ = data.result
+    assert ReportData(study_dir=tmp_path, meta={}, stages={}, runs=[]).result is None
