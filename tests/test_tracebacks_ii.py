@@ -33,7 +33,7 @@ def test_a_hook_that_raises_fails_its_run_typed(tmp_path, body, what):
         "template": "t.in.template", "hook": "hook.py:fill", "command": ["true"],
         "result": {"kind": "value", "file": "aor.txt"}})
     engine = load_engine(spec, tmp_path, set(PARAMETERS))
-    engine["runs_dir"] = str(tmp_path / "runs")
+    engine = engine.for_runs(tmp_path / "runs")
     task = RunTask("screening:0123456789abcdef", TestDef(kind="template", external=engine),
                    preset_parameters("corn_stalk"), 1)
     res = run_template(task)

@@ -31,7 +31,7 @@ def _task(tmp_path: Path, command: list[str]) -> RunTask:
         "template": "input.txt.template", "command": command, "timeout_s": 120.0,
         "result": {"kind": "positions", "file": "pile.csv"}})
     engine = load_engine(spec, tmp_path, set(PARAMETERS))
-    engine.update(runs_dir=str(tmp_path / "runs"))
+    engine = engine.for_runs(tmp_path / "runs")
     params = {**preset_parameters("corn_stalk"), "pp.static_friction": 0.6}
     return RunTask("screening:0123456789abcdef", TestDef(kind="template", external=engine),
                    params, 3)

@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ import pytest
 from demcal.errors import InputError
 from demcal.execute.engine_results import ResultUnreadable, read_positions, read_value
 from demcal.execute.engine_spec import PositionsResult, TemplateEngine, load_engine
-from demcal.execute.tasks import RunTask, TestDef
+from demcal.execute.tasks import MEASUREMENT_VERSION, RunTask, TestDef
 from demcal.execute.template_engine import LOG_NAME, run_dir_name, run_template
 from demcal.execute.template_fill import BUILTINS, fill, placeholders
 from demcal.virtual import PARAMETERS, preset_parameters
@@ -102,8 +103,8 @@ def _engine(tmp_path: Path, mode: str = "ok", **kw) -> TestDef:
         "command": ["{python}", "{template_dir}/engine.py", "{input}"],
         "result": {"kind": "positions", "file": "pile.csv"}, **kw})
     engine = load_engine(spec, tmp_path, KNOWN)
-    engine.update(runs_dir=str(tmp_path / "runs"), symbols={"x3": "pp.static_friction"})
-    return TestDef(kind="template", external=engine)
+    return TestDef(kind="template", external=engine.for_runs(
+        tmp_path / "runs", {"x3": "pp.static_friction"}))
 
 
 def _task(test: TestDef, mu: float = 0.6, seed: int = 3) -> RunTask:
@@ -146,15 +147,14 @@ def test_engine_failures_are_typed_with_the_log(tmp_path, mode, outcome, match):
 
 def test_a_missing_program_is_an_engine_error(tmp_path):
     test = _engine(tmp_path)
-    engine = {**test.external, "command": ["no-such-dem-engine-xyz", "{input}"]}
+    engine = replace(test.external, command=("no-such-dem-engine-xyz", "{input}"))
     res = run_template(_task(TestDef(kind="template", external=engine)))
     assert res.outcome == "engine_error" and "command not found" in res.reason
 
 
 def test_timeout_kills_the_engine_and_its_children(tmp_path):
     test = _engine(tmp_path, timeout_s=3.0)  # time for sh to start on a loaded machine
-    engine = {**test.external,
-              "command": ["sh", "-c", "sleep 60 & echo $! > child.pid; wait"]}
+    engine = replace(test.external, command=("sh", "-c", "sleep 60 & echo $! > child.pid; wait"))
     t0 = time.monotonic()
     res = run_template(_task(TestDef(kind="template", external=engine)))
     assert time.monotonic() - t0 < 30
@@ -188,6 +188,23 @@ def test_identity_holds_the_template_and_command_not_the_timeout(tmp_path):
     assert c.identity()["engine"]["command"] == ["{python}", "engine.py", "{input}"]
 
 
+def test_the_identity_is_the_stored_runs_file_format(tmp_path):
+    """Every stored engine run's key hashes this dict: its keys and values are a file format
+    (a study resumed by another release must find its runs), whatever type holds the engine."""
+    import hashlib
+
+    test = _engine(tmp_path)
+    text = (tmp_path / "input.txt.template").read_text()
+    assert test.identity() == {
+        "kind": "template", "measurement": MEASUREMENT_VERSION,
+        "engine": {"kind": "template", "template_sha256": hashlib.sha256(text.encode()).hexdigest(),
+                   "input": "input.txt",
+                   "command": ["{python}", "{template_dir}/engine.py", "{input}"], "hook": None,
+                   "result": PositionsResult(file="pile.csv").model_dump(mode="json")}}
+    moved = test.external.for_runs(tmp_path / "elsewhere", {})  # where runs are kept: not in it
+    assert TestDef(kind="template", external=moved).identity() == test.identity()
+
+
 def test_unknown_placeholder_is_refused_when_the_study_is_read(tmp_path):
     (tmp_path / "t.in").write_text("mu {pp.static_frction}\n")
     spec = TemplateEngine.model_validate({"template": "t.in", "command": "x {input}",
@@ -208,8 +225,8 @@ def test_a_hook_adds_placeholders(tmp_path):
         "command": ["{python}", "-c", "print(open('t.in').read())"],
         "result": {"kind": "value", "file": "aor.txt"}})
     engine = load_engine(spec, tmp_path, KNOWN)
-    assert engine["hook_sha256"] and engine["input"] == "t.in"
-    engine["runs_dir"] = str(tmp_path / "runs")
+    assert engine.hook_sha256 and engine.input == "t.in"
+    engine = engine.for_runs(tmp_path / "runs")
     res = run_template(_task(TestDef(kind="template", external=engine), seed=4))
     run_dir = Path(res.detail["engine"]["run_dir"])
     assert (run_dir / "t.in").read_text() == "seed 10015\n"
@@ -226,7 +243,7 @@ def test_a_terminated_worker_takes_its_engine_down(tmp_path):
     import sys
 
     test = _engine(tmp_path, timeout_s=60.0)
-    engine = {**test.external, "command": ["sh", "-c", "echo $$ > engine.pid; sleep 60"]}
+    engine = replace(test.external, command=("sh", "-c", "echo $$ > engine.pid; sleep 60"))
     task = _task(TestDef(kind="template", external=engine))
     (tmp_path / "task.pkl").write_bytes(pickle.dumps(task))
     code = ("import pickle, sys; from demcal.execute.template_engine import run_template; "

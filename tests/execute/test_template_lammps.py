@@ -29,15 +29,15 @@ def _study():
 def test_the_lammps_example_parses_and_its_placeholders_are_known():
     study = _study()
     engine = study.engine_data(EXAMPLE)
-    assert engine is not None and engine["input"] == "in.pile"
-    assert engine["command"] == ["lmp", "-in", "{input}"]
-    assert engine["result"]["format"] == "lammps_dump" and engine["result"]["file"] == "pile.dump"
-    names = placeholders(engine["template_text"])
+    assert engine is not None and engine.input == "in.pile"
+    assert engine.command == ("lmp", "-in", "{input}")
+    assert engine.result["format"] == "lammps_dump" and engine.result["file"] == "pile.dump"
+    names = placeholders(engine.template_text)
     assert names <= set(PARAMETERS) | set(BUILTINS)
     assert {"seed", "pp.static_friction", "pp.rolling_friction", "pw.static_friction"} <= names
     # every placeholder is filled from the study's fixed parameters and the built-ins
     values = {**_params(0.6, 0.2), "seed": 1, "dt_scale": 1.0}
-    filled = fill(engine["template_text"], values)
+    filled = fill(engine.template_text, values)
     assert "create_atoms    1 random 400 ${seed}" in filled  # LAMMPS variables stay
     assert "variable        seed equal 1+1" in filled and "$(2e-5*1.0)" in filled
     assert "write_dump      all custom pile.dump id x y z radius" in filled
@@ -62,7 +62,7 @@ def lammps(monkeypatch: pytest.MonkeyPatch) -> None:
 def _run(tmp_path: Path, mu: float, mu_r: float, seed: int = 2) -> RunResult:
     engine = _study().engine_data(EXAMPLE)
     assert engine is not None
-    engine = {**engine, "runs_dir": str(tmp_path / "runs")}
+    engine = engine.for_runs(tmp_path / "runs")
     task = RunTask(f"rsm:{int(mu * 100):02d}{int(mu_r * 100):02d}{seed:012d}",
                    TestDef(kind="template", external=engine), _params(mu, mu_r), seed)
     return run_template(task)

@@ -58,9 +58,9 @@ def test_def(study: Study, folder: Path | None = None) -> TestDef:
     t = study.test
     engine = study.engine_data()
     if engine is not None:
-        engine = {**engine, "runs_dir": str(((folder or Path.cwd()) / "runs").resolve()),
-                  "symbols": {f.symbol: f.name for f in study.factors if f.symbol}}
-        return TestDef(kind=engine["kind"], backend=study.backend, external=engine)
+        engine = engine.for_runs(((folder or Path.cwd()) / "runs").resolve(),
+                                 {f.symbol: f.name for f in study.factors if f.symbol})
+        return TestDef(kind=engine.kind, backend=study.backend, external=engine)
     ex = study.executor
     return TestDef(kind=t.kind, fidelity=t.fidelity, overrides=dict(t.overrides),
                    analytic=dict(t.analytic), backend=study.backend, engine=ex.engine,
@@ -92,9 +92,9 @@ def engine_meta(study: Study) -> EngineMeta:
     if engine is None:
         name = study.executor.engine  # demcal | lammps
         return EngineMeta(kind=name, name=name, backend=study.backend)
-    return EngineMeta(kind=engine["kind"], name=f"{engine['kind']}: {' '.join(engine['command'])}",
-                      command=list(engine["command"]), template=engine["template_path"],
-                      template_sha256=engine["template_sha256"], result=engine["result"])
+    return EngineMeta(kind=engine.kind, name=engine.name, command=list(engine.command),
+                      template=engine.template_path, template_sha256=engine.template_sha256,
+                      result=engine.result)
 
 
 def versions_meta(study: Study) -> Versions:

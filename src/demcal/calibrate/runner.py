@@ -207,16 +207,15 @@ class Runner:
         except PackageNotFoundError:  # pragma: no cover
             own = "demcal"
         engine = self.test.external
-        if not engine:
+        if engine is None:
             return own
-        return (f"{own}; {engine['kind']} {engine['template_sha256'][:12]}: "
-                + " ".join(engine["command"]))
+        return f"{own}; {engine.kind} {engine.template_sha256[:12]}: " + " ".join(engine.command)
 
     def _plot_path(self, stage: str, key: str) -> str | None:
         test = self.test_for(stage)
         if self.figures_dir is None or not (
-                test.kind == "aor" or (test.external and
-                                       test.external["result"]["kind"] == "positions")):
+                test.kind == "aor" or (test.external is not None and
+                                       test.external.measures_positions)):
             return None
         digest = key.partition(":")[2]  # keys are "<stage>:<hash>"
         return str(self.figures_dir / f"{stage}_{digest[:12]}.png")

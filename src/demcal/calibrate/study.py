@@ -38,7 +38,7 @@ from pydantic import (
 
 from demcal.calibrate.responses import AOR, PILE, ResponseSpec
 from demcal.errors import InputError, validation_message
-from demcal.execute.engine_spec import EngineSpec
+from demcal.execute.engine_spec import EngineSpec, ResolvedEngine
 from demcal.limits import MAX_CHUNK, MAX_INPUT_FILE_BYTES, MAX_STUDY_SEED
 from demcal.virtual.config import FIDELITIES, FIDELITY_REPLICATES
 from demcal.virtual.lammps_options import LammpsOptions
@@ -462,7 +462,7 @@ class Study(_M):
     engine: EngineSpec | None = Field(None, description="an external DEM code runs the "
                                       "virtual test (default: demcal's engine)")
     #: the engine with its template read (demcal.execute.engine_spec.load_engine)
-    _engine: dict[str, Any] | None = PrivateAttr(None)
+    _engine: ResolvedEngine | None = PrivateAttr(None)
 
     @model_validator(mode="after")
     def _replicates(self) -> Study:
@@ -548,7 +548,7 @@ class Study(_M):
         """The responses beside the lead, in the order given."""
         return [r for r in self.responses if r.name != self.lead]
 
-    def engine_data(self, base: Path | None = None) -> dict[str, Any] | None:
+    def engine_data(self, base: Path | None = None) -> ResolvedEngine | None:
         """The external engine with its template read (None: demcal's engine); relative
         paths from ``base`` (default: where :func:`parse_study` was told, else the cwd)."""
         if self.engine is None:

@@ -78,11 +78,11 @@ def study_inputs(study_file: Path, study: object | None = None) -> list[tuple[Pa
         if p:
             out.append((Path(p), "a measurements file of the study"))
     out += [(Path(p), "a photo of the study") for p in getattr(target, "photos", None) or []]
-    engine = getattr(study, "_engine", None) or {}
-    if engine.get("template_path"):
-        out.append((Path(engine["template_path"]), "the engine's template"))
-    if engine.get("hook") and str(engine["hook"]).rpartition(":")[0].endswith(".py"):
-        out.append((Path(str(engine["hook"]).rpartition(":")[0]), "the engine's hook"))
+    engine = getattr(study, "_engine", None)  # a ResolvedEngine, read with the study
+    if engine is not None:
+        out.append((Path(engine.template_path), "the engine's template"))
+        if engine.hook_file is not None:
+            out.append((engine.hook_file, "the engine's hook"))
     return out
 
 

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import hashlib
 import shlex
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -45,8 +47,8 @@ from demcal.errors import InputError
 from demcal.safety import read_text_input
 from demcal.virtual.config import MeasurementOptions
 
-__all__ = ["ENGINE_KINDS", "EngineSpec", "PositionsResult", "TemplateEngine", "ValueResult",
-           "engine_identity", "load_engine"]
+__all__ = ["ENGINE_KINDS", "EngineSpec", "PositionsResult", "ResolvedEngine", "TemplateEngine",
+           "ValueResult", "load_engine"]
 
 #: engine kinds a study may name (``[engine] kind``)
 ENGINE_KINDS = ("template",)
@@ -182,7 +184,99 @@ def _read_text(path: Path, what: str) -> str:
     return read_text_input(path, f"study: engine.{what}")
 
 
-def load_engine(spec: EngineSpec, base: Path, known: set[str]) -> dict[str, Any]:
+@dataclass(frozen=True)
+class ResolvedEngine:
+    """The study's ``[engine]`` as its runs use it: paths resolved, the template read.
+
+    Plain data (picklable: it travels to process-pool and dask workers inside
+    :class:`demcal.execute.tasks.TestDef`), made once by :func:`load_engine`; the run folder
+    and the factor symbols are added by the study (:meth:`for_runs`).
+
+    Attributes
+    ----------
+    kind : str
+        ``"template"``.
+    template_path : str
+        The template's absolute path (inside the study folder).
+    template_text : str
+        Its text, read once.
+    template_sha256 : str
+        Its SHA-256 (part of every run's identity).
+    input : str
+        The filled input's file name in the run folder.
+    command : tuple of str
+        The command line, with placeholders.
+    timeout_s : float
+        One run's wall-time limit, s.
+    result : dict
+        How the run's result is read: a dumped :class:`PositionsResult` or
+        :class:`ValueResult` (JSON, part of the run identity).
+    hook : str or None
+        ``"<absolute path>.py:function"`` or ``"module:function"``.
+    hook_sha256 : str or None
+        A file hook's SHA-256.
+    runs_dir : str or None
+        Where the run folders are made (None until :meth:`for_runs`).
+    symbols : dict str -> str
+        Factor symbol -> parameter name (placeholders by symbol).
+    """
+
+    kind: str
+    template_path: str
+    template_text: str
+    template_sha256: str
+    input: str
+    command: tuple[str, ...]
+    timeout_s: float
+    result: dict[str, Any]
+    hook: str | None = None
+    hook_sha256: str | None = None
+    runs_dir: str | None = None
+    symbols: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def measures_positions(self) -> bool:
+        """Whether demcal measures the spheres the engine writes (else the engine's value)."""
+        return self.result["kind"] == "positions"
+
+    @property
+    def hook_file(self) -> Path | None:
+        """The hook's Python file (None: no hook, or a module's)."""
+        if self.hook is None:
+            return None
+        where = self.hook.rpartition(":")[0]
+        return Path(where) if where.endswith(".py") else None
+
+    @property
+    def name(self) -> str:
+        """The engine in one line: its kind and command."""
+        return f"{self.kind}: {' '.join(self.command)}"
+
+    def for_runs(self, runs_dir: str | Path, symbols: Mapping[str, str] | None = None,
+                 ) -> ResolvedEngine:
+        """The engine with its run folder (and the factor symbols) set."""
+        return replace(self, runs_dir=str(runs_dir),
+                       symbols=dict(self.symbols if symbols is None else symbols))
+
+    def identity(self) -> dict[str, Any]:
+        """What defines an engine run's result: the template's content, the input's name,
+        the command, the hook and the result reader (not the timeout, not where runs are
+        kept). A file format: every stored run's key hashes it."""
+        return {"kind": self.kind, "template_sha256": self.template_sha256,
+                "input": self.input, "command": list(self.command),
+                "hook": self._hook_identity(), "result": self.result}
+
+    def _hook_identity(self) -> str | None:
+        """A file hook by its content's SHA-256 and function (the study may move), a
+        module's hook by its name."""
+        if self.hook is None:
+            return None
+        if self.hook_sha256:
+            return f"sha256:{self.hook_sha256}:{self.hook.rpartition(':')[2]}"
+        return str(self.hook)
+
+
+def load_engine(spec: EngineSpec, base: Path, known: set[str]) -> ResolvedEngine:
     """Resolve the engine's paths, read its template and check its placeholders.
 
     Parameters
@@ -197,10 +291,8 @@ def load_engine(spec: EngineSpec, base: Path, known: set[str]) -> dict[str, Any]
 
     Returns
     -------
-    dict
-        The plain-data engine of :class:`demcal.execute.tasks.TestDef` (picklable):
-        ``kind``, ``template_path``, ``template_text``, ``template_sha256``, ``input``,
-        ``command``, ``timeout_s``, ``hook`` (resolved), ``hook_sha256`` and ``result``.
+    ResolvedEngine
+        The engine of :class:`demcal.execute.tasks.TestDef`, without its run folder.
 
     Raises
     ------
@@ -231,26 +323,8 @@ def load_engine(spec: EngineSpec, base: Path, known: set[str]) -> dict[str, Any]
                          + ", ".join("{" + b + "}" for b in BUILTINS)
                          + " (write {{name}} for a literal {name})")
     name = spec.input or (template.name.removesuffix(".template") or template.name)
-    return {"kind": spec.kind, "template_path": str(template), "template_text": text,
-            "template_sha256": hashlib.sha256(text.encode()).hexdigest(), "input": name,
-            "command": list(spec.command), "timeout_s": float(spec.timeout_s), "hook": hook,
-            "hook_sha256": hook_sha, "result": spec.result.model_dump(mode="json")}
-
-
-def engine_identity(engine: dict[str, Any]) -> dict[str, Any]:
-    """What defines an engine run's result: the template's content, the input's name, the
-    command, the hook and the result reader (not the timeout, not where runs are kept)."""
-    return {"kind": engine["kind"], "template_sha256": engine["template_sha256"],
-            "input": engine["input"], "command": list(engine["command"]),
-            "hook": _hook_identity(engine), "result": engine["result"]}
-
-
-def _hook_identity(engine: dict[str, Any]) -> str | None:
-    """A file hook by its content's SHA-256 and function (the study may move), a module's
-    hook by its name."""
-    hook = engine.get("hook")
-    if hook is None:
-        return None
-    if engine.get("hook_sha256"):
-        return f"sha256:{engine['hook_sha256']}:{hook.rpartition(':')[2]}"
-    return str(hook)
+    return ResolvedEngine(
+        kind=spec.kind, template_path=str(template), template_text=text,
+        template_sha256=hashlib.sha256(text.encode()).hexdigest(), input=name,
+        command=tuple(spec.command), timeout_s=float(spec.timeout_s), hook=hook,
+        hook_sha256=hook_sha, result=spec.result.model_dump(mode="json"))

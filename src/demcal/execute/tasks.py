@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 from demcal.results import RunResult
 
 if TYPE_CHECKING:  # the virtual tests are imported where they run (a task stays light)
+    from demcal.execute.engine_spec import ResolvedEngine
     from demcal.virtual.drum import DrumResult
     from demcal.virtual.drum_settings import DrumSettings
 
@@ -33,8 +34,8 @@ class TestDef:
     """The virtual test: ``kind`` "aor" (fidelity, overrides; on ``engine`` "demcal" or
     "lammps", started as ``lammps`` says), "drum" (the rotating drum on the same engines:
     fidelity and :func:`demcal.virtual.drum_settings.drum_settings`' overrides), "analytic"
-    (stand-in) or "template" (an external engine: ``external`` as from
-    :func:`demcal.execute.engine_spec.load_engine`, plus ``runs_dir`` and ``symbols``)."""
+    (stand-in) or "template" (an external engine: ``external``, a
+    :class:`demcal.execute.engine_spec.ResolvedEngine` with its ``runs_dir`` and ``symbols``)."""
 
     __test__ = False  # not a pytest class
 
@@ -45,7 +46,7 @@ class TestDef:
     backend: str = "auto"
     engine: str = "demcal"
     lammps: dict[str, Any] = field(default_factory=dict)
-    external: dict[str, Any] = field(default_factory=dict)
+    external: ResolvedEngine | None = None
 
     def identity(self) -> dict[str, Any]:
         """What defines the test's results (the backend and how LAMMPS is started do not;
@@ -58,10 +59,10 @@ class TestDef:
                 drum["engine"] = _engine_identity(self.engine)
             return drum
         if self.kind == "template":
-            from demcal.execute.engine_spec import engine_identity
-
-            ident = {"kind": "template", "engine": engine_identity(self.external)}
-            if self.external["result"]["kind"] == "positions":
+            if self.external is None:
+                raise ValueError("a template test needs its engine (TestDef.external)")
+            ident = {"kind": "template", "engine": self.external.identity()}
+            if self.external.measures_positions:
                 ident["measurement"] = MEASUREMENT_VERSION
             return ident
         from demcal.virtual import fidelity_config

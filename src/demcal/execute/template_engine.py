@@ -32,7 +32,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from demcal.engine_guard import (
     engine_watchdog,
@@ -45,6 +45,9 @@ from demcal.execute.engine_results import ResultUnreadable, read_positions, read
 from demcal.execute.signals import sigterm_raises
 from demcal.execute.template_fill import fill
 from demcal.results import RunResult
+
+if TYPE_CHECKING:
+    from demcal.execute.engine_spec import ResolvedEngine
 
 __all__ = ["ENGINE_FAILURES", "KILL_GRACE_S", "LOG_NAME", "run_dir_name", "run_template"]
 
@@ -95,20 +98,20 @@ def _load_hook(ref: str) -> Callable[..., Any]:
     return hook
 
 
-def _values(task: Any, engine: dict[str, Any], run_dir: Path) -> dict[str, object]:
+def _values(task: Any, engine: ResolvedEngine, run_dir: Path) -> dict[str, object]:
     values: dict[str, object] = dict(task.params)
-    for sym, name in (engine.get("symbols") or {}).items():
+    for sym, name in engine.symbols.items():
         values[sym] = task.params[name]
     values.update(seed=int(task.seed), run_dir=str(run_dir), run_key=task.key,
-                  input=engine["input"], dt_scale=float(task.dt_scale),
-                  template_dir=str(Path(engine["template_path"]).parent),
+                  input=engine.input, dt_scale=float(task.dt_scale),
+                  template_dir=str(Path(engine.template_path).parent),
                   python=sys.executable)
-    if engine.get("hook"):
-        hook = _load_hook(engine["hook"])
+    if engine.hook:
+        hook = _load_hook(engine.hook)
         try:
             extra = hook(params=dict(task.params), seed=int(task.seed), run_dir=run_dir)
         except (Exception, SystemExit) as exc:  # the user's code: this run fails, typed
-            raise HookFailed(f"engine.hook {engine['hook']} raised {type(exc).__name__}: "
+            raise HookFailed(f"engine.hook {engine.hook} raised {type(exc).__name__}: "
                              f"{str(exc)[:300]}") from None
         if extra is not None:
             if not isinstance(extra, dict):
@@ -185,7 +188,7 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
         The template names a placeholder no value is given for, or the hook fails to load:
         a mistake of the study, not of one run.
     """
-    engine = task.test.external
+    engine: ResolvedEngine = task.test.external
     t0 = time.perf_counter()
     run_dir = _fresh_run_dir(engine, task.key)
     log = run_dir / LOG_NAME
@@ -194,7 +197,7 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
     except HookFailed as exc:  # nothing to run: the run's failure, not the study's end
         cmd, (failure, what) = [], ("engine_error", str(exc))
     else:
-        failure, what = _execute(cmd, run_dir, log, float(engine["timeout_s"]))
+        failure, what = _execute(cmd, run_dir, log, engine.timeout_s)
     info: dict[str, Any] = {"command": cmd, "status": what, "run_dir": str(run_dir),
                             "log": str(log), "engine_wall_time_s": time.perf_counter() - t0}
     artefacts = {"run_dir": str(run_dir), "engine_log": str(log)}
@@ -204,7 +207,7 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
            "result": result}
     if failure is None:
         try:
-            read = _read_result(run_dir, engine["result"], plot_path)
+            read = _read_result(run_dir, engine.result, plot_path)
         except ResultUnreadable as exc:
             failure, what = "no_result", str(exc)
         else:
@@ -223,9 +226,11 @@ def run_template(task: Any, plot_path: str | None = None) -> dict[str, Any]:
                      wall_time_s=time.perf_counter() - t0, detail=result)
 
 
-def _fresh_run_dir(engine: dict[str, Any], key: str) -> Path:
-    """The run's own folder under ``engine["runs_dir"]``, emptied (a re-run replaces it)."""
-    run_dir = Path(engine["runs_dir"]) / run_dir_name(key)
+def _fresh_run_dir(engine: ResolvedEngine, key: str) -> Path:
+    """The run's own folder under the engine's ``runs_dir``, emptied (a re-run replaces it)."""
+    if engine.runs_dir is None:
+        raise ValueError("the engine has no runs_dir (ResolvedEngine.for_runs)")
+    run_dir = Path(engine.runs_dir) / run_dir_name(key)
     if run_dir.exists():
         stop_leftover_engine(run_dir)  # a killed study's engine: never two in one folder
         shutil.rmtree(run_dir)
@@ -233,12 +238,12 @@ def _fresh_run_dir(engine: dict[str, Any], key: str) -> Path:
     return run_dir
 
 
-def _write_input(task: Any, engine: dict[str, Any], run_dir: Path) -> list[str]:
+def _write_input(task: Any, engine: ResolvedEngine, run_dir: Path) -> list[str]:
     """Fill the template into the run's input file; return the filled command line."""
     values = _values(task, engine, run_dir)
-    (run_dir / engine["input"]).write_text(fill(engine["template_text"], values,
-                                                f"engine.template {engine['input']}"))
-    return [fill(a, values, "engine.command") for a in engine["command"]]
+    (run_dir / engine.input).write_text(fill(engine.template_text, values,
+                                             f"engine.template {engine.input}"))
+    return [fill(a, values, "engine.command") for a in engine.command]
 
 
 def _read_result(run_dir: Path, spec: dict[str, Any], plot_path: str | None) -> dict[str, Any]:
