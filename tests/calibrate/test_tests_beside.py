@@ -66,7 +66,7 @@ def test_a_lammps_study_runs_its_drum_in_lammps_too():
     study = parse_study({**BASE, "tests": {"drum": {"drum": {"rpm": 20}}},
                          "executor": {"engine": "lammps", "lammps": {"np": 2}}})
     drum = beside_tests(study, test_def(study))["drum"]
-    assert drum.engine == "lammps" and drum.lammps["np"] == 2
+    assert drum.engine == "lammps" and drum.lammps.np == 2
     assert drum.identity()["engine"]["name"] == "lammps"
     plain = parse_study({**BASE, "tests": {"drum": {"drum": {"rpm": 20}}}})
     demcal = beside_tests(plain, test_def(plain))["drum"]

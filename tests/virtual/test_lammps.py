@@ -216,7 +216,7 @@ def test_launcher_and_hostfile(monkeypatch):
 def test_identity_names_the_engine():
     demcal = TestDef(fidelity="quick")
     assert "engine" not in demcal.identity()  # stored demcal runs keep their keys
-    lammps = TestDef(fidelity="quick", engine="lammps", lammps={"np": 4})
+    lammps = TestDef(fidelity="quick", engine="lammps", lammps=LammpsOptions(np=4))
     assert lammps.identity()["engine"]["name"] == "lammps"
     # how LAMMPS is started does not change the results
     assert lammps.identity() == TestDef(fidelity="quick", engine="lammps").identity()

@@ -27,6 +27,7 @@ from demcal.virtual.lammps_drum import (
     read_frame,
     write_drum_case,
 )
+from demcal.virtual.lammps_options import LammpsOptions
 from demcal.virtual.presets import preset_parameters
 
 PARAMS = preset_parameters("corn_stalk_dry", {"pw.static_friction": 0.9})
@@ -191,7 +192,7 @@ def test_a_studys_drum_chunk_runs_in_lammps():
 
     test = TestDef(kind="drum", overrides={"drum": {"frames": 4, "steady_window": 2},
                                            "rolling_model": "C"},
-                   engine="lammps", lammps={"np": 1})
+                   engine="lammps", lammps=LammpsOptions(np=1))
     (res,) = run_chunk([RunTask("k", test, dict(PARAMS), 2)])
     assert res.outcome in ("rolling", "slumping"), res.reason
     assert res.detail["engine"] == "lammps"

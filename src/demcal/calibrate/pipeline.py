@@ -64,7 +64,7 @@ def test_def(study: Study, folder: Path | None = None) -> TestDef:
     ex = study.executor
     return TestDef(kind=t.kind, fidelity=t.fidelity, overrides=dict(t.overrides),
                    analytic=dict(t.analytic), backend=study.backend, engine=ex.engine,
-                   lammps=ex.lammps.model_dump(mode="json") if ex.engine == "lammps" else {})
+                   lammps=ex.lammps)
 
 
 def beside_tests(study: Study, test: TestDef) -> dict[str, TestDef]:
@@ -83,7 +83,7 @@ def beside_tests(study: Study, test: TestDef) -> dict[str, TestDef]:
                          rolling_model=config.rolling_model)
     # the drum runs on the lift test's engine: demcal's, or LAMMPS started as the study says
     return {"drum": TestDef(kind="drum", fidelity=drum.fidelity, overrides=overrides,
-                            backend=study.backend, engine=test.engine, lammps=dict(test.lammps))}
+                            backend=study.backend, engine=test.engine, lammps=test.lammps)}
 
 
 def engine_meta(study: Study) -> EngineMeta:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from demcal.results import RunResult
+from demcal.virtual.lammps_options import LammpsOptions  # light: pydantic alone
 
 if TYPE_CHECKING:  # the virtual tests are imported where they run (a task stays light)
     from demcal.execute.engine_spec import ResolvedEngine
@@ -45,7 +46,7 @@ class TestDef:
     analytic: dict[str, Any] = field(default_factory=dict)
     backend: str = "auto"
     engine: str = "demcal"
-    lammps: dict[str, Any] = field(default_factory=dict)
+    lammps: LammpsOptions = field(default_factory=LammpsOptions)
     external: ResolvedEngine | None = None
 
     def identity(self) -> dict[str, Any]:
@@ -117,13 +118,12 @@ def _from_aor(key: str, r: Any) -> RunResult:
 
 
 def _lammps_chunk(tasks: list[RunTask], emit: Callable[[RunResult], None]) -> None:
-    """The runs on LAMMPS, one after another (each on ``test.lammps["np"]`` MPI ranks)."""
+    """The runs on LAMMPS, one after another (each on ``test.lammps.np`` MPI ranks)."""
     from demcal.virtual import fidelity_config
-    from demcal.virtual.lammps_options import LammpsOptions
     from demcal.virtual.lammps_run import RunReporting, run_aor_lammps
 
     test = tasks[0].test
-    options = LammpsOptions.model_validate(test.lammps)
+    options = test.lammps
     for t in tasks:
         config = fidelity_config(test.fidelity, **test.overrides)
         if t.dt_scale != 1.0:
@@ -199,9 +199,8 @@ def _lammps_drum_chunk(tasks: list[RunTask], settings: DrumSettings,
                        emit: Callable[[RunResult], None]) -> None:
     """The drum runs on LAMMPS, one after another (each its own ``mpirun``)."""
     from demcal.virtual.lammps_drum import run_drum_lammps
-    from demcal.virtual.lammps_options import LammpsOptions
 
-    options = LammpsOptions(**tasks[0].test.lammps)
+    options = tasks[0].test.lammps
     for t in tasks:
         scaled = settings if t.dt_scale == 1.0 else dataclasses.replace(
             settings, dt_fraction=settings.dt_fraction * t.dt_scale)
