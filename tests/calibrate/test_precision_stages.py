@@ -37,13 +37,16 @@ def _bbd(y_fn, noise: float, seed: int = 0):
 
 def test_adequacy_rejects_a_model_that_does_not_predict():
     clean = _bbd(lambda x: 40 + 5 * x[0] - 3 * x[1] + 2 * x[0] ** 2, noise=0.3)
-    ok, fails, stats = adequacy(clean, None)
-    assert ok and fails == [] and stats["pred_r2"] > 0.9
+    verdict = adequacy(clean, None)
+    assert verdict.adequate and verdict.failed == () and verdict.statistics.pred_r2 > 0.9
+    assert list(verdict.statistics.to_summary()) == [  # the stored keys (rsm_adequacy)
+        "p_model", "lack_of_fit_p", "r2", "adj_r2", "pred_r2", "adeq_precision"]
     noisy = _bbd(lambda x: 40 + 0.5 * x[0], noise=4.0, seed=3)
-    ok, fails, stats = adequacy(noisy, None)
-    assert not ok
-    assert any("predicted R^2" in f for f in fails)
-    assert stats["pred_r2"] < stats["adj_r2"] - 0.2 or stats["pred_r2"] < 0
+    verdict = adequacy(noisy, None)
+    assert not verdict.adequate
+    assert any("predicted R^2" in f for f in verdict.failed)
+    stats = verdict.statistics
+    assert stats.pred_r2 < stats.adj_r2 - 0.2 or stats.pred_r2 < 0
 
 
 def test_verification_size_reaches_the_half_width():
@@ -143,23 +146,25 @@ def _linear(x):
 def test_auto_model_reduces_a_full_model_that_does_not_predict():
     rows, means = _replicated_bbd(_linear, noise=3.0, reps=3, seed=5)
     full = choose_model("quadratic", 0.1, rows, means)
-    assert full["model"] == "quadratic" and not full["adequate"]
-    assert any("predicted R^2" in f for f in full["failed"])
+    assert full.kind == "quadratic" and not full.adequacy.adequate
+    assert any("predicted R^2" in f for f in full.adequacy.failed)
     auto = choose_model("auto", 0.1, rows, means)
-    assert auto["model"] == "reduced" and auto["adequate"]
-    assert auto["adequacy"]["pred_r2"] > 0.5
+    assert auto.kind == "reduced" and auto.adequacy.adequate
+    assert auto.adequacy.statistics.pred_r2 > 0.5
     # every square and interaction of a linear truth leaves; the true main effects stay
-    assert {"x1^2", "x2^2", "x3^2", "x1*x2", "x1*x3", "x2*x3"} <= set(auto["removed_terms"])
-    assert {"x1", "x2"} <= set(auto["rows"].term_names)
-    assert auto["full"]["adequacy"] == full["adequacy"]
+    assert {"x1^2", "x2^2", "x3^2", "x1*x2", "x1*x3", "x2*x3"} <= set(auto.removed_terms)
+    assert {"x1", "x2"} <= set(auto.chosen.rows.term_names)
+    assert auto.full.adequacy == full.adequacy
+    assert auto.notes and "reduced model" in auto.notes[0]
 
 
 def test_auto_model_keeps_an_adequate_full_model():
     rows, means = _replicated_bbd(
         lambda x: 40 + 5 * x[0] - 3 * x[1] + 2 * x[0] ** 2 + 2 * x[0] * x[2], 0.3, 2, 0)
     auto = choose_model("auto", 0.1, rows, means)
-    assert auto["adequate"] and auto["model"] == "quadratic" and auto["removed_terms"] == []
-    assert choose_model("reduced", 0.1, rows, means)["model"] == "reduced"
+    assert auto.adequacy.adequate and auto.kind == "quadratic" and auto.removed_terms == ()
+    assert auto.full is auto.chosen
+    assert choose_model("reduced", 0.1, rows, means).kind == "reduced"
 
 
 def test_the_reduced_model_predicts_new_runs_better():
@@ -171,7 +176,7 @@ def test_the_reduced_model_predicts_new_runs_better():
     err_full, err_auto = [], []
     for seed in range(12):
         rows, means = _replicated_bbd(_linear, noise=3.0, reps=3, seed=seed)
-        auto = choose_model("auto", 0.1, rows, means)["rows"]
+        auto = choose_model("auto", 0.1, rows, means).chosen.rows
         err_full.append(np.mean((rows.predict(grid, units="coded") - truth) ** 2))
         err_auto.append(np.mean((auto.predict(grid, units="coded") - truth) ** 2))
     assert np.mean(err_auto) < 0.9 * np.mean(err_full)

@@ -251,13 +251,13 @@ def _fit_one(spec: ResponseSpec, runs: list[list[float]], design: doe.Design, n_
     full = doe.fit(design, means, model="quadratic") if n_reps > 1 else rows
     opts = ctx.study.stages.rsm
     choice = choose_model(opts.model, opts.alpha_out, rows, full)
-    warnings = [*choice["failed"], *choice["notes"], *notes]
+    warnings = [*choice.adequacy.failed, *choice.notes, *notes]
     if excluded:
         warnings.insert(0, f"{len(excluded)} design point(s) without {spec.name}: "
                         + ", ".join(map(str, excluded)))
-    return ResponseFit(spec.name, choice["rows"], choice["model"], bool(choice["adequate"]),
-                       choice["adequacy"], tuple(warnings), excluded,
-                       tuple(choice["table"].to_records()))
+    return ResponseFit(spec.name, choice.chosen.rows, choice.kind, choice.adequacy.adequate,
+                       choice.adequacy.statistics.to_summary(), tuple(warnings), excluded,
+                       tuple(choice.chosen.table.to_records()))
 
 
 def fit_responses(ctx: Any, design: doe.Design, recs: Sequence[RunRecord], n_reps: int

@@ -119,11 +119,12 @@ def rsm(ctx: Context) -> Surface:
             raise StudyError(err) from None
         full = doe.fit(design, y, model="quadratic") if n_reps > 1 else model
         choice = choose_model(opts.model, opts.alpha_out, model, full)
-        model, table, lof_p = choice["rows"], choice["table"], choice["lof_p"]
-        adequate, fails, stats_ = choice["adequate"], choice["failed"], choice["adequacy"]
+        model, table, lof_p = choice.chosen.rows, choice.chosen.table, choice.chosen.lack_of_fit_p
+        adequate, fails = choice.adequacy.adequate, list(choice.adequacy.failed)
+        stats_ = choice.adequacy.statistics.to_summary()
         rounds.append({"replicates": n_reps, "runs": design.n_runs * n_reps,
                        "blocks": model.block_df + 1 if model.block_df else 0,
-                       "model": choice["model"], "removed_terms": choice["removed_terms"],
+                       "model": choice.kind, "removed_terms": list(choice.removed_terms),
                        "adequate": adequate, "failed": fails, **stats_})
         more = design.n_runs * (n_reps + 1)
         if adequate or not opts.add_replicates or more > budget:
@@ -141,7 +142,7 @@ def rsm(ctx: Context) -> Surface:
             f"the model is not adequate after {n_reps} replicate(s) of each design point "
             f"({spent} runs; budget stages.rsm.max_runs = {budget}): its optimum is a guess "
             "within the noise; raise the budget or the fidelity, or narrow the ranges")
-    warnings += choice["notes"]
+    warnings += choice.notes
     warnings += block_notes
     responses, response_warnings = _other_responses(ctx, design, recs, n_reps)
     warnings += response_warnings
@@ -149,9 +150,9 @@ def rsm(ctx: Context) -> Surface:
         design=design_name, factors=factors, runs=design_rows, excluded_points=excluded,
         replicates=n_reps, responses=responses, anova=table.to_records(),
         fit=table.fit.to_dict(), lack_of_fit_p=lof_p, adequacy=stats_, rounds=rounds,
-        model=choice["model"], removed_terms=choice["removed_terms"],
-        anova_full=choice["full"]["table"].to_records(),
-        adequacy_full=choice["full"]["adequacy"],
+        model=choice.kind, removed_terms=list(choice.removed_terms),
+        anova_full=choice.full.table.to_records(),
+        adequacy_full=choice.full.adequacy.statistics.to_summary(),
         coefficients_coded={k: float(v) for k, v in model.coefficients_coded.items()},
         coefficients_actual={k: float(v) for k, v in model.coefficients_actual.items()},
         equation_coded=model.equation(units="coded"),

@@ -4,7 +4,9 @@ response that cannot be modelled, and Design-Expert's adequacy and model reducti
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -12,7 +14,8 @@ import numpy as np
 from demcal import doe
 from demcal.errors import InputError
 
-__all__ = ["adequacy", "choose_model", "fit_rows", "no_variation", "replicated"]
+__all__ = ["Adequacy", "FitStatistics", "JudgedModel", "ModelChoice", "adequacy", "choose_model",
+           "fit_rows", "no_variation", "replicated"]
 
 
 def replicated(design: doe.Design, runs: list[list[float]], n_reps: int
@@ -81,13 +84,91 @@ def fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_see
             "error includes the seed sets' offsets"]
 
 
-def adequacy(model: Any, lof_p: float | None) -> tuple[bool, list[str], dict[str, Any]]:
+@dataclass(frozen=True)
+class FitStatistics:
+    """A model's fit statistics as Design-Expert judges them (of the design-point means).
+
+    Attributes
+    ----------
+    p_model : float
+        The model's F-test p-value.
+    lack_of_fit_p : float or None
+        The lack-of-fit test's p-value (None: no replicated points with spare df).
+    r2, adj_r2 : float
+    pred_r2 : float or None
+        Predicted R^2 (PRESS); None where it is not finite.
+    adeq_precision : float or None
+        Adeq Precision (signal to noise); None where it is not finite.
+    """
+
+    p_model: float
+    lack_of_fit_p: float | None
+    r2: float
+    adj_r2: float
+    pred_r2: float | None
+    adeq_precision: float | None
+
+    def to_summary(self) -> dict[str, float | None]:
+        """The stored form (the rsm stage's ``adequacy``, the result's ``rsm_adequacy``)."""
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class Adequacy:
+    """Design-Expert's verdict on a model: adequate, the rules it failed and its statistics."""
+
+    adequate: bool
+    failed: tuple[str, ...]
+    statistics: FitStatistics
+
+
+@dataclass(frozen=True)
+class JudgedModel:
+    """A model fitted to every replicate (``rows``), its ANOVA, lack of fit and adequacy (of
+    the design-point means)."""
+
+    rows: Any
+    table: Any
+    lack_of_fit_p: float | None
+    adequacy: Adequacy
+
+
+@dataclass(frozen=True)
+class ModelChoice:
+    """The model the optimum is read from (:func:`choose_model`).
+
+    Attributes
+    ----------
+    chosen : JudgedModel
+    kind : str
+        ``"quadratic"`` or ``"reduced"``.
+    removed_terms : tuple of str
+        The terms the reduction removed (none for the full quadratic).
+    full : JudgedModel
+        The full quadratic's judgement (the same as ``chosen`` when it was kept).
+    notes : tuple of str
+        What to tell the user.
+    """
+
+    chosen: JudgedModel
+    kind: str
+    removed_terms: tuple[str, ...]
+    full: JudgedModel
+    notes: tuple[str, ...] = ()
+
+    @property
+    def adequacy(self) -> Adequacy:
+        """The chosen model's verdict."""
+        return self.chosen.adequacy
+
+
+def adequacy(model: Any, lof_p: float | None) -> Adequacy:
     """Is a response-surface model adequate, as Design-Expert judges it?
 
     Inadequate when: the model is not significant (p >= 0.05); the lack of fit is
     significant (p < 0.05); adjusted R^2 < 0.7; predicted R^2 is negative or more than 0.2
     below the adjusted R^2 (the model does not predict new runs); or Adeq Precision (signal
-    to noise) < 4. Returns (adequate, the failed rules as warnings, the statistics).
+    to noise) < 4. Returns the verdict, the failed rules as warnings and the statistics.
     """
     p_model = float(model.f_pvalue)
     adj, pred, adeq = float(model.adj_r2), float(model.pred_r2), float(model.adeq_precision)
@@ -106,10 +187,10 @@ def adequacy(model: Any, lof_p: float | None) -> tuple[bool, list[str], dict[str
                      f"({adj:.3f})")
     if not adeq >= 4:
         fails.append(f"Adeq Precision = {adeq:.2f} < 4 (signal too weak against the noise)")
-    stats_ = {"p_model": p_model, "lack_of_fit_p": lof_p, "r2": float(model.r2),
-              "adj_r2": adj, "pred_r2": pred if math.isfinite(pred) else None,
-              "adeq_precision": adeq if math.isfinite(adeq) else None}
-    return not fails, fails, stats_
+    stats_ = FitStatistics(p_model=p_model, lack_of_fit_p=lof_p, r2=float(model.r2),
+                           adj_r2=adj, pred_r2=pred if math.isfinite(pred) else None,
+                           adeq_precision=adeq if math.isfinite(adeq) else None)
+    return Adequacy(adequate=not fails, failed=tuple(fails), statistics=stats_)
 
 
 def _lof_p(table: Any) -> float | None:
@@ -119,16 +200,15 @@ def _lof_p(table: Any) -> float | None:
     return None
 
 
-def _judged(rows: Any, means: Any) -> dict[str, Any]:
+def _judged(rows: Any, means: Any) -> JudgedModel:
     """A model's ANOVA (rows: every replicate), lack of fit and adequacy (of the means)."""
     table = rows.anova()
     lof_p = _lof_p(table)
-    adequate, fails, stats_ = adequacy(means, lof_p)
-    return {"rows": rows, "table": table, "lof_p": lof_p, "adequate": adequate,
-            "failed": fails, "adequacy": stats_}
+    return JudgedModel(rows=rows, table=table, lack_of_fit_p=lof_p,
+                       adequacy=adequacy(means, lof_p))
 
 
-def choose_model(kind: str, alpha_out: float, rows: Any, means: Any) -> dict[str, Any]:
+def choose_model(kind: str, alpha_out: float, rows: Any, means: Any) -> ModelChoice:
     """The response-surface model the optimum is read from, judged as Design-Expert would.
 
     ``rows`` is the full quadratic fitted to every replicate, ``means`` the same model fitted
@@ -140,23 +220,21 @@ def choose_model(kind: str, alpha_out: float, rows: Any, means: Any) -> dict[str
     hierarchical backward elimination (p > ``alpha_out`` in the rows' ANOVA, as
     Design-Expert's "backward" model reduction) and judges the reduced model; ``"auto"`` keeps
     the full model when it is adequate and reduces it otherwise. A reduction that would leave
-    no factor term keeps the full model. Returns :func:`_judged`'s keys for the chosen model
-    plus ``model`` ("quadratic" or "reduced"), ``removed_terms``, ``full`` (the full
-    model's judgement) and ``notes`` (what to tell the user).
+    no factor term keeps the full model.
     """
     full = _judged(rows, means)
-    out = {**full, "model": "quadratic", "removed_terms": [], "full": full, "notes": []}
-    if kind == "quadratic" or (kind == "auto" and full["adequate"]):
-        return out
+    kept_full = ModelChoice(chosen=full, kind="quadratic", removed_terms=(), full=full)
+    if kind == "quadratic" or (kind == "auto" and full.adequacy.adequate):
+        return kept_full
     reduced = rows.reduce(alpha_out=alpha_out, hierarchical=True)
     if reduced is rows or len(reduced.terms) < 2:
-        return out
+        return kept_full
     kept = set(reduced.term_names)
-    removed = [t for t in rows.term_names if t not in kept]
+    removed = tuple(t for t in rows.term_names if t not in kept)
     means_r = reduced if rows is means else means.with_terms(list(reduced.terms))
-    why = ("the full quadratic model is not adequate: " + "; ".join(full["failed"])
-           if not full["adequate"] else "the full quadratic model is in 'anova_full'")
+    why = ("the full quadratic model is not adequate: " + "; ".join(full.adequacy.failed)
+           if not full.adequacy.adequate else "the full quadratic model is in 'anova_full'")
     note = (f"the optimum is read from the reduced model (backward elimination, alpha out "
             f"{alpha_out:g}; removed: {', '.join(removed)}); {why}")
-    return {**_judged(reduced, means_r), "model": "reduced", "removed_terms": removed,
-            "full": full, "notes": [note]}
+    return ModelChoice(chosen=_judged(reduced, means_r), kind="reduced", removed_terms=removed,
+                       full=full, notes=(note,))
