@@ -4,7 +4,6 @@ response that cannot be modelled, and Design-Expert's adequacy and model reducti
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -13,8 +12,9 @@ import numpy as np
 
 from demcal import doe
 from demcal.errors import InputError
+from demcal.summaries.surface import FitStatistics
 
-__all__ = ["Adequacy", "FitStatistics", "JudgedModel", "ModelChoice", "adequacy", "choose_model",
+__all__ = ["Adequacy", "JudgedModel", "ModelChoice", "adequacy", "choose_model",
            "fit_rows", "no_variation", "replicated"]
 
 
@@ -85,37 +85,9 @@ def fit_rows(rep_design: doe.Design, y_rows: np.ndarray, n_reps: int, common_see
 
 
 @dataclass(frozen=True)
-class FitStatistics:
-    """A model's fit statistics as Design-Expert judges them (of the design-point means).
-
-    Attributes
-    ----------
-    p_model : float
-        The model's F-test p-value.
-    lack_of_fit_p : float or None
-        The lack-of-fit test's p-value (None: no replicated points with spare df).
-    r2, adj_r2 : float
-    pred_r2 : float or None
-        Predicted R^2 (PRESS); None where it is not finite.
-    adeq_precision : float or None
-        Adeq Precision (signal to noise); None where it is not finite.
-    """
-
-    p_model: float
-    lack_of_fit_p: float | None
-    r2: float
-    adj_r2: float
-    pred_r2: float | None
-    adeq_precision: float | None
-
-    def to_summary(self) -> dict[str, float | None]:
-        """The stored form (the rsm stage's ``adequacy``, the result's ``rsm_adequacy``)."""
-        return dataclasses.asdict(self)
-
-
-@dataclass(frozen=True)
 class Adequacy:
-    """Design-Expert's verdict on a model: adequate, the rules it failed and its statistics."""
+    """Design-Expert's verdict on a model: adequate, the rules it failed and its statistics
+    (:class:`demcal.summaries.surface.FitStatistics`, stored as the summary's ``adequacy``)."""
 
     adequate: bool
     failed: tuple[str, ...]

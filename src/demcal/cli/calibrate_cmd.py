@@ -62,15 +62,15 @@ def _print_surface(result: CalibrationResult) -> None:
     s = result.surface
     if s is None:  # the Bayesian strategy's: no response surface
         return
-    a = s.adequacy
-    if a:
-        def f(key: str, fmt: str) -> str:
-            return "n/a" if a.get(key) is None else format(a[key], fmt)
-        console.print(f"response surface ({s.label()}): adjusted R^2 {f('adj_r2', '.3f')}, "
-                      f"predicted R^2 "
-                      f"{f('pred_r2', '.3f')}, Adeq Precision {f('adeq_precision', '.2f')}, "
-                      f"model p {f('p_model', '.3g')}, lack of fit p {f('lack_of_fit_p', '.3g')}",
-                      highlight=False)
+    if s.adequacy:
+        a = s.statistics
+
+        def f(value: float | None, fmt: str) -> str:
+            return "n/a" if value is None else format(value, fmt)
+        console.print(f"response surface ({s.label()}): adjusted R^2 {f(a.adj_r2, '.3f')}, "
+                      f"predicted R^2 {f(a.pred_r2, '.3f')}, Adeq Precision "
+                      f"{f(a.adeq_precision, '.2f')}, model p {f(a.p_model, '.3g')}, lack of "
+                      f"fit p {f(a.lack_of_fit_p, '.3g')}", highlight=False)
     if not s.adequate:  # None too: a surface whose adequacy could not be judged
         console.print(styled(("warning:", "yellow"), " the response-surface model is not "
                              "adequate (see the rsm stage's warnings): its optimum is a guess "

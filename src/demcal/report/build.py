@@ -591,12 +591,12 @@ def _response_anovas(b: _Builder, rsm: Surface) -> str:
     for name, fit in (rsm.responses or {}).items():
         if not fit.anova:
             continue
-        a = fit.adequacy or {}
+        a = fit.statistics
         note = (f"{'adequate' if fit.adequate else 'not adequate'} by Design-Expert's rules: "
-                f"model p {_fmt(a.get('p_model'), '.3g')}, lack of fit p "
-                f"{_fmt(a.get('lack_of_fit_p'), '.3g')}, adjusted R² {_fmt(a.get('adj_r2'))}, "
-                f"predicted R² {_fmt(a.get('pred_r2'))}, Adeq Precision "
-                f"{_fmt(a.get('adeq_precision'))}"
+                f"model p {_fmt(a.p_model, '.3g')}, lack of fit p "
+                f"{_fmt(a.lack_of_fit_p, '.3g')}, adjusted R² {_fmt(a.adj_r2)}, "
+                f"predicted R² {_fmt(a.pred_r2)}, Adeq Precision "
+                f"{_fmt(a.adeq_precision)}"
                 + "".join(f"; {w}" for w in fit.warnings) + ".")
         parts.append(b.table(T.Table(
             f"responses_anova_{name}", f"ANOVA of {name} ({fit.model} model)",

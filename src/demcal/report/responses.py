@@ -83,7 +83,7 @@ def responses_view(rsm: Surface, optimum: Optimum,
         rows.append(ResponseRow(
             name=name, goal=g.goal, low=g.low, high=g.high, target=g.target,
             importance=g.importance, model=fit.model, adequate=fit.adequate,
-            adj_r2=fit.adequacy.get("adj_r2"), pred_r2=fit.adequacy.get("pred_r2"),
+            adj_r2=fit.statistics.adj_r2, pred_r2=fit.statistics.pred_r2,
             equation=fit.equation_actual,
             predicted=(best.predicted or {}).get(name),
             individual=(best.individual or {}).get(name),

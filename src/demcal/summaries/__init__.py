@@ -25,13 +25,14 @@ from demcal.summaries.result import CalibrationResult, ResultResponses, ResultRo
 from demcal.summaries.screening import Effect, Screening, ScreeningModel
 from demcal.summaries.steepest import Anchor, AnchorRun, PathStep, Steepest
 from demcal.summaries.study_meta import StudyFactor, StudyMaterial, StudyMeta, StudyTest
-from demcal.summaries.surface import ResponseModel, Surface
+from demcal.summaries.surface import FitStatistics, ResponseModel, Surface
 from demcal.summaries.target import Target, TargetPhoto
 from demcal.summaries.verification import ResponseVerification, Verification
 
 __all__ = ["Anchor", "AnchorRun", "BayesSummary", "CalibrationResult", "Candidate", "DesignRun",
-           "Effect", "EngineMeta", "Goal", "Optimum", "PathStep", "RangeFind", "ResponseModel",
-           "ResponseVerification", "ResponsesOptimum", "ResultResponses", "ResultRound",
-           "ScanFactor", "ScanPoint", "ScanReach", "Screening", "ScreeningModel", "Steepest",
-           "StudyFactor", "StudyMaterial", "StudyMeta", "StudyTest", "Surface", "SurfaceFacts",
-           "Target", "TargetPhoto", "Verification", "Versions", "by_key", "stored_key"]
+           "Effect", "EngineMeta", "FitStatistics", "Goal", "Optimum", "PathStep", "RangeFind",
+           "ResponseModel", "ResponseVerification", "ResponsesOptimum", "ResultResponses",
+           "ResultRound", "ScanFactor", "ScanPoint", "ScanReach", "Screening", "ScreeningModel",
+           "Steepest", "StudyFactor", "StudyMaterial", "StudyMeta", "StudyTest", "Surface",
+           "SurfaceFacts", "Target", "TargetPhoto", "Verification", "Versions", "by_key",
+           "stored_key"]

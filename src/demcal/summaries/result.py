@@ -20,6 +20,7 @@ from demcal.lead import LeadName
 from demcal.summaries._stored import _Keyed, stored_as
 from demcal.summaries.bayes import BayesSummary
 from demcal.summaries.optimum import Goal, Optimum
+from demcal.summaries.surface import FitStatistics
 from demcal.summaries.verification import ResponseVerification, Verification
 
 __all__ = ["CalibrationResult", "ResultResponses", "ResultRound", "SurfaceFacts"]
@@ -133,6 +134,11 @@ class SurfaceFacts:
                    adequacy=dict(result.get("rsm_adequacy") or {}),
                    model=str(result.get("rsm_model") or "quadratic"),
                    removed_terms=list(result.get("rsm_removed_terms") or []))
+
+    @property
+    def statistics(self) -> FitStatistics:
+        """:attr:`adequacy`, typed."""
+        return FitStatistics.from_summary(self.adequacy)
 
     def label(self) -> str:
         """The model in words: ``full quadratic`` or ``reduced (removed A^2, ...)``."""

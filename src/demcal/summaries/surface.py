@@ -12,7 +12,36 @@ from demcal.summaries._stored import _Flat, _known, _plain
 from demcal.summaries.design import DesignRun, design_runs
 from demcal.summaries.study_meta import StudyFactor
 
-__all__ = ["ResponseModel", "Surface"]
+__all__ = ["FitStatistics", "ResponseModel", "Surface"]
+
+
+@dataclass(frozen=True)
+class FitStatistics(_Flat):
+    """A response-surface model's fit statistics as Design-Expert judges it (of the
+    design-point means; :func:`demcal.calibrate.surface_fit.adequacy` computes them).
+
+    Stored as a summary's ``adequacy`` (and the result's ``rsm_adequacy``); a key an older
+    store lacks reads as None.
+
+    Attributes
+    ----------
+    p_model : float or None
+        The model's F-test p-value.
+    lack_of_fit_p : float or None
+        The lack-of-fit test's p-value (None: no replicated points with spare df).
+    r2, adj_r2 : float or None
+    pred_r2 : float or None
+        Predicted R^2 (PRESS); None where it is not finite.
+    adeq_precision : float or None
+        Adeq Precision (signal to noise); None where it is not finite.
+    """
+
+    p_model: float | None = None
+    lack_of_fit_p: float | None = None
+    r2: float | None = None
+    adj_r2: float | None = None
+    pred_r2: float | None = None
+    adeq_precision: float | None = None
 
 
 @dataclass(frozen=True)
@@ -47,6 +76,11 @@ class ResponseModel(_Flat):
     anova: list[dict[str, Any]] = field(default_factory=list)
     coefficients_coded: dict[str, float] = field(default_factory=dict)
     equation_actual: str | None = None
+
+    @property
+    def statistics(self) -> FitStatistics:
+        """:attr:`adequacy`, typed (all None for a response that could not be modelled)."""
+        return FitStatistics.from_summary(self.adequacy or {})
 
 
 @dataclass(frozen=True)
@@ -140,6 +174,11 @@ class Surface:
     def names(self) -> list[str]:
         """The factors' names, in the design's order."""
         return [f.name for f in self.factors]
+
+    @property
+    def statistics(self) -> FitStatistics:
+        """:attr:`adequacy`, typed (all None where the stage stored none)."""
+        return FitStatistics.from_summary(self.adequacy or {})
 
     @property
     def model_kind(self) -> str:
