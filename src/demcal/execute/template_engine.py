@@ -78,12 +78,14 @@ class HookFailed(Exception):
     """The study's hook raised for this run: the run fails as ``engine_error``."""
 
 
-def _load_hook(ref: str) -> Callable[..., Any]:
-    where, _, func = ref.rpartition(":")
+def _load_hook(engine: ResolvedEngine) -> Callable[..., Any]:
+    """The engine's hook function: from its Python file (:attr:`ResolvedEngine.hook_file`,
+    which also decides what the study's input guard protects) or its module."""
+    where, _, func = str(engine.hook).rpartition(":")
     try:
-        if where.endswith(".py"):
+        if engine.hook_file is not None:
             name = "demcal_engine_hook_" + hashlib.sha256(where.encode()).hexdigest()[:12]
-            spec = importlib.util.spec_from_file_location(name, where)
+            spec = importlib.util.spec_from_file_location(name, engine.hook_file)
             if spec is None or spec.loader is None:
                 raise ImportError(f"cannot load {where}")
             module = importlib.util.module_from_spec(spec)
@@ -107,7 +109,7 @@ def _values(task: Any, engine: ResolvedEngine, run_dir: Path) -> dict[str, objec
                   template_dir=str(Path(engine.template_path).parent),
                   python=sys.executable)
     if engine.hook:
-        hook = _load_hook(engine.hook)
+        hook = _load_hook(engine)
         try:
             extra = hook(params=dict(task.params), seed=int(task.seed), run_dir=run_dir)
         except (Exception, SystemExit) as exc:  # the user's code: this run fails, typed
