@@ -580,7 +580,6 @@ def _result(ctx: st.Context, summary: BayesSummary, ver: Verification) -> Calibr
         rounds=refine.round_rows([*ctx.rounds.optimize, opt], [*ctx.rounds.verification, ver]),
         # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
         n_runs=ctx.store.count(), n_runs_executed=ctx.runner.executed,
-        n_runs_strategy=summary.n_runs - summary.verification_runs,
         ranges={f.name: [f.low, f.high] for f in ctx.factors}, responses=several,
         bayes=summary)
     ctx.store.set_meta("result", result.to_summary())

@@ -232,8 +232,6 @@ class CalibrationResult:
     bayes : BayesSummary or None
         The posterior, verdict and advice (strategy ``"bayes"``; without its samples and
         slices, which only the stage's store keeps).
-    n_runs_strategy : int or None
-        The Bayesian loop's own runs (without the verification rounds').
     """
 
     study: str
@@ -252,12 +250,16 @@ class CalibrationResult:
     stages: dict[str, Any] | None = None
     responses: ResultResponses | None = None
     bayes: BayesSummary | None = None
-    n_runs_strategy: int | None = None
 
     @property
     def strategy(self) -> str:
         """``"bayes"`` or ``"doe"``."""
         return "doe" if self.bayes is None else "bayes"
+
+    @property
+    def n_runs_strategy(self) -> int | None:
+        """The Bayesian loop's own runs, without the verification rounds' (None: DOE path)."""
+        return None if self.bayes is None else self.bayes.n_runs - self.bayes.verification_runs
 
     @property
     def lead_name(self) -> LeadName:
@@ -316,4 +318,4 @@ class CalibrationResult:
             n_runs_used=stored.get("n_runs_used"), surface=SurfaceFacts.from_result(stored),
             stages=stored.get("stages"),
             responses=None if several is None else ResultResponses.from_summary(several),
-            bayes=bayes, n_runs_strategy=stored.get("n_runs_strategy"))
+            bayes=bayes)
