@@ -11,10 +11,11 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import time
 
 import pytest
 
-from demcal.execute.signals import sigterm_raises
+from demcal.execute.signals import RESEND_S, sigterm_raises
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 
@@ -39,3 +40,38 @@ def test_a_sigterm_swallowed_by_a_finalizer_still_stops_the_block():
         reached_end = True
     assert stopped.value.code == 143 and not reached_end
     assert sys.unraisablehook is before
+
+
+def test_a_sigterm_swallowed_by_any_code_still_stops_the_block():
+    # C code that clears any error (PyDict_GetItem calling a Python __eq__, for one) drops the
+    # SystemExit as this except does: a CI `simulate` killed while numba compiled ran to its end
+    reached_end = False
+    with pytest.raises(SystemExit) as stopped, sigterm_raises():
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5.0)  # the handler raises here
+        except SystemExit:
+            pass
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline:  # the signal sent again lands here
+            time.sleep(0.01)
+        reached_end = True
+    assert stopped.value.code == 143 and not reached_end
+
+
+def test_the_signals_sent_again_do_not_cut_a_clean_up_short():
+    cleaned = False
+    with pytest.raises(SystemExit) as stopped, sigterm_raises():
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5.0)
+        finally:  # a clean-up longer than several resends (a process group's grace period)
+            deadline = time.monotonic() + 4 * RESEND_S
+            while time.monotonic() < deadline:
+                time.sleep(0.01)
+            with sigterm_raises():  # a nested block (the CLI's around a pool's) stays quiet too
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(2 * RESEND_S)
+            cleaned = True
+    assert stopped.value.code == 143 and cleaned
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL

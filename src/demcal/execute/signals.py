@@ -20,10 +20,12 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["die_with_parent", "sigterm_raises"]
+__all__ = ["RESEND_S", "die_with_parent", "sigterm_raises"]
 
 #: prctl option: the signal this process gets when its parent thread exits (Linux)
 PR_SET_PDEATHSIG = 1
+#: s between the signals :func:`sigterm_raises` sends itself until a stopped block is left
+RESEND_S = 0.5
 
 
 def die_with_parent(parent_pid: int) -> bool:
@@ -45,34 +47,70 @@ def die_with_parent(parent_pid: int) -> bool:
 @contextlib.contextmanager
 def sigterm_raises() -> Iterator[None]:
     """SIGTERM raises ``SystemExit(143)`` inside the block (in the main thread only; elsewhere
-    the block runs unchanged), so ``finally``/``except BaseException`` clean-ups run."""
+    the block runs unchanged), so ``finally``/``except BaseException`` clean-ups run.
+
+    Python runs the handler at the next line of Python, and some places drop what it raises:
+    a finalizer (``__del__``, many while numba compiles) and C code that clears any error
+    (``PyDict_GetItem`` calling a Python ``__eq__``, for one). The command would run on. So
+    once SIGTERM has come, a thread signals again every :data:`RESEND_S` s until the block
+    is left; the handler raises only where no such SystemExit is already unwinding (none in
+    the exception being handled nor in its ``__context__`` chain), so clean-ups run to their
+    end, a second ``kill`` included (SIGKILL still ends the process at once).
+    """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     code = 128 + signal.SIGTERM
+    raised: list[SystemExit] = []
+    left = threading.Event()
+    resender = threading.Thread(target=lambda: _resend_until(left), daemon=True)
 
     def stop(signum: int, frame: Any) -> None:
-        raise SystemExit(code)
+        if _unwinding(code):  # this block's stop, or a nested block's, is on its way out
+            return
+        if not raised:
+            resender.start()
+        raised[:] = [SystemExit(code)]
+        raise raised[0]
 
     hook = sys.unraisablehook
 
-    def again(unraisable: Any) -> None:
-        # the handler runs at the next line of Python, which may be a finalizer's (__del__,
-        # many of them while numba compiles): Python swallows what a finalizer raises, and
-        # the command would run on. Signal again from a thread, so that the handler runs
-        # at a line after the finalizer (raised here, it would be swallowed again).
-        if isinstance(unraisable.exc_value, SystemExit) and unraisable.exc_value.code == code:
-            resend = threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGTERM))
-            resend.daemon = True
-            resend.start()
+    def quiet(unraisable: Any) -> None:
+        # a finalizer swallowed the stop: say nothing ("Exception ignored in ..." and a
+        # traceback), and signal again at once, from a thread, so that the handler runs at
+        # a line after the finalizer (raised here, it would be swallowed again)
+        if unraisable.exc_value is not None and unraisable.exc_value in raised:
+            soon = threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGTERM))
+            soon.daemon = True
+            soon.start()
             return
         hook(unraisable)
 
     old = signal.signal(signal.SIGTERM, stop)
-    sys.unraisablehook = again
+    sys.unraisablehook = quiet
     try:
         yield
     finally:
+        left.set()
+        if resender.ident is not None:
+            resender.join()  # no signal of its own comes after the handler is restored
         sys.unraisablehook = hook
         signal.signal(signal.SIGTERM, old)
+
+
+def _unwinding(code: int) -> bool:
+    """Is a ``SystemExit(code)`` the exception being handled here, or in its ``__context__``
+    chain?"""
+    exc = sys.exc_info()[1]
+    while exc is not None:
+        if isinstance(exc, SystemExit) and exc.code == code:
+            return True
+        exc = exc.__context__
+    return False
+
+
+def _resend_until(left: threading.Event) -> None:
+    """SIGTERM this process every :data:`RESEND_S` s until ``left`` is set."""
+    while not left.wait(RESEND_S):
+        os.kill(os.getpid(), signal.SIGTERM)
