@@ -119,13 +119,14 @@ def test_the_fit_statistics_are_read_typed_from_a_result_and_a_store():
     stored = json.loads((EXAMPLES / "corn_stalk" / "result_standard.json").read_text())
     facts = CalibrationResult.from_summary(stored).surface
     assert facts is not None
-    a = facts.statistics
+    a = facts.adequacy
     assert (a.p_model, a.lack_of_fit_p, a.adj_r2, a.pred_r2, a.adeq_precision) == tuple(
         stored["rsm_adequacy"][k] for k in ("p_model", "lack_of_fit_p", "adj_r2", "pred_r2",
                                             "adeq_precision"))
     assert a.to_summary() == stored["rsm_adequacy"]  # the stored keys, in their order
     assert list(a.to_summary()) == list(stored["rsm_adequacy"])
     # a store that predates a key, or holds none: None, not an error
-    assert Surface.from_summary({"adequacy": {"adj_r2": 0.9}}).statistics == FitStatistics(
+    assert Surface.from_summary({"adequacy": {"adj_r2": 0.9}}).adequacy == FitStatistics(
         adj_r2=0.9)
-    assert Surface.from_summary(None).statistics == FitStatistics()
+    assert Surface.from_summary(None).adequacy is None
+    assert not FitStatistics().known and FitStatistics(adj_r2=0.9).known

@@ -10,7 +10,15 @@ import shutil
 import sqlite3
 from pathlib import Path
 
-from demcal.summaries import DesignRun, ResponseModel, StudyFactor, Surface
+from demcal.summaries import (
+    AnovaFit,
+    AnovaRecord,
+    DesignRun,
+    FitStatistics,
+    ResponseModel,
+    StudyFactor,
+    Surface,
+)
 
 DATA = Path(__file__).parent / "data"
 
@@ -29,8 +37,14 @@ RESPONSE_KEYS = ["model", "adequate", "adequacy", "warnings", "excluded_points",
 FACTORS = [{"name": "pp.static_friction", "symbol": "x3", "low": 0.2, "high": 1.0, "unit": ""},
            {"name": "pp.rolling_friction", "symbol": "x4", "low": 0.0, "high": 0.4,
             "unit": ""}]
-ADEQUACY = {"p_model": 1e-6, "lack_of_fit_p": 0.4, "r2": 0.99, "adj_r2": 0.98, "pred_r2": 0.95,
-            "adeq_precision": 30.0}
+ADEQUACY = FitStatistics(p_model=1e-6, lack_of_fit_p=0.4, r2=0.99, adj_r2=0.98, pred_r2=0.95,
+                         adeq_precision=30.0)
+#: an ANOVA row's and the fit statistics' stored keys (AnovaRow.to_dict, FitStatistics.to_dict
+#: of demcal.doe.anova)
+ANOVA_KEYS = ["term", "ss", "df", "ms", "f", "p"]
+FIT_KEYS = ["std_dev", "mean", "cv_percent", "press", "r2", "adj_r2", "pred_r2",
+            "adeq_precision"]
+ADEQUACY_KEYS = ["p_model", "lack_of_fit_p", "r2", "adj_r2", "pred_r2", "adeq_precision"]
 
 
 def _surface(**extra) -> Surface:
@@ -40,8 +54,8 @@ def _surface(**extra) -> Surface:
         runs=[DesignRun(point=0, coded={"pp.static_friction": -1.0},
                         actual={"pp.static_friction": 0.2}, value=35.0, outcome="pile",
                         replicates=[35.0], replicate_std=None)],
-        excluded_points=[], replicates=1, anova=[{"term": "pp.static_friction", "p": 0.001}],
-        fit={"r2": 0.99}, lack_of_fit_p=None, adequacy=ADEQUACY,
+        excluded_points=[], replicates=1, anova=[AnovaRecord(term="pp.static_friction", p=0.001)],
+        fit=AnovaFit(r2=0.99), lack_of_fit_p=None, adequacy=ADEQUACY,
         rounds=[{"replicates": 1, "runs": 13, "adequate": True}], model="quadratic",
         removed_terms=[], anova_full=[], adequacy_full=ADEQUACY,
         coefficients_coded={"intercept": 40.0, "pp.static_friction": 5.0},
@@ -54,6 +68,9 @@ def test_the_angle_s_surface_stores_the_keys_it_always_stored():
     surface = _surface()
     stored = surface.to_summary()
     assert list(stored) == SURFACE_KEYS and stored["lack_of_fit_p"] is None
+    assert list(stored["anova"][0]) == ANOVA_KEYS and list(stored["fit"]) == FIT_KEYS
+    assert list(stored["adequacy"]) == list(stored["adequacy_full"]) == ADEQUACY_KEYS
+    json.dumps(stored)  # plain JSON
     assert Surface.from_summary(stored) == surface
     assert surface.names == ["pp.static_friction", "pp.rolling_friction"]
     assert surface.model_kind == "quadratic"
@@ -61,12 +78,14 @@ def test_the_angle_s_surface_stores_the_keys_it_always_stored():
 
 def test_several_responses_store_each_model_after_the_replicates():
     drum = ResponseModel(model="reduced", adequate=True, adequacy=ADEQUACY, warnings=[],
-                         excluded_points=[3], anova=[{"term": "pp.rolling_friction"}],
+                         excluded_points=[3], anova=[AnovaRecord(term="pp.rolling_friction")],
                          coefficients_coded={"intercept": 32.0}, equation_actual="32")
     surface = _surface(responses={"drum_deg": drum})
     stored = surface.to_summary()
     assert list(stored) == SEVERAL_KEYS
     assert list(stored["responses"]["drum_deg"]) == RESPONSE_KEYS
+    assert list(stored["responses"]["drum_deg"]["adequacy"]) == ADEQUACY_KEYS
+    assert list(stored["responses"]["drum_deg"]["anova"][0]) == ANOVA_KEYS
     back = Surface.from_summary(stored)
     assert back == surface and back.responses["drum_deg"].excluded_points == [3]
 

@@ -24,7 +24,7 @@ from demcal.report.model_figures import (
     target_reached,
 )
 from demcal.report.surface import StoredSurface
-from demcal.summaries import Screening, Surface
+from demcal.summaries import FitStatistics, Screening, Surface
 
 
 def _bbd(y_of, seed=0, noise=0.3):
@@ -91,12 +91,14 @@ def test_refit_rebuilds_the_stored_model_and_the_checks_decide_the_verdict():
     assert np.allclose(again.fitted, rs.fitted) and again.term_names == rs.term_names
     checks = adequacy_checks(s, again, model_diagnostics(again))
     assert verdict(checks)
-    bad = adequacy_checks(replace(s, fit={**s.fit, "pred_r2": 0.06}), again,
+    bad = adequacy_checks(replace(s, fit=replace(s.fit, pred_r2=0.06)), again,
                           model_diagnostics(again))
     assert not verdict(bad)
     assert [c.name for c in bad if c.result == "FAIL"] == ["predicted R²"]
     # the stage's stored statistics of the means take precedence over the rows' fit
-    means = adequacy_checks(replace(s, adequacy={"pred_r2": -0.3}), again,
+    stated = FitStatistics(p_model=1e-6, r2=s.fit.r2, adj_r2=s.fit.adj_r2, pred_r2=-0.3,
+                           adeq_precision=s.fit.adeq_precision)
+    means = adequacy_checks(replace(s, adequacy=stated), again,
                             model_diagnostics(again))
     assert [c.name for c in means if c.result == "FAIL"] == ["predicted R²"]
     lof = adequacy_checks(replace(s, lack_of_fit_p=0.01), again, model_diagnostics(again))

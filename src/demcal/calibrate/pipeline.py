@@ -30,6 +30,7 @@ from demcal.store import RunStore
 from demcal.summaries import (
     CalibrationResult,
     DesignRun,
+    FitStatistics,
     Optimum,
     ResultResponses,
     Screening,
@@ -262,7 +263,8 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
         elif name == "rsm":  # typed (demcal.summaries.Surface), no fidelity of its own
             out[name] = {**_design_json(s.design, s.factors, s.runs, s.excluded_points),
                          "adequate": s.adequate, "warnings": s.warnings,
-                         "equation_actual": s.equation_actual, "adequacy": s.adequacy,
+                         "equation_actual": s.equation_actual,
+                         "adequacy": None if s.adequacy is None else s.adequacy.to_summary(),
                          "replicates": s.replicates, "rounds": s.rounds}
             continue
         elif name == "steepest" and s.ran:  # a disabled stage keeps only its levels
@@ -348,7 +350,8 @@ def run_stages(ctx: st.Context) -> CalibrationResult:
         n_runs_used=len({r.key for r in ctx.records} | ctx.runner.beside_keys),
         n_runs_executed=ctx.runner.executed,
         ranges={f.name: [f.low, f.high] for f in ctx.factors},
-        surface=SurfaceFacts(adequate=surface.adequate, adequacy=surface.adequacy,
+        surface=SurfaceFacts(adequate=surface.adequate,
+                             adequacy=surface.adequacy or FitStatistics(),
                              model=surface.model_kind,
                              removed_terms=list(surface.removed_terms or [])),
         stages=_stage_json(ctx), responses=several)

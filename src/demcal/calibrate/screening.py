@@ -21,7 +21,7 @@ from demcal.calibrate.context import (
 from demcal.calibrate.surface_fit import no_variation
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord
-from demcal.summaries import Effect, Screening, ScreeningModel
+from demcal.summaries import AnovaFit, Effect, Screening, ScreeningModel, anova_records
 
 __all__ = ["screening"]
 
@@ -61,7 +61,8 @@ def screening(ctx: Context) -> Screening:
     others = _other_models(ctx, design, recs) if ctx.several else None
     selected, why = _select(ctx, effects, len(space), others)
     table = rs.anova()
-    found = replace(ran, anova=table.to_records(), fit=table.fit.to_dict(), effects=effects,
+    found = replace(ran, anova=anova_records(table.to_records()),
+                    fit=AnovaFit.from_summary(table.fit.to_dict()), effects=effects,
                     responses=others, selected=selected,
                     message=f"selected {', '.join(selected)} ({why}); "
                     + exclusion_note(excluded, outcomes))
@@ -100,8 +101,10 @@ def _other_models(ctx: Context, design: doe.Design, recs: Sequence[RunRecord]
                                             note=f"{spec.name}: no model ({exc})")
             continue
         table = rs.anova()
-        out[spec.name] = ScreeningModel(effects=_effects(rs), anova=table.to_records(),
-                                        fit=table.fit.to_dict(), excluded_points=excluded)
+        out[spec.name] = ScreeningModel(effects=_effects(rs),
+                                        anova=anova_records(table.to_records()),
+                                        fit=AnovaFit.from_summary(table.fit.to_dict()),
+                                        excluded_points=excluded)
     return out
 
 

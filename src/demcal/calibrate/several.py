@@ -31,12 +31,15 @@ from demcal.calibrate.verify import compare_to_target
 from demcal.errors import StudyError
 from demcal.store import RunRecord
 from demcal.summaries import (
+    AnovaRecord,
     Candidate,
+    FitStatistics,
     Goal,
     Optimum,
     ResponseModel,
     ResponsesOptimum,
     ResponseVerification,
+    anova_records,
 )
 
 __all__ = [
@@ -63,12 +66,13 @@ class ResponseFit:
         ``"quadratic"``, ``"reduced"`` or ``"constant"`` (a response that did not vary).
     adequate : bool
         Design-Expert's adequacy rules (:func:`demcal.calibrate.surface_fit.adequacy`).
-    statistics : dict
-        p of the model and of the lack of fit, R^2, adjusted and predicted R^2, Adeq Precision.
+    statistics : FitStatistics
+        p of the model and of the lack of fit, R^2, adjusted and predicted R^2, Adeq Precision
+        (all None for a response that did not vary).
     warnings : tuple of str
     excluded_points : tuple of int
         Design points without this response (no pile, or the test did not report it).
-    anova : list of dict
+    anova : tuple of AnovaRecord
         The ANOVA table's rows.
     """
 
@@ -76,10 +80,10 @@ class ResponseFit:
     model: doe.ResponseSurface
     model_kind: str
     adequate: bool
-    statistics: dict[str, Any]
+    statistics: FitStatistics
     warnings: tuple[str, ...]
     excluded_points: tuple[int, ...]
-    anova: tuple[dict[str, Any], ...]
+    anova: tuple[AnovaRecord, ...]
 
     def summary(self) -> ResponseModel:
         """What the store and the report keep (the rsm stage's ``responses[name]``)."""
@@ -243,7 +247,7 @@ def _fit_one(spec: ResponseSpec, runs: list[list[float]], design: doe.Design, n_
     if float(np.ptp(finite)) == 0.0:  # a flat response: nothing to fit, say so
         model = doe.fit(design, np.where(np.isfinite(means), means, finite[0]), terms=[
             "intercept"])
-        return ResponseFit(spec.name, model, "constant", False, {}, (
+        return ResponseFit(spec.name, model, "constant", False, FitStatistics(), (
             f"{spec.name} did not vary over the design ({finite[0]:g} at every point): no "
             "model; it cannot steer the optimum",), excluded, ())
     rep_design, y_rows = replicated(design, runs, n_reps)
@@ -256,8 +260,8 @@ def _fit_one(spec: ResponseSpec, runs: list[list[float]], design: doe.Design, n_
         warnings.insert(0, f"{len(excluded)} design point(s) without {spec.name}: "
                         + ", ".join(map(str, excluded)))
     return ResponseFit(spec.name, choice.chosen.rows, choice.kind, choice.adequacy.adequate,
-                       choice.adequacy.statistics.to_summary(), tuple(warnings), excluded,
-                       tuple(choice.chosen.table.to_records()))
+                       choice.adequacy.statistics, tuple(warnings), excluded,
+                       tuple(anova_records(choice.chosen.table.to_records())))
 
 
 def fit_responses(ctx: Any, design: doe.Design, recs: Sequence[RunRecord], n_reps: int

@@ -55,11 +55,13 @@ from demcal.calibrate.verify import (
 from demcal.errors import InputError, StudyError
 from demcal.store import RunRecord
 from demcal.summaries import (
+    AnovaFit,
     Candidate,
     Optimum,
     ResponseModel,
     Surface,
     Verification,
+    anova_records,
 )
 
 __all__ = ["Context", "adequacy", "choose_model", "no_variation", "optimize", "rangefind",
@@ -121,11 +123,11 @@ def rsm(ctx: Context) -> Surface:
         choice = choose_model(opts.model, opts.alpha_out, model, full)
         model, table, lof_p = choice.chosen.rows, choice.chosen.table, choice.chosen.lack_of_fit_p
         adequate, fails = choice.adequacy.adequate, list(choice.adequacy.failed)
-        stats_ = choice.adequacy.statistics.to_summary()
+        stats_ = choice.adequacy.statistics
         rounds.append({"replicates": n_reps, "runs": design.n_runs * n_reps,
                        "blocks": model.block_df + 1 if model.block_df else 0,
                        "model": choice.kind, "removed_terms": list(choice.removed_terms),
-                       "adequate": adequate, "failed": fails, **stats_})
+                       "adequate": adequate, "failed": fails, **stats_.to_summary()})
         more = design.n_runs * (n_reps + 1)
         if adequate or not opts.add_replicates or more > budget:
             break
@@ -148,11 +150,12 @@ def rsm(ctx: Context) -> Surface:
     warnings += response_warnings
     surface = Surface(
         design=design_name, factors=factors, runs=design_rows, excluded_points=excluded,
-        replicates=n_reps, responses=responses, anova=table.to_records(),
-        fit=table.fit.to_dict(), lack_of_fit_p=lof_p, adequacy=stats_, rounds=rounds,
+        replicates=n_reps, responses=responses, anova=anova_records(table.to_records()),
+        fit=AnovaFit.from_summary(table.fit.to_dict()), lack_of_fit_p=lof_p, adequacy=stats_,
+        rounds=rounds,
         model=choice.kind, removed_terms=list(choice.removed_terms),
-        anova_full=choice.full.table.to_records(),
-        adequacy_full=choice.full.adequacy.statistics.to_summary(),
+        anova_full=anova_records(choice.full.table.to_records()),
+        adequacy_full=choice.full.adequacy.statistics,
         coefficients_coded={k: float(v) for k, v in model.coefficients_coded.items()},
         coefficients_actual={k: float(v) for k, v in model.coefficients_actual.items()},
         equation_coded=model.equation(units="coded"),

@@ -62,8 +62,8 @@ def _print_surface(result: CalibrationResult) -> None:
     s = result.surface
     if s is None:  # the Bayesian strategy's: no response surface
         return
-    if s.adequacy:
-        a = s.statistics
+    if s.adequacy.known:
+        a = s.adequacy
 
         def f(value: float | None, fmt: str) -> str:
             return "n/a" if value is None else format(value, fmt)

@@ -515,7 +515,7 @@ def _rsm_pair_figures(b: _Builder, s: Surface, hold: dict[str, float] | None) ->
     """The response surface over each factor pair (interactions first) and predicted vs
     actual."""
     d = b.data
-    p_of = {str(r.get("term")): r.get("p") for r in s.anova}
+    p_of = {r.term: r.p for r in s.anova}
     sig = set(significant_pairs(s))
     try:  # a surface whose terms cannot be read: each figure says so, the tables stay
         surf: StoredSurface | None = StoredSurface.from_surface(s)
@@ -591,7 +591,7 @@ def _response_anovas(b: _Builder, rsm: Surface) -> str:
     for name, fit in (rsm.responses or {}).items():
         if not fit.anova:
             continue
-        a = fit.statistics
+        a = fit.adequacy
         note = (f"{'adequate' if fit.adequate else 'not adequate'} by Design-Expert's rules: "
                 f"model p {_fmt(a.p_model, '.3g')}, lack of fit p "
                 f"{_fmt(a.lack_of_fit_p, '.3g')}, adjusted R² {_fmt(a.adj_r2)}, "

@@ -277,10 +277,14 @@ def adequacy_checks(found: Screening | Surface, rs: ResponseSurface,
     (e.g. no lack-of-fit test) does not fail.
     """
     surface = found if isinstance(found, Surface) else None
-    fit = {**(found.fit or {}), **((surface.adequacy if surface else None) or {})}
-    pred, adj = fit.get("pred_r2", rs.pred_r2), fit.get("adj_r2", rs.adj_r2)
-    adeq = fit.get("adeq_precision", rs.adeq_precision)
-    p_model = fit.get("p_model", rs.f_pvalue)
+    # the surface's statistics of the means where stored, else the ANOVA's, else the model's
+    stored = [s for s in (surface.adequacy if surface else None, found.fit) if s is not None]
+
+    def stat(name: str, fallback: float) -> Any:
+        return next((getattr(s, name) for s in stored if hasattr(s, name)), fallback)
+
+    pred, adj = stat("pred_r2", rs.pred_r2), stat("adj_r2", rs.adj_r2)
+    adeq, p_model = stat("adeq_precision", rs.adeq_precision), stat("p_model", rs.f_pvalue)
     lof = surface.lack_of_fit_p if surface else None
 
     def finite(v: Any) -> float | None:

@@ -14,7 +14,14 @@ import numpy as np
 import pandas as pd
 
 from demcal.report.tables import Table
-from demcal.summaries import Optimum, ResponseModel, ResponseVerification, Surface, Verification
+from demcal.summaries import (
+    FitStatistics,
+    Optimum,
+    ResponseModel,
+    ResponseVerification,
+    Surface,
+    Verification,
+)
 
 __all__ = ["ResponseRow", "ResponsesView", "overlay_figure", "responses_tables", "responses_view"]
 
@@ -72,7 +79,7 @@ def responses_view(rsm: Surface, optimum: Optimum,
         lab = check.lab or {}
         if name == lead:  # the lead (the angle): the surface's own model and verification
             fit = ResponseModel(model=rsm.model, adequate=rsm.adequate,
-                                adequacy=rsm.adequacy or {},
+                                adequacy=rsm.adequacy or FitStatistics(),
                                 equation_actual=rsm.equation_actual)
             check = ResponseVerification(
                 mean=verification.mean, std=verification.std,
@@ -83,7 +90,7 @@ def responses_view(rsm: Surface, optimum: Optimum,
         rows.append(ResponseRow(
             name=name, goal=g.goal, low=g.low, high=g.high, target=g.target,
             importance=g.importance, model=fit.model, adequate=fit.adequate,
-            adj_r2=fit.statistics.adj_r2, pred_r2=fit.statistics.pred_r2,
+            adj_r2=fit.adequacy.adj_r2, pred_r2=fit.adequacy.pred_r2,
             equation=fit.equation_actual,
             predicted=(best.predicted or {}).get(name),
             individual=(best.individual or {}).get(name),

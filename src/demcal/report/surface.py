@@ -125,10 +125,10 @@ def significant_pairs(surface: Surface, alpha: float = 0.05,
     symbols = [f.symbol or f.name for f in surface.factors]
     pvals: dict[tuple[int, ...], float] = {}
     for rec in surface.anova:
-        term, p = rec.get("term"), rec.get("p")
+        term, p = rec.term, rec.p
         for labels in (names, symbols):
             try:
-                powers = parse_term(str(term), labels)
+                powers = parse_term(term, labels)
             except InputError:
                 continue
             pvals[powers] = math.inf if p is None else float(p)

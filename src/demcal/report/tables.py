@@ -8,6 +8,7 @@ frames with :func:`format_cell`; ``report.json`` and ``tables/*.csv`` hold the r
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -19,6 +20,8 @@ from demcal.display import readable
 from demcal.doe.anova import significance
 from demcal.report.data import ReportData, StageView
 from demcal.summaries import (
+    AnovaFit,
+    AnovaRecord,
     Optimum,
     RangeFind,
     Screening,
@@ -275,15 +278,11 @@ def screening_design_table(found: Screening, symbols: Mapping[str, str]) -> Tabl
                  frame)
 
 
-def anova_frame(records: list[Mapping[str, Any]], symbols: Mapping[str, str]) -> pd.DataFrame:
-    """ANOVA records (``AnovaTable.to_records()``) as a frame with a significance column."""
-    rows = []
-    for rec in records:
-        p = _num(rec.get("p"))
-        rows.append({"source": term_label(str(rec.get("term", "")), symbols),
-                     "SS": _num(rec.get("ss")), "df": rec.get("df"), "MS": _num(rec.get("ms")),
-                     "F": _num(rec.get("f")), "p": p,
-                     "significance": significance(p if p is not None else math.nan)})
+def anova_frame(records: Sequence[AnovaRecord], symbols: Mapping[str, str]) -> pd.DataFrame:
+    """A stored ANOVA table's rows as a frame with a significance column."""
+    rows = [{"source": term_label(r.term, symbols), "SS": _num(r.ss), "df": r.df,
+             "MS": _num(r.ms), "F": _num(r.f), "p": _num(r.p),
+             "significance": significance(math.nan if r.p is None else r.p)} for r in records]
     return _frame(rows, ["source", "SS", "df", "MS", "F", "p", "significance"])
 
 
@@ -323,13 +322,14 @@ def screening_responses_table(found: Screening, symbols: Mapping[str, str]) -> T
                       "the next stage." + "".join(f" {n}." for n in notes))
 
 
-def fit_table(key: str, title: str, fit: Mapping[str, Any],
+def fit_table(key: str, title: str, fit: AnovaFit,
               lack_of_fit_p: float | None = None) -> Table:
-    """Fit statistics (``FitStatistics.to_dict()``) as statistic/value rows."""
+    """The fit statistics under an ANOVA table as statistic/value rows."""
     names = {"std_dev": "Std. Dev. (deg)", "mean": "Mean (deg)", "cv_percent": "C.V. %",
              "press": "PRESS", "r2": "R²", "adj_r2": "Adjusted R²", "pred_r2": "Predicted R²",
              "adeq_precision": "Adeq Precision"}
-    rows = [{"statistic": names.get(k, k), "value": _num(v)} for k, v in fit.items()]
+    rows = [{"statistic": names[f.name], "value": _num(getattr(fit, f.name))}
+            for f in dataclasses.fields(fit)]
     if lack_of_fit_p is not None:
         rows.append({"statistic": "Lack of fit p", "value": _num(lack_of_fit_p)})
     return Table(key, title, _frame(rows, ["statistic", "value"]))

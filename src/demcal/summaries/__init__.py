@@ -16,6 +16,7 @@ file formats built from them (the result JSON).
 """
 
 from demcal.summaries._stored import by_key, stored_key
+from demcal.summaries.anova import AnovaFit, AnovaRecord, anova_records
 from demcal.summaries.bayes import BayesSummary
 from demcal.summaries.design import DesignRun
 from demcal.summaries.optimum import Candidate, Goal, Optimum, ResponsesOptimum
@@ -29,10 +30,10 @@ from demcal.summaries.surface import FitStatistics, ResponseModel, Surface
 from demcal.summaries.target import Target, TargetPhoto
 from demcal.summaries.verification import ResponseVerification, Verification
 
-__all__ = ["Anchor", "AnchorRun", "BayesSummary", "CalibrationResult", "Candidate", "DesignRun",
-           "Effect", "EngineMeta", "FitStatistics", "Goal", "Optimum", "PathStep", "RangeFind",
-           "ResponseModel", "ResponseVerification", "ResponsesOptimum", "ResultResponses",
-           "ResultRound", "ScanFactor", "ScanPoint", "ScanReach", "Screening", "ScreeningModel",
-           "Steepest", "StudyFactor", "StudyMaterial", "StudyMeta", "StudyTest", "Surface",
-           "SurfaceFacts", "Target", "TargetPhoto", "Verification", "Versions", "by_key",
-           "stored_key"]
+__all__ = ["Anchor", "AnchorRun", "AnovaFit", "AnovaRecord", "BayesSummary", "CalibrationResult",
+           "Candidate", "DesignRun", "Effect", "EngineMeta", "FitStatistics", "Goal", "Optimum",
+           "PathStep", "RangeFind", "ResponseModel", "ResponseVerification", "ResponsesOptimum",
+           "ResultResponses", "ResultRound", "ScanFactor", "ScanPoint", "ScanReach", "Screening",
+           "ScreeningModel", "Steepest", "StudyFactor", "StudyMaterial", "StudyMeta", "StudyTest",
+           "Surface", "SurfaceFacts", "Target", "TargetPhoto", "Verification", "Versions",
+           "anova_records", "by_key", "stored_key"]

@@ -106,7 +106,7 @@ class SurfaceFacts:
     ----------
     adequate : bool or None
         Design-Expert's adequacy rules.
-    adequacy : dict
+    adequacy : FitStatistics
         Their numbers (``adj_r2``, ``pred_r2``, ``adeq_precision``, ``p_model``,
         ``lack_of_fit_p``...).
     model : str
@@ -116,13 +116,13 @@ class SurfaceFacts:
     """
 
     adequate: bool | None = None
-    adequacy: dict[str, Any] = field(default_factory=dict)
+    adequacy: FitStatistics = field(default_factory=FitStatistics)
     model: str = "quadratic"
     removed_terms: list[str] = field(default_factory=list)
 
     def to_summary(self) -> dict[str, Any]:
         """The result's keys, in their order."""
-        return {"rsm_adequate": self.adequate, "rsm_adequacy": dict(self.adequacy),
+        return {"rsm_adequate": self.adequate, "rsm_adequacy": self.adequacy.to_summary(),
                 "rsm_model": self.model, "rsm_removed_terms": list(self.removed_terms)}
 
     @classmethod
@@ -131,14 +131,9 @@ class SurfaceFacts:
         if "rsm_adequate" not in result and "rsm_adequacy" not in result:
             return None
         return cls(adequate=result.get("rsm_adequate"),
-                   adequacy=dict(result.get("rsm_adequacy") or {}),
+                   adequacy=FitStatistics.from_summary(result.get("rsm_adequacy") or {}),
                    model=str(result.get("rsm_model") or "quadratic"),
                    removed_terms=list(result.get("rsm_removed_terms") or []))
-
-    @property
-    def statistics(self) -> FitStatistics:
-        """:attr:`adequacy`, typed."""
-        return FitStatistics.from_summary(self.adequacy)
 
     def label(self) -> str:
         """The model in words: ``full quadratic`` or ``reduced (removed A^2, ...)``."""

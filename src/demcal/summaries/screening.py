@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from demcal.summaries._stored import _Keyed, _read, _stored
+from demcal.summaries.anova import AnovaFit, AnovaRecord, anova_records
 from demcal.summaries.design import DesignRun, design_runs
 from demcal.summaries.study_meta import StudyFactor
 
@@ -52,10 +53,10 @@ class ScreeningModel(_Keyed):
     ----------
     effects : list of Effect
         Every term's effect on it, by rank (empty: no model, see ``note``).
-    anova : list of dict
+    anova : list of AnovaRecord
         Its ANOVA rows.
-    fit : dict
-        Its fit statistics.
+    fit : AnovaFit or None
+        Its fit statistics (None: no model).
     excluded_points : list of int
         Design points without this response.
     note : str or None
@@ -63,8 +64,8 @@ class ScreeningModel(_Keyed):
     """
 
     effects: list[Effect] = field(default_factory=list)
-    anova: list[dict[str, Any]] = field(default_factory=list)
-    fit: dict[str, Any] = field(default_factory=dict)
+    anova: list[AnovaRecord] = field(default_factory=list)
+    fit: AnovaFit | None = None
     excluded_points: list[int] = field(default_factory=list)
     note: str | None = None
 
@@ -76,6 +77,9 @@ class ScreeningModel(_Keyed):
         """Read a stored model."""
         items = _read(cls, summary)
         items["effects"] = [Effect.from_summary(e) for e in items.get("effects") or []]
+        items["anova"] = anova_records(items.get("anova"))
+        if items.get("fit") is not None:
+            items["fit"] = AnovaFit.from_summary(items["fit"])
         return cls(**items)
 
 
@@ -101,9 +105,9 @@ class Screening:
         Every design point and its response; None where screening did not run.
     excluded_points : list of int or None
         Design points without a response (not in the fit).
-    anova : list of dict or None
+    anova : list of AnovaRecord or None
         The linear model's ANOVA rows (None: the model could not be fitted).
-    fit : dict or None
+    fit : AnovaFit or None
         Its fit statistics.
     effects : list of Effect or None
         Every term's effect on the lead response, by rank.
@@ -126,8 +130,8 @@ class Screening:
     dummies: list[str] | None = None
     runs: list[DesignRun] | None = None
     excluded_points: list[int] | None = None
-    anova: list[dict[str, Any]] | None = None
-    fit: dict[str, Any] | None = None
+    anova: list[AnovaRecord] | None = None
+    fit: AnovaFit | None = None
     effects: list[Effect] | None = None
     responses: dict[str, ScreeningModel] | None = None
     selected: list[str] = field(default_factory=list)
@@ -144,6 +148,10 @@ class Screening:
             items["factors"] = [StudyFactor.from_summary(f) for f in items["factors"]]
         if items.get("effects") is not None:
             items["effects"] = [Effect.from_summary(e) for e in items["effects"]]
+        if items.get("anova") is not None:
+            items["anova"] = anova_records(items["anova"])
+        if items.get("fit") is not None:
+            items["fit"] = AnovaFit.from_summary(items["fit"])
         if items.get("responses") is not None:
             items["responses"] = {name: ScreeningModel.from_summary(m)
                                   for name, m in items["responses"].items()}

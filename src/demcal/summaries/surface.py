@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from demcal.summaries._stored import _Flat, _known, _plain
+from demcal.summaries.anova import AnovaFit, AnovaRecord, anova_records
 from demcal.summaries.design import DesignRun, design_runs
 from demcal.summaries.study_meta import StudyFactor
 
@@ -43,6 +44,12 @@ class FitStatistics(_Flat):
     pred_r2: float | None = None
     adeq_precision: float | None = None
 
+    @property
+    def known(self) -> bool:
+        """Whether any statistic is known (none: a response that could not be modelled, or a
+        result that stored none)."""
+        return any(v is not None for v in dataclasses.astuple(self))
+
 
 @dataclass(frozen=True)
 class ResponseModel(_Flat):
@@ -55,12 +62,13 @@ class ResponseModel(_Flat):
         ``"quadratic"``, ``"reduced"`` or ``"constant"`` (the response did not vary).
     adequate : bool or None
         Design-Expert's adequacy rules.
-    adequacy : dict
-        p of the model and of the lack of fit, R^2, adjusted and predicted R^2, Adeq Precision.
+    adequacy : FitStatistics
+        p of the model and of the lack of fit, R^2, adjusted and predicted R^2, Adeq Precision
+        (all None for a response that could not be modelled).
     warnings : list of str
     excluded_points : list of int
         Design points without this response.
-    anova : list of dict
+    anova : list of AnovaRecord
         The ANOVA table's rows.
     coefficients_coded : dict str -> float
         The model's coefficients in coded units, by term.
@@ -70,17 +78,20 @@ class ResponseModel(_Flat):
 
     model: str | None = None
     adequate: bool | None = None
-    adequacy: dict[str, Any] = field(default_factory=dict)
+    adequacy: FitStatistics = field(default_factory=FitStatistics)
     warnings: list[str] = field(default_factory=list)
     excluded_points: list[int] = field(default_factory=list)
-    anova: list[dict[str, Any]] = field(default_factory=list)
+    anova: list[AnovaRecord] = field(default_factory=list)
     coefficients_coded: dict[str, float] = field(default_factory=dict)
     equation_actual: str | None = None
 
-    @property
-    def statistics(self) -> FitStatistics:
-        """:attr:`adequacy`, typed (all None for a response that could not be modelled)."""
-        return FitStatistics.from_summary(self.adequacy or {})
+    @classmethod
+    def from_summary(cls, summary: Mapping[str, Any]) -> ResponseModel:
+        """Read a stored model (any release's)."""
+        items = _known(cls, summary)
+        items["adequacy"] = FitStatistics.from_summary(items.get("adequacy") or {})
+        items["anova"] = anova_records(items.get("anova"))
+        return cls(**items)
 
 
 @dataclass(frozen=True)
@@ -89,8 +100,8 @@ class Surface:
     model, its ANOVA and Design-Expert's adequacy, and in a several-response study every other
     response's model.
 
-    The design's runs are typed (:class:`DesignRun`, as screening's); the other nested rows
-    (``factors``, ``anova``, ``rounds``) keep the stored form.
+    The design's runs (:class:`DesignRun`, as screening's), the ANOVA rows and the fit
+    statistics are typed; the replicate rounds' rows (``rounds``) keep the stored form.
 
     Attributes
     ----------
@@ -107,20 +118,21 @@ class Surface:
         Replicates per design point used (more are added while the model is not adequate).
     responses : dict str -> ResponseModel or None
         Every response beside the angle; None with the angle alone.
-    anova : list of dict
+    anova : list of AnovaRecord
         The ANOVA of the model the optimum is read from (every replicate a row).
-    fit : dict
-        Its fit statistics.
+    fit : AnovaFit or None
+        Its fit statistics (None: a failed stage's).
     lack_of_fit_p : float or None
-    adequacy : dict or None
-        The design-point means' statistics Design-Expert's rules judge.
+    adequacy : FitStatistics or None
+        The design-point means' statistics Design-Expert's rules judge (None: a failed
+        stage's).
     rounds : list of dict or None
         One row per replicate round: replicates, runs, model, adequacy.
     model : str or None
         ``"quadratic"`` or ``"reduced"`` (None: a store written before the reduction, a
         quadratic).
     removed_terms : list of str or None
-    anova_full, adequacy_full : list of dict, dict or None
+    anova_full, adequacy_full : list of AnovaRecord, FitStatistics or None
         The full quadratic model's ANOVA and adequacy.
     coefficients_coded, coefficients_actual : dict str -> float
         The model's coefficients by term, in coded and in actual units.
@@ -135,15 +147,15 @@ class Surface:
     excluded_points: list[int] = field(default_factory=list)
     replicates: int | None = None
     responses: dict[str, ResponseModel] | None = None
-    anova: list[dict[str, Any]] = field(default_factory=list)
-    fit: dict[str, Any] = field(default_factory=dict)
+    anova: list[AnovaRecord] = field(default_factory=list)
+    fit: AnovaFit | None = None
     lack_of_fit_p: float | None = None
-    adequacy: dict[str, Any] | None = None
+    adequacy: FitStatistics | None = None
     rounds: list[dict[str, Any]] | None = None
     model: str | None = None
     removed_terms: list[str] | None = None
-    anova_full: list[dict[str, Any]] | None = None
-    adequacy_full: dict[str, Any] | None = None
+    anova_full: list[AnovaRecord] | None = None
+    adequacy_full: FitStatistics | None = None
     coefficients_coded: dict[str, float] = field(default_factory=dict)
     coefficients_actual: dict[str, float] = field(default_factory=dict)
     equation_coded: str | None = None
@@ -162,11 +174,19 @@ class Surface:
         if items.get("responses") is not None:
             items["responses"] = {name: ResponseModel.from_summary(r)
                                   for name, r in items["responses"].items()}
-        for name in ("factors", "excluded_points", "anova", "warnings"):
+        for name in ("factors", "excluded_points", "warnings"):
             items[name] = items.get(name) or []
         items["factors"] = [StudyFactor.from_summary(f) for f in items["factors"]]
         items["runs"] = design_runs(items.get("runs"))
-        for name in ("fit", "coefficients_coded", "coefficients_actual"):
+        items["anova"] = anova_records(items.get("anova"))
+        if items.get("anova_full") is not None:
+            items["anova_full"] = anova_records(items["anova_full"])
+        if items.get("fit") is not None:
+            items["fit"] = AnovaFit.from_summary(items["fit"])
+        for name in ("adequacy", "adequacy_full"):
+            if items.get(name) is not None:
+                items[name] = FitStatistics.from_summary(items[name])
+        for name in ("coefficients_coded", "coefficients_actual"):
             items[name] = items.get(name) or {}
         return cls(**items)
 
@@ -174,11 +194,6 @@ class Surface:
     def names(self) -> list[str]:
         """The factors' names, in the design's order."""
         return [f.name for f in self.factors]
-
-    @property
-    def statistics(self) -> FitStatistics:
-        """:attr:`adequacy`, typed (all None where the stage stored none)."""
-        return FitStatistics.from_summary(self.adequacy or {})
 
     @property
     def model_kind(self) -> str:
