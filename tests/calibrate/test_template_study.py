@@ -67,7 +67,7 @@ def test_study_runs_on_the_stand_in_engine_and_resumes(study_dir):
     assert "contact_laws" not in card["engine"]  # demcal's laws are not that engine's
     from demcal.virtual.material_card import read_material_card
 
-    assert read_material_card(toml_path).engine["name"] == "template"
+    assert read_material_card(toml_path).engine.name == "template"
     assert "engine.py" in card["engine"]["command"]
     # a changed template (or command) is a different test: its runs are made again
     from demcal.calibrate.pipeline import open_study

@@ -113,7 +113,7 @@ def test_material_card_round_trips_the_verified_parameters(calibrated):
         assert all(card.parameters[k].hex() == float(v).hex() for k, v in ver.items())
         assert set(card.calibrated) == {"pp.static_friction", "pp.rolling_friction",
                                         "pp.surface_energy"}
-        assert card.test["kind"] == "analytic" and card.rolling_model == "A"
+        assert card.test.kind == "analytic" and card.rolling_model == "A"
     text = (out / "material.toml").read_text()
     card_ver = tomllib.loads(text)["verification"]
     assert card_ver["consistent"] is True

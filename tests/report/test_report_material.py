@@ -112,8 +112,8 @@ def test_the_card_pins_the_fidelity_pile_so_a_renamed_fidelity_runs_the_same_tes
         store.set_meta("study", meta)
     path = build_report(study)
     card = read_material_card(path.parent / "material.toml")
-    assert card.test["fidelity"] == "small"
-    overrides = card.test["overrides"]
+    assert card.test.fidelity == "small"
+    overrides = card.test.overrides
     assert overrides["fill"] == {"method": "packing", "count": 300}
     assert overrides["geometry"] == {"cylinder_inner_diameter": 0.035}
     assert overrides["dt_fraction"] == 0.15
@@ -170,8 +170,8 @@ def test_a_lammps_card_names_the_lammps_version_the_runs_used(tmp_path):
         store.set_meta("engine", {"kind": "lammps", "name": "lammps", "backend": "auto"})
     path = build_report(study)
     card = read_material_card(path.parent / "material.toml")
-    assert card.engine["lammps_version"] == "22 Jul 2025 - Update 4"
-    assert card.engine["version"] == "0.test"
+    assert card.engine.lammps_version == "22 Jul 2025 - Update 4"
+    assert card.engine.version == "0.test"
     from demcal.virtual.lammps_card import lammps_lines
 
     assert "# calibrated with LAMMPS 22 Jul 2025 - Update 4" in lammps_lines(card).text

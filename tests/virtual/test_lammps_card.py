@@ -13,6 +13,7 @@ from demcal.cli import app
 from demcal.dem.contact import rayleigh_time_step
 from demcal.virtual import fidelity_config, preset_parameters
 from demcal.virtual import lammps_run as lr
+from demcal.virtual.card_blocks import CardEngine, CardTest
 from demcal.virtual.factory import make_template
 from demcal.virtual.lammps_card import lammps_lines
 from demcal.virtual.lammps_laws import contact_laws, model_string
@@ -21,8 +22,8 @@ from demcal.virtual.material_card import MaterialCard
 
 def _card(engine: str = "lammps", rolling: str = "C", **params: float) -> MaterialCard:
     return MaterialCard(parameters={**preset_parameters("corn_stalk"), **params}, study="t",
-                        engine={"name": engine, "rolling_model": rolling},
-                        test={"kind": "aor", "fidelity": "quick", "overrides": {}})
+                        engine=CardEngine(name=engine, rolling_model=rolling),
+                        test=CardTest(kind="aor", fidelity="quick", overrides={}))
 
 
 def test_the_lines_are_the_lammps_engine_s_own_mapping() -> None:
@@ -64,8 +65,8 @@ def test_a_model_a_card_is_written_with_a_warning(tmp_path) -> None:
 
 @pytest.mark.parametrize(("card", "message"), [
     (MaterialCard(parameters=preset_parameters("corn_stalk"),
-                  engine={"name": "template", "command": "lmp -in in.x"}), "external engine"),
-    (MaterialCard(parameters=preset_parameters("corn_stalk"), test={"kind": "analytic"}),
+                  engine=CardEngine(name="template", command="lmp -in in.x")), "external engine"),
+    (MaterialCard(parameters=preset_parameters("corn_stalk"), test=CardTest(kind="analytic")),
      "analytic stand-in"),
 ])
 def test_cards_that_are_not_lammps_parameters_are_refused(tmp_path, card, message) -> None:

@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 
 from demcal.cli import app
 from demcal.virtual import lammps_run as lr
+from demcal.virtual.card_blocks import CardEngine, CardTest
 from demcal.virtual.drum import particle_count
 from demcal.virtual.drum_frames import FrameState, steady_drift
 from demcal.virtual.drum_settings import drum_settings
@@ -154,8 +155,8 @@ def test_drum_card_must_meet_its_engine(tmp_path):
     from demcal.virtual.material_card import MaterialCard
 
     card = MaterialCard(parameters=dict(PARAMS), calibrated=("pp.static_friction",),
-                        study="t", engine={"name": "lammps", "rolling_model": "C"},
-                        test={"kind": "aor", "fidelity": "quick", "overrides": {}})
+                        study="t", engine=CardEngine(name="lammps", rolling_model="C"),
+                        test=CardTest(kind="aor", fidelity="quick", overrides={}))
     toml_path, _ = card.write(tmp_path)
     res = CliRunner().invoke(app, ["simulate", "drum", "--material", str(toml_path),
                                    "--engine", "demcal"])

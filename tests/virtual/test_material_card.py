@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
@@ -13,6 +15,7 @@ import demcal.virtual
 from demcal.cli import app
 from demcal.errors import InputError
 from demcal.virtual import PARAMETERS
+from demcal.virtual.card_blocks import CardEngine, CardTest
 from demcal.virtual.material_card import (
     CARD_FORMAT,
     MaterialCard,
@@ -30,9 +33,9 @@ AWKWARD = {"pp.static_friction": 0.1 + 0.2, "pp.rolling_friction": 1.0 / 3.0,
 def _card(**kw) -> MaterialCard:
     params = {**preset_parameters("corn_stalk"), **AWKWARD}
     return MaterialCard(parameters=params, calibrated=tuple(AWKWARD), study="t",
-                        engine={"version": "0.1.0", "backend": "cpu", "rolling_model": "C"},
-                        test={"kind": "aor", "fidelity": "quick",
-                              "overrides": {"fill": {"count": 80}, "dt_fraction": 0.15}},
+                        engine=CardEngine(version="0.1.0", backend="cpu", rolling_model="C"),
+                        test=CardTest(kind="aor", fidelity="quick",
+                                      overrides={"fill": {"count": 80}, "dt_fraction": 0.15}),
                         verification={"line": "verified AoR 40.00 ± 1.00° (n = 3)",
                                       "aor_mean_deg": 40.0, "n": 3},
                         shape={"template": "stalk", "length_m": 0.01, "n_spheres": 7}, **kw)
@@ -48,8 +51,8 @@ def test_card_round_trips_bit_exactly(fmt, tmp_path):
         assert back.parameters[name].hex() == float(value).hex(), name
     assert set(back.calibrated) == set(AWKWARD)
     assert back.rolling_model == "C"
-    assert back.test["fidelity"] == "quick"
-    assert back.test["overrides"] == {"fill": {"count": 80}, "dt_fraction": 0.15}
+    assert back.test.fidelity == "quick"
+    assert back.test.overrides == {"fill": {"count": 80}, "dt_fraction": 0.15}
     assert back.verification["line"].startswith("verified AoR")
     assert back.symbols["pp.static_friction"] == "x3"
     assert back.shape == {"template": "stalk", "length_m": 0.01, "n_spheres": 7}
@@ -156,9 +159,9 @@ def test_simulate_reads_the_card_exactly(captured, tmp_path):
 def test_a_pinned_card_runs_its_pile_and_fidelity_still_picks_another(captured, tmp_path):
     """A card written by the report repeats its fidelity's tube and fill in its overrides:
     they hold under the card's fidelity and give way to another --fidelity."""
-    card = replace(_card(), test={"kind": "aor", "fidelity": "small", "overrides": {
+    card = replace(_card(), test=CardTest(kind="aor", fidelity="small", overrides={
         "geometry": {"cylinder_inner_diameter": 0.035},
-        "fill": {"method": "packing", "count": 300}, "dt_fraction": 0.15}})
+        "fill": {"method": "packing", "count": 300}, "dt_fraction": 0.15}))
     path, _ = card.write(tmp_path)
     res = CliRunner().invoke(app, ["simulate", "aor", "--material", str(path), "--seeds", "1"])
     assert res.exit_code == 0, res.output
@@ -200,8 +203,8 @@ def test_simulate_refuses_bad_cards(captured, tmp_path, args, field):
 
 def test_simulate_refuses_a_card_from_an_external_engine(captured, tmp_path):
     """A template engine's values mean that engine's laws: demcal does not run them."""
-    card = replace(_card(), engine={"name": "template", "command": "liggghts -in in.aor",
-                                    "template": "in.aor.template", "template_sha256": "0" * 64})
+    card = replace(_card(), engine=CardEngine(name="template", command="liggghts -in in.aor",
+                                              template="in.aor.template", template_sha256="0" * 64))
     toml_path, _ = card.write(tmp_path)
     assert read_material_card(toml_path).is_external
     res = CliRunner().invoke(app, ["simulate", "aor", "--material", str(toml_path)])
@@ -211,7 +214,8 @@ def test_simulate_refuses_a_card_from_an_external_engine(captured, tmp_path):
 
 
 def test_a_card_names_only_known_engines(tmp_path):
-    toml_path, _ = replace(_card(), engine={"name": "lammps", "rolling_model": "C"}).write(tmp_path)
+    lammps = CardEngine(name="lammps", rolling_model="C")
+    toml_path, _ = replace(_card(), engine=lammps).write(tmp_path)
     assert read_material_card(toml_path).engine_name == "lammps"
     text = toml_path.read_text().replace('name = "lammps"', 'name = "edem"')
     with pytest.raises(InputError, match=r"engine\.name must be one of demcal, lammps, template"):
@@ -223,9 +227,9 @@ def test_simulate_material_on_the_engine_runs_the_card_exactly(tmp_path):
     """The real engine (tiny fill): the run's parameters are the card's, bit for bit."""
     card = MaterialCard(parameters={**preset_parameters("corn_stalk"), **AWKWARD,
                                     "pp.surface_energy": 0.0},
-                        test={"kind": "aor", "fidelity": "quick",
-                              "overrides": {"fill": {"count": 80},
-                                            "phases": {"pile_settle_max_time": 1.0}}})
+                        test=CardTest(kind="aor", fidelity="quick",
+                                      overrides={"fill": {"count": 80},
+                                                 "phases": {"pile_settle_max_time": 1.0}}))
     path, _ = card.write(tmp_path)
     out = tmp_path / "r.json"
     res = CliRunner().invoke(app, ["simulate", "aor", "--material", str(path), "--json",
@@ -251,3 +255,32 @@ def test_docstrings(module):
         obj = getattr(mod, name)
         if callable(obj):
             assert obj.__doc__ and len(obj.__doc__) > 30, f"{module}.{name}"
+
+
+@pytest.mark.parametrize("name", ["material_bayes_standard.toml", "material_lammps_small.toml"])
+def test_a_committed_card_reads_and_writes_back_byte_for_byte(name):
+    # the [engine] and [test] blocks are typed (CardEngine, CardTest): their keys and order
+    # are the card format, so a renamed or reordered field fails here
+    path = Path(__file__).parents[2] / "examples" / "corn_stalk" / name
+    card = read_material_card(path)
+    assert card.to_toml() == path.read_text(encoding="utf-8")
+    assert list(card.engine.to_table())[:2] == ["name", "version"]
+    assert card.test.fidelity_name == card.test.fidelity
+
+
+@pytest.mark.parametrize(("line", "edit", "message"), [
+    (r'backend = "cpu"', 'backend = "cpu"\ndt_fraction = "fast"',
+     r"engine\.dt_fraction must be a number; got 'fast'"),
+    (r'version = "0.1.0"', "version = 3", r"engine\.version must be a string; got 3"),
+    (r'rolling_model = "C"', 'rolling_model = "B"',
+     r"engine\.rolling_model must be one of A, C, none"),
+    (r'fidelity = "quick"', "fidelity = 1", r"test\.fidelity must be a string; got 1"),
+    (r"\[test.overrides\]", '[test.overrides]\n"fill" = 1',
+     r"'fill\.count' sets a key of 'fill', which is a value"),
+])
+def test_a_bad_engine_or_test_block_is_one_line_naming_the_key(line, edit, message):
+    text = _card().to_toml()
+    assert re.search(line, text), line
+    text = re.sub(line, lambda _: edit, text, count=1)
+    with pytest.raises(InputError, match=message):
+        parse_material_card(text, "m.toml")

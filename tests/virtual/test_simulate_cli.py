@@ -195,15 +195,16 @@ def test_drum_summary_averages_only_when_every_run_measured():
 
 def test_simulate_drum_runs_a_material_card_exactly(tmp_path):
     """A calibrated card in the drum: its parameters bit for bit, its rolling model."""
+    from demcal.virtual.card_blocks import CardEngine, CardTest
     from demcal.virtual.material_card import MaterialCard
     from demcal.virtual.presets import preset_parameters
 
     params = {**preset_parameters("corn_stalk_dry"), "pp.static_friction": 0.1 + 0.2,
               "pp.rolling_friction": 1.0 / 3.0}
     card = MaterialCard(parameters=params, calibrated=("pp.static_friction",), study="t",
-                        engine={"version": "0.1.0", "backend": "cpu", "rolling_model": "C"},
-                        test={"kind": "aor", "fidelity": "quick",
-                              "overrides": {"fill": {"count": 80}}})
+                        engine=CardEngine(version="0.1.0", backend="cpu", rolling_model="C"),
+                        test=CardTest(kind="aor", fidelity="quick",
+                                      overrides={"fill": {"count": 80}}))
     toml_path, _ = card.write(tmp_path)
     out = tmp_path / "drum.json"
     short = [a for a in DRUM_SHORT if a not in ("--preset", "corn_stalk_dry")]

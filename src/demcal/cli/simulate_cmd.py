@@ -126,11 +126,11 @@ def material_inputs(path: Path) -> tuple:
     card = read_material_card(path)
     if card.is_external:
         raise InputError(f"{path.name}: this card was calibrated in an external engine "
-                         f"({card.engine.get('command') or card.engine_name}); its values mean "
+                         f"({card.engine.command or card.engine_name}); its values mean "
                          "that engine's contact laws: run them in that engine, not in demcal's")
-    overrides = dict(card.test.get("overrides") or {})
+    overrides = dict(card.test.overrides)
     overrides.setdefault("rolling_model", card.rolling_model)
-    fid = str(card.test.get("fidelity") or "quick")
+    fid = card.test.fidelity_name
     if fid not in FIDELITIES:
         raise InputError(f"{path.name}: test.fidelity must be one of {', '.join(FIDELITIES)}; "
                          f"got {fid!r}")

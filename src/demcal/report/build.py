@@ -213,24 +213,24 @@ def _material(b: _Builder) -> str:
                         + ROLLING_LAWS.get(card.rolling_model, card.rolling_model)))))
     eng = card.engine
     test = card.test
-    who = (f"LAMMPS (pair granular; demcal {escape(str(eng.get('version') or ''))} wrote the "
+    who = (f"LAMMPS (pair granular; demcal {escape(str(eng.version or ''))} wrote the "
            "test and measured the piles): <b>these parameters are for LAMMPS</b> with "
            "demcal's mapping (docs/lammps.md), not for demcal's engine"
-           if lammps else f"demcal {escape(str(eng.get('version') or ''))} (backend "
-           f"{escape(str(eng.get('backend') or 'auto'))}, rolling friction model "
+           if lammps else f"demcal {escape(str(eng.version or ''))} (backend "
+           f"{escape(str(eng.backend or 'auto'))}, rolling friction model "
            f"{escape(card.rolling_model)})")
-    line = (f"<p><b>Engine:</b> {who}; virtual test {escape(str(test.get('kind')))}"
-            f" at fidelity {escape(str(test.get('fidelity')))}"
-            + (f", time step {_fmt(eng.get('dt_fraction'), '.3g')} of the Rayleigh step"
-               if eng.get("dt_fraction") is not None else "") + ".</p>"
+    line = (f"<p><b>Engine:</b> {who}; virtual test {escape(str(test.kind))}"
+            f" at fidelity {escape(str(test.fidelity))}"
+            + (f", time step {_fmt(eng.dt_fraction, '.3g')} of the Rayleigh step"
+               if eng.dt_fraction is not None else "") + ".</p>"
             + _shape_line(card.shape)
             + f'<p class="verdict"><b>Verification:</b> '
             f"{escape(str(card.verification.get('line', '')))}.</p>")
     if card.is_external:  # an external engine: its laws, not demcal's
-        line = (f"<p><b>Engine:</b> {escape(str(eng.get('name')))}: "
-                f"<code>{escape(str(eng.get('command') or ''))}</code> (input template "
-                f"<code>{escape(str(eng.get('template') or ''))}</code>, SHA-256 "
-                f"{escape(str(eng.get('template_sha256') or '')[:12])}). The parameters are "
+        line = (f"<p><b>Engine:</b> {escape(str(eng.name))}: "
+                f"<code>{escape(str(eng.command or ''))}</code> (input template "
+                f"<code>{escape(str(eng.template or ''))}</code>, SHA-256 "
+                f"{escape(str(eng.template_sha256 or '')[:12])}). The parameters are "
                 "that engine's: they mean its contact laws, not demcal's.</p>"
                 f'<p class="verdict"><b>Verification:</b> '
                 f"{escape(str(card.verification.get('line', '')))}.</p>")

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +26,7 @@ from demcal.report.tables import Table, _frame, _num, format_cell
 from demcal.summaries import Optimum, Target, Verification, by_key, stored_key
 from demcal.summaries.bayes import BayesSummary
 from demcal.summaries.physical_meta import MeasuredQuantity
+from demcal.virtual.card_blocks import CardEngine, CardTest
 from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
@@ -67,48 +69,43 @@ def verification_line(ver: Verification, target: Target | None,
     return out
 
 
-def _engine(data: ReportData) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+def _engine(data: ReportData) -> tuple[CardEngine, CardTest, dict[str, Any]]:
     """Engine, test and particle shape of the study (from its test settings)."""
     study = data.study
     test = study.test
     versions, external = data.versions, data.engine
     if external.external:  # a template engine made the runs
-        engine = {"name": str(external.kind), "version": str(versions.demcal or ""),
-                  "command": " ".join(external.command or []),
-                  "template": str(external.template or ""),
-                  "template_sha256": str(external.template_sha256 or "")}
-        return engine, {"kind": str(external.kind)}, {}
-    engine = {"version": str(versions.demcal or ""),
-              "backend": str(versions.engine_backend or study.backend),
-              "rolling_model": "A"}
+        return (CardEngine(name=str(external.kind), version=str(versions.demcal or ""),
+                           command=" ".join(external.command or []),
+                           template=str(external.template or ""),
+                           template_sha256=str(external.template_sha256 or "")),
+                CardTest(kind=str(external.kind)), {})
     name = versions.engine or study.engine
-    if name != "demcal":  # the parameters are that engine's (docs/lammps.md)
-        engine["name"] = str(name)
-    if name == "lammps" and versions.lammps:  # `version` stays demcal's
-        engine["lammps_version"] = str(versions.lammps)
+    engine = CardEngine(
+        name=str(name), version=str(versions.demcal or ""),
+        backend=str(versions.engine_backend or study.backend), rolling_model="A",
+        # `version` stays demcal's
+        lammps_version=str(versions.lammps) if name == "lammps" and versions.lammps else None)
     shape: dict[str, Any] = {}
     try:
         from demcal.virtual.config import fidelity_config
 
         cfg = fidelity_config(test.fidelity, **test.overrides)
-        engine["rolling_model"] = cfg.rolling_model
-        if name == "lammps" and cfg.rolling_model != "none":
-            # LAMMPS has no model A: its rolling sds is model C's law (docs/lammps.md)
-            engine["rolling_model"] = "C"
-        engine["dt_fraction"] = cfg.dt_fraction
+        # LAMMPS has no model A: its rolling sds is model C's law (docs/lammps.md)
+        rolling = "C" if name == "lammps" and cfg.rolling_model != "none" else cfg.rolling_model
+        engine = replace(engine, rolling_model=rolling, dt_fraction=cfg.dt_fraction)
         p = cfg.particle
         shape = {"template": p.template, "length_m": p.length, "diameter_m": p.diameter,
                  "n_spheres": p.n_spheres, "size_min": p.size_min, "size_max": p.size_max}
     except Exception:  # a study of another version: the engine's defaults, no shape
         if test.overrides.get("rolling_model"):
-            engine["rolling_model"] = str(test.overrides["rolling_model"])
+            engine = replace(engine, rolling_model=str(test.overrides["rolling_model"]))
     from demcal.virtual.config import fidelity_overrides
 
     # the fidelity's tube and fill written out: the card runs the same pile if the name later
     # means another (as "standard" did: 300 stalks until 2026-11-27, 1200 since)
-    test_out = {"kind": test.kind, "fidelity": test.fidelity,
-                "overrides": fidelity_overrides(test.fidelity, dict(test.overrides))}
-    return engine, test_out, shape
+    return engine, CardTest(kind=test.kind, fidelity=test.fidelity, overrides=fidelity_overrides(
+        test.fidelity, dict(test.overrides))), shape
 
 
 def _verification_block(ver: Verification, opt: Optimum,

@@ -77,14 +77,14 @@ def lammps_lines(card: MaterialCard) -> LammpsLines:
     """
     if card.is_external:
         raise InputError("this card was calibrated in an external engine "
-                         f"({card.engine.get('command') or card.engine_name}); its values mean "
+                         f"({card.engine.command or card.engine_name}); its values mean "
                          "that engine's contact laws, not LAMMPS'")
-    if card.test.get("kind") == "analytic":
+    if card.test.kind == "analytic":
         raise InputError("this card was made on the analytic stand-in, a test double, not a "
                          "simulation: its values are no engine's parameters")
-    overrides = dict(card.test.get("overrides") or {})
+    overrides = dict(card.test.overrides)
     overrides.setdefault("rolling_model", card.rolling_model)
-    config = fidelity_config(str(card.test.get("fidelity") or "quick"), **overrides)
+    config = fidelity_config(card.test.fidelity_name, **overrides)
     p = card.parameters
     template = make_template(config.particle)
     radius = float(np.mean(template.radii))
@@ -101,8 +101,8 @@ def lammps_lines(card: MaterialCard) -> LammpsLines:
         "laws as LAMMPS granular coefficients (SI units)",
         "# (LAMMPS 2Aug2023 or newer; demcal's mapping and its measured agreement: "
         "docs/lammps.md)",
-        *([f"# calibrated with LAMMPS {card.engine['lammps_version']}"]
-          if card.engine.get("lammps_version") else []),
+        *([f"# calibrated with LAMMPS {card.engine.lammps_version}"]
+          if card.engine.lammps_version else []),
         f"# typical contact for the rolling spring and the cohesive damping: a sphere of "
         f"radius {radius!r} m on a clump of {mass!r} kg under its weight",
         *([f"# WARNING: {warning}"] if warning else []),

@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from demcal.errors import InputError
+from demcal.virtual.card_blocks import CardEngine, CardTest, flatten
 from demcal.virtual.parameters import PARAMETERS
 
 __all__ = [
@@ -45,10 +46,6 @@ __all__ = [
 CARD_FORMAT = "demcal-material-card"
 #: Version of the card layout this module writes and reads.
 CARD_VERSION = 1
-#: The engines a card may be for: demcal's own, LAMMPS (docs/lammps.md) or an external engine
-#: driven through an input template (docs/external_engines.md).
-ENGINE_NAMES = ("demcal", "lammps", "template")
-
 #: The contact laws of demcal's engine that the parameters enter (see demcal.dem.contact).
 CONTACT_LAWS: dict[str, str] = {
     "elastic": "Hertz-Mindlin: E* from 1/E* = (1-v1^2)/E1 + (1-v2^2)/E2 with E = 2 G (1 + v); "
@@ -117,13 +114,12 @@ class MaterialCard:
         Paper-style symbols of the parameters (``x3``), where known.
     study : str
         Name of the study the card comes from.
-    engine : dict
-        ``name``, ``version``, ``backend`` and ``rolling_model`` (``"A"``, ``"C"`` or
-        ``"none"``) of the engine the material was calibrated with; for an external engine
-        (``name`` ``"template"``) its ``command``, ``template`` and ``template_sha256``.
-    test : dict
-        ``kind`` (``aor`` or ``analytic``), ``fidelity`` and ``overrides`` (dotted keys of
-        :class:`demcal.virtual.AoRTestConfig`) of the virtual test.
+    engine : CardEngine
+        The engine the material was calibrated with: its name, version, backend and rolling
+        model; for an external engine (``name`` ``"template"``) its command and template.
+    test : CardTest
+        The virtual test: ``kind`` (``aor`` or ``analytic``), ``fidelity`` and
+        ``overrides`` (nested settings of :class:`demcal.virtual.AoRTestConfig`).
     verification : dict
         ``line`` (one sentence) and the numbers behind it (``aor_mean_deg``, ``aor_std_deg``,
         ``n``, ``target_aor_deg``, ``relative_error_percent``, ``p_value``, ``consistent``).
@@ -142,8 +138,8 @@ class MaterialCard:
     calibrated: tuple[str, ...] = ()
     symbols: dict[str, str] = field(default_factory=dict)
     study: str = ""
-    engine: dict[str, Any] = field(default_factory=dict)
-    test: dict[str, Any] = field(default_factory=dict)
+    engine: CardEngine = field(default_factory=CardEngine)
+    test: CardTest = field(default_factory=CardTest)
     verification: dict[str, Any] = field(default_factory=dict)
     shape: dict[str, Any] = field(default_factory=dict)
     posterior: dict[str, Any] = field(default_factory=dict)
@@ -152,18 +148,18 @@ class MaterialCard:
     def engine_name(self) -> str:
         """The engine the parameters are for: ``"demcal"``, ``"lammps"`` or ``"template"``
         (an external engine, :mod:`demcal.execute.template_engine`)."""
-        return str(self.engine.get("name") or "demcal")
+        return self.engine.name
 
     @property
     def rolling_model(self) -> str:
         """The rolling-friction model (``"A"`` unless the card says otherwise)."""
-        return str(self.engine.get("rolling_model") or "A")
+        return self.engine.rolling
 
     @property
     def is_external(self) -> bool:
         """Calibrated in an external engine driven through a template (``engine.name``
         ``"template"``): its values mean that engine's laws, which demcal does not know."""
-        return self.engine_name not in ("demcal", "lammps")
+        return self.engine.is_external
 
     def rows(self) -> list[dict[str, Any]]:
         """One row per parameter: name, symbol, value, unit, role, law, description."""
@@ -191,12 +187,12 @@ class MaterialCard:
         for r in self.rows():
             params[r["parameter"]] = {k: r[k] for k in ("value", "unit", "role", "symbol",
                                                           "law", "description")}
-        engine = {"name": "demcal", **self.engine}
+        engine = self.engine.to_table()
         if not self.is_external:  # an external engine's parameters mean its own laws
             engine.update(rolling_model=self.rolling_model, contact_laws=laws)
         out = {"card": {"format": CARD_FORMAT, "version": CARD_VERSION, "study": self.study},
                "engine": engine,
-               "test": dict(self.test), "verification": dict(self.verification)}
+               "test": self.test.to_table(), "verification": dict(self.verification)}
         if self.shape:
             out["particle_shape"] = dict(self.shape)
         if self.posterior:
@@ -227,7 +223,7 @@ class MaterialCard:
             lines += _toml_table("engine.contact_laws", d["engine"]["contact_laws"])
         test = {k: v for k, v in d["test"].items() if k != "overrides"}
         lines += _toml_table("test", test)
-        lines += _toml_table("test.overrides", _flatten(d["test"].get("overrides") or {}))
+        lines += _toml_table("test.overrides", flatten(d["test"].get("overrides") or {}))
         ver = {k: v for k, v in d["verification"].items() if k != "responses"}
         lines += _toml_table("verification", ver)
         for name, row in (d["verification"].get("responses") or {}).items():
@@ -291,28 +287,6 @@ def _posterior_toml(post: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for k, v in d.items():
-        key = f"{prefix}.{k}" if prefix else str(k)
-        if isinstance(v, Mapping):
-            out.update(_flatten(v, key))
-        else:
-            out[key] = v
-    return out
-
-
-def _unflatten(d: Mapping[str, Any]) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for key, v in d.items():
-        node = out
-        parts = str(key).split(".")
-        for p in parts[:-1]:
-            node = node.setdefault(p, {})
-        node[parts[-1]] = v
-    return out
-
-
 # ------------------------------------------------------------------------------------ reading
 def read_material_card(path: str | Path) -> MaterialCard:
     """Read and validate a material card (``.toml`` or ``.json``).
@@ -346,6 +320,34 @@ def read_material_card(path: str | Path) -> MaterialCard:
 def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
     """Parse a card's text (TOML, or JSON when it starts with ``{``); see
     :func:`read_material_card`. ``name`` prefixes the error messages."""
+    doc = _document(text, name)
+    params: dict[str, float] = {}
+    calibrated, symbols = [], {}
+    for pname, entry in _table(doc, "parameters", name).items():
+        params[pname], role, symbol = _parameter(pname, entry, name)
+        if role == "calibrated":
+            calibrated.append(pname)
+        if symbol:
+            symbols[pname] = symbol
+    missing = [n for n in PARAMETERS if n not in params]
+    if missing:
+        raise InputError(f"{name}: parameters missing: {', '.join(missing)} (a card gives "
+                         "every parameter)")
+    try:
+        engine = CardEngine.from_table(_table(doc, "engine", name, required=False))
+        test = CardTest.from_table(_table(doc, "test", name, required=False))
+    except InputError as exc:
+        raise InputError(f"{name}: {exc}") from None
+    return MaterialCard(parameters=params, calibrated=tuple(calibrated), symbols=symbols,
+                        study=str(_table(doc, "card", name).get("study") or ""),
+                        engine=engine, test=test,
+                        verification=dict(_table(doc, "verification", name, required=False)),
+                        shape=dict(_table(doc, "particle_shape", name, required=False)),
+                        posterior=dict(_table(doc, "posterior", name, required=False)))
+
+
+def _document(text: str, name: str) -> dict[str, Any]:
+    """The card's tables (TOML, or JSON when it starts with ``{``), its ``[card]`` checked."""
     try:
         if text.lstrip().startswith("{"):
             doc = json.loads(text)
@@ -365,66 +367,33 @@ def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
     if card.get("version") != CARD_VERSION:
         raise InputError(f"{name}: card.version must be {CARD_VERSION}; got "
                          f"{card.get('version')!r} (written by another demcal version)")
-    raw = _table(doc, "parameters", name)
-    params: dict[str, float] = {}
-    calibrated, symbols = [], {}
-    for pname, entry in raw.items():
-        spec = PARAMETERS.get(pname)
-        if spec is None:
-            raise InputError(f"{name}: unknown parameter {pname!r}; known: "
-                             f"{', '.join(PARAMETERS)}")
-        if not isinstance(entry, dict):
-            entry = {"value": entry}
-        value = entry.get("value")
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputError(f"{name}: parameters.{pname}.value must be a number; got "
-                             f"{value!r}")
-        unit = entry.get("unit")
-        if unit is not None and unit not in (spec.unit, "-" if not spec.unit else spec.unit):
-            raise InputError(f"{name}: parameters.{pname}.unit must be "
-                             f"{spec.unit or '-'!r} (SI); got {unit!r}")
-        try:
-            params[pname] = spec.check(float(value))
-        except InputError as exc:
-            raise InputError(f"{name}: parameters.{exc}") from None
-        role = entry.get("role", "fixed")
-        if role not in ("fixed", "calibrated"):
-            raise InputError(f"{name}: parameters.{pname}.role must be 'fixed' or "
-                             f"'calibrated'; got {role!r}")
-        if role == "calibrated":
-            calibrated.append(pname)
-        if entry.get("symbol"):
-            symbols[pname] = str(entry["symbol"])
-    missing = [n for n in PARAMETERS if n not in params]
-    if missing:
-        raise InputError(f"{name}: parameters missing: {', '.join(missing)} (a card gives "
-                         "every parameter)")
-    engine = {k: v for k, v in _table(doc, "engine", name, required=False).items()
-              if k not in ("name", "contact_laws")}
-    name_ = _table(doc, "engine", name, required=False).get("name") or "demcal"
-    if name_ not in ENGINE_NAMES:
-        raise InputError(f"{name}: engine.name must be one of {', '.join(ENGINE_NAMES)}; "
-                         f"got {name_!r}")
-    if name_ != "demcal":
-        engine["name"] = name_
-    rolling = engine.get("rolling_model", "A")
-    if rolling not in ROLLING_LAWS:
-        raise InputError(f"{name}: engine.rolling_model must be one of "
-                         f"{', '.join(ROLLING_LAWS)}; got {rolling!r}")
-    test = dict(_table(doc, "test", name, required=False))
-    overrides = test.get("overrides") or {}
-    if not isinstance(overrides, dict):
-        raise InputError(f"{name}: test.overrides must be a table")
-    if any(isinstance(v, dict) for v in overrides.values()):
-        overrides = _flatten(overrides)
-    test["overrides"] = _unflatten(overrides)
-    if "fidelity" in test and not isinstance(test["fidelity"], str):
-        raise InputError(f"{name}: test.fidelity must be a string; got {test['fidelity']!r}")
-    return MaterialCard(parameters=params, calibrated=tuple(calibrated), symbols=symbols,
-                        study=str(card.get("study") or ""), engine=engine, test=test,
-                        verification=dict(_table(doc, "verification", name, required=False)),
-                        shape=dict(_table(doc, "particle_shape", name, required=False)),
-                        posterior=dict(_table(doc, "posterior", name, required=False)))
+    return doc
+
+
+def _parameter(pname: str, entry: Any, name: str) -> tuple[float, str, str | None]:
+    """One ``[parameters.NAME]`` entry checked: its value (SI), role and symbol."""
+    spec = PARAMETERS.get(pname)
+    if spec is None:
+        raise InputError(f"{name}: unknown parameter {pname!r}; known: "
+                         f"{', '.join(PARAMETERS)}")
+    if not isinstance(entry, dict):
+        entry = {"value": entry}
+    value = entry.get("value")
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(f"{name}: parameters.{pname}.value must be a number; got {value!r}")
+    unit = entry.get("unit")
+    if unit is not None and unit not in (spec.unit, "-" if not spec.unit else spec.unit):
+        raise InputError(f"{name}: parameters.{pname}.unit must be "
+                         f"{spec.unit or '-'!r} (SI); got {unit!r}")
+    try:
+        checked = spec.check(float(value))
+    except InputError as exc:
+        raise InputError(f"{name}: parameters.{exc}") from None
+    role = entry.get("role", "fixed")
+    if role not in ("fixed", "calibrated"):
+        raise InputError(f"{name}: parameters.{pname}.role must be 'fixed' or "
+                         f"'calibrated'; got {role!r}")
+    return checked, role, str(entry["symbol"]) if entry.get("symbol") else None
 
 
 def _table(doc: Mapping[str, Any], key: str, name: str, *, required: bool = True) -> dict:
