@@ -18,6 +18,7 @@ from demcal.summaries import (
     ResponseModel,
     StudyFactor,
     Surface,
+    SurfaceRound,
 )
 
 DATA = Path(__file__).parent / "data"
@@ -45,6 +46,9 @@ ANOVA_KEYS = ["term", "ss", "df", "ms", "f", "p"]
 FIT_KEYS = ["std_dev", "mean", "cv_percent", "press", "r2", "adj_r2", "pred_r2",
             "adeq_precision"]
 ADEQUACY_KEYS = ["p_model", "lack_of_fit_p", "r2", "adj_r2", "pred_r2", "adeq_precision"]
+#: a replicate round's row (demcal.calibrate.stages.rsm), its statistics flat in it
+ROUND_KEYS = ["replicates", "runs", "blocks", "model", "removed_terms", "adequate", "failed",
+              *ADEQUACY_KEYS]
 
 
 def _surface(**extra) -> Surface:
@@ -56,7 +60,8 @@ def _surface(**extra) -> Surface:
                         replicates=[35.0], replicate_std=None)],
         excluded_points=[], replicates=1, anova=[AnovaRecord(term="pp.static_friction", p=0.001)],
         fit=AnovaFit(r2=0.99), lack_of_fit_p=None, adequacy=ADEQUACY,
-        rounds=[{"replicates": 1, "runs": 13, "adequate": True}], model="quadratic",
+        rounds=[SurfaceRound.judged(ADEQUACY, replicates=1, runs=13, adequate=True)],
+        model="quadratic",
         removed_terms=[], anova_full=[], adequacy_full=ADEQUACY,
         coefficients_coded={"intercept": 40.0, "pp.static_friction": 5.0},
         coefficients_actual={"intercept": 30.0, "pp.static_friction": 12.5},
@@ -70,6 +75,8 @@ def test_the_angle_s_surface_stores_the_keys_it_always_stored():
     assert list(stored) == SURFACE_KEYS and stored["lack_of_fit_p"] is None
     assert list(stored["anova"][0]) == ANOVA_KEYS and list(stored["fit"]) == FIT_KEYS
     assert list(stored["adequacy"]) == list(stored["adequacy_full"]) == ADEQUACY_KEYS
+    assert list(stored["rounds"][0]) == ROUND_KEYS
+    assert surface.rounds[0].statistics == ADEQUACY
     json.dumps(stored)  # plain JSON
     assert Surface.from_summary(stored) == surface
     assert surface.names == ["pp.static_friction", "pp.rolling_friction"]

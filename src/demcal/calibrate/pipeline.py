@@ -265,7 +265,8 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
                          "adequate": s.adequate, "warnings": s.warnings,
                          "equation_actual": s.equation_actual,
                          "adequacy": None if s.adequacy is None else s.adequacy.to_summary(),
-                         "replicates": s.replicates, "rounds": s.rounds}
+                         "replicates": s.replicates,
+                         "rounds": None if s.rounds is None else [r.to_summary() for r in s.rounds]}
             continue
         elif name == "steepest" and s.ran:  # a disabled stage keeps only its levels
             stored = s.to_summary()

@@ -60,6 +60,7 @@ from demcal.summaries import (
     Optimum,
     ResponseModel,
     Surface,
+    SurfaceRound,
     Verification,
     anova_records,
 )
@@ -99,7 +100,7 @@ def rsm(ctx: Context) -> Surface:
     design_name = "box_behnken" if opts.design == "bbd" else "ccd"
     n_reps = ctx.reps("rsm")
     budget = opts.max_runs if opts.max_runs is not None else design.n_runs * n_reps
-    rounds: list[dict[str, Any]] = []
+    rounds: list[SurfaceRound] = []
     while True:
         recs = ctx.run("rsm", design_points(ctx, design, range(n_reps)))
         y, outcomes, runs = point_runs(recs, design.n_runs, ctx.lead.name)
@@ -124,10 +125,10 @@ def rsm(ctx: Context) -> Surface:
         model, table, lof_p = choice.chosen.rows, choice.chosen.table, choice.chosen.lack_of_fit_p
         adequate, fails = choice.adequacy.adequate, list(choice.adequacy.failed)
         stats_ = choice.adequacy.statistics
-        rounds.append({"replicates": n_reps, "runs": design.n_runs * n_reps,
-                       "blocks": model.block_df + 1 if model.block_df else 0,
-                       "model": choice.kind, "removed_terms": list(choice.removed_terms),
-                       "adequate": adequate, "failed": fails, **stats_.to_summary()})
+        rounds.append(SurfaceRound.judged(
+            stats_, replicates=n_reps, runs=design.n_runs * n_reps,
+            blocks=model.block_df + 1 if model.block_df else 0, model=choice.kind,
+            removed_terms=list(choice.removed_terms), adequate=adequate, failed=fails))
         more = design.n_runs * (n_reps + 1)
         if adequate or not opts.add_replicates or more > budget:
             break

@@ -26,7 +26,7 @@ from demcal.summaries.result import CalibrationResult, ResultResponses, ResultRo
 from demcal.summaries.screening import Effect, Screening, ScreeningModel
 from demcal.summaries.steepest import Anchor, AnchorRun, PathStep, Steepest
 from demcal.summaries.study_meta import StudyFactor, StudyMaterial, StudyMeta, StudyTest
-from demcal.summaries.surface import FitStatistics, ResponseModel, Surface
+from demcal.summaries.surface import FitStatistics, ResponseModel, Surface, SurfaceRound
 from demcal.summaries.target import Target, TargetPhoto
 from demcal.summaries.verification import ResponseVerification, Verification
 
@@ -35,5 +35,5 @@ __all__ = ["Anchor", "AnchorRun", "AnovaFit", "AnovaRecord", "BayesSummary", "Ca
            "PathStep", "RangeFind", "ResponseModel", "ResponseVerification", "ResponsesOptimum",
            "ResultResponses", "ResultRound", "ScanFactor", "ScanPoint", "ScanReach", "Screening",
            "ScreeningModel", "Steepest", "StudyFactor", "StudyMaterial", "StudyMeta", "StudyTest",
-           "Surface", "SurfaceFacts", "Target", "TargetPhoto", "Verification", "Versions",
-           "anova_records", "by_key", "stored_key"]
+           "Surface", "SurfaceFacts", "SurfaceRound", "Target", "TargetPhoto", "Verification",
+           "Versions", "anova_records", "by_key", "stored_key"]

@@ -13,7 +13,7 @@ from demcal.summaries.anova import AnovaFit, AnovaRecord, anova_records
 from demcal.summaries.design import DesignRun, design_runs
 from demcal.summaries.study_meta import StudyFactor
 
-__all__ = ["FitStatistics", "ResponseModel", "Surface"]
+__all__ = ["FitStatistics", "ResponseModel", "Surface", "SurfaceRound"]
 
 
 @dataclass(frozen=True)
@@ -49,6 +49,55 @@ class FitStatistics(_Flat):
         """Whether any statistic is known (none: a response that could not be modelled, or a
         result that stored none)."""
         return any(v is not None for v in dataclasses.astuple(self))
+
+
+@dataclass(frozen=True)
+class SurfaceRound(_Flat):
+    """One replicate round of the response-surface stage: the model fitted after it and
+    Design-Expert's verdict (the stage adds replicates while the model is not adequate).
+
+    Attributes
+    ----------
+    replicates : int
+        Replicates of each design point so far.
+    runs : int
+        Runs fitted (design points x replicates).
+    blocks : int
+        Blocks of the fit (0: one seed set, no block term).
+    model : str
+        ``"quadratic"`` or ``"reduced"``.
+    removed_terms : list of str
+    adequate : bool
+    failed : list of str
+        The adequacy rules the model failed, in words.
+    p_model, lack_of_fit_p, r2, adj_r2, pred_r2, adeq_precision : float or None
+        The statistics the rules judged (:class:`FitStatistics`, stored flat in the row).
+    """
+
+    replicates: int = 1
+    runs: int = 0
+    blocks: int = 0
+    model: str = "quadratic"
+    removed_terms: list[str] = field(default_factory=list)
+    adequate: bool = False
+    failed: list[str] = field(default_factory=list)
+    p_model: float | None = None
+    lack_of_fit_p: float | None = None
+    r2: float | None = None
+    adj_r2: float | None = None
+    pred_r2: float | None = None
+    adeq_precision: float | None = None
+
+    @classmethod
+    def judged(cls, statistics: FitStatistics, **row: Any) -> SurfaceRound:
+        """The round's row with the ``statistics`` the rules judged."""
+        return cls(**row, **dataclasses.asdict(statistics))
+
+    @property
+    def statistics(self) -> FitStatistics:
+        """The statistics the rules judged."""
+        return FitStatistics(**{f.name: getattr(self, f.name)
+                                for f in dataclasses.fields(FitStatistics)})
 
 
 @dataclass(frozen=True)
@@ -101,7 +150,7 @@ class Surface:
     response's model.
 
     The design's runs (:class:`DesignRun`, as screening's), the ANOVA rows and the fit
-    statistics are typed; the replicate rounds' rows (``rounds``) keep the stored form.
+    statistics are typed, and so is each replicate round (:class:`SurfaceRound`).
 
     Attributes
     ----------
@@ -126,7 +175,7 @@ class Surface:
     adequacy : FitStatistics or None
         The design-point means' statistics Design-Expert's rules judge (None: a failed
         stage's).
-    rounds : list of dict or None
+    rounds : list of SurfaceRound or None
         One row per replicate round: replicates, runs, model, adequacy.
     model : str or None
         ``"quadratic"`` or ``"reduced"`` (None: a store written before the reduction, a
@@ -151,7 +200,7 @@ class Surface:
     fit: AnovaFit | None = None
     lack_of_fit_p: float | None = None
     adequacy: FitStatistics | None = None
-    rounds: list[dict[str, Any]] | None = None
+    rounds: list[SurfaceRound] | None = None
     model: str | None = None
     removed_terms: list[str] | None = None
     anova_full: list[AnovaRecord] | None = None
@@ -183,6 +232,8 @@ class Surface:
             items["anova_full"] = anova_records(items["anova_full"])
         if items.get("fit") is not None:
             items["fit"] = AnovaFit.from_summary(items["fit"])
+        if items.get("rounds") is not None:
+            items["rounds"] = [SurfaceRound.from_summary(r) for r in items["rounds"]]
         for name in ("adequacy", "adequacy_full"):
             if items.get(name) is not None:
                 items[name] = FitStatistics.from_summary(items[name])
