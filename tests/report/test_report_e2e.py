@@ -126,7 +126,7 @@ def test_material_card_round_trips_the_verified_parameters(calibrated):
     assert escape(line) in mat
     assert "JKR" in mat and "rolling friction model A" in mat
     assert "stalk of 7 spheres, 10 x 4 mm" in mat and "0.2 of the Rayleigh step" in mat
-    assert read_material_card(out / "material.toml").shape["n_spheres"] == 7
+    assert read_material_card(out / "material.toml").shape.n_spheres == 7
 
 
 def test_simulate_material_reruns_the_verification_parameters(calibrated, monkeypatch):

@@ -15,7 +15,7 @@ import demcal.virtual
 from demcal.cli import app
 from demcal.errors import InputError
 from demcal.virtual import PARAMETERS
-from demcal.virtual.card_blocks import CardEngine, CardTest
+from demcal.virtual.card_blocks import CardEngine, CardShape, CardTest
 from demcal.virtual.material_card import (
     CARD_FORMAT,
     MaterialCard,
@@ -38,7 +38,7 @@ def _card(**kw) -> MaterialCard:
                                       overrides={"fill": {"count": 80}, "dt_fraction": 0.15}),
                         verification={"line": "verified AoR 40.00 ± 1.00° (n = 3)",
                                       "aor_mean_deg": 40.0, "n": 3},
-                        shape={"template": "stalk", "length_m": 0.01, "n_spheres": 7}, **kw)
+                        shape=CardShape(template="stalk", length_m=0.01, n_spheres=7), **kw)
 
 
 @pytest.mark.parametrize("fmt", ["toml", "json"])
@@ -55,7 +55,7 @@ def test_card_round_trips_bit_exactly(fmt, tmp_path):
     assert back.test.overrides == {"fill": {"count": 80}, "dt_fraction": 0.15}
     assert back.verification["line"].startswith("verified AoR")
     assert back.symbols["pp.static_friction"] == "x3"
-    assert back.shape == {"template": "stalk", "length_m": 0.01, "n_spheres": 7}
+    assert back.shape == CardShape(template="stalk", length_m=0.01, n_spheres=7)
 
 
 def test_card_text_names_units_laws_and_engine(tmp_path):
@@ -275,6 +275,10 @@ def test_a_committed_card_reads_and_writes_back_byte_for_byte(name):
     (r'rolling_model = "C"', 'rolling_model = "B"',
      r"engine\.rolling_model must be one of A, C, none"),
     (r'fidelity = "quick"', "fidelity = 1", r"test\.fidelity must be a string; got 1"),
+    (r"n_spheres = 7", "n_spheres = 7.5",
+     r"particle_shape\.n_spheres must be a whole number; got 7\.5"),
+    (r"length_m = 0.01", 'length_m = "1 cm"',
+     r"particle_shape\.length_m must be a number; got '1 cm'"),
     (r"\[test.overrides\]", '[test.overrides]\n"fill" = 1',
      r"'fill\.count' sets a key of 'fill', which is a value"),
 ])

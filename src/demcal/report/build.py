@@ -35,6 +35,7 @@ from demcal.report.lead_labels import relabel_figure, relabel_html, relabel_tabl
 from demcal.report.surface import StoredSurface, significant_pairs
 from demcal.safety import csv_safe, safe_filename, study_image
 from demcal.summaries import Screening, Surface, Target, Verification
+from demcal.virtual.card_blocks import CardShape
 from demcal.virtual.material_card import CONTACT_LAWS, ROLLING_LAWS, MaterialCard
 
 __all__ = ["build_report"]
@@ -173,20 +174,20 @@ def _stages(b: _Builder) -> str:
     return _section("stages", "Stages", None, b.table(T.stages_table(b.data))) + BS.bayes_section(b)
 
 
-def _shape_line(shape: dict[str, Any]) -> str:
+def _shape_line(shape: CardShape | None) -> str:
     """``Particle: stalk of 7 spheres, 10 x 4 mm, size factor 0.75-1.25.``"""
-    if not shape:
+    if shape is None:
         return ""
     mm = 1e3
-    what = str(shape.get("template", ""))
+    what = shape.template or ""
     if what == "stalk":
-        what += f" of {shape.get('n_spheres')} spheres"
-    size = (f"{_fmt(_num_or_nan(shape.get('length_m')) * mm, '.3g')} x "
-            f"{_fmt(_num_or_nan(shape.get('diameter_m')) * mm, '.3g')} mm (length x diameter)"
+        what += f" of {shape.n_spheres} spheres"
+    size = (f"{_fmt(_num_or_nan(shape.length_m) * mm, '.3g')} x "
+            f"{_fmt(_num_or_nan(shape.diameter_m) * mm, '.3g')} mm (length x diameter)"
             if what != "sphere" else
-            f"{_fmt(_num_or_nan(shape.get('diameter_m')) * mm, '.3g')} mm diameter")
+            f"{_fmt(_num_or_nan(shape.diameter_m) * mm, '.3g')} mm diameter")
     return (f"<p><b>Particle:</b> {escape(what)}, {escape(size)}, size factor "
-            f"{_fmt(shape.get('size_min'), '.3g')}-{_fmt(shape.get('size_max'), '.3g')} "
+            f"{_fmt(shape.size_min, '.3g')}-{_fmt(shape.size_max, '.3g')} "
             "(uniform).</p>")
 
 

@@ -26,7 +26,7 @@ from demcal.report.tables import Table, _frame, _num, format_cell
 from demcal.summaries import Optimum, Target, Verification, by_key, stored_key
 from demcal.summaries.bayes import BayesSummary
 from demcal.summaries.physical_meta import MeasuredQuantity
-from demcal.virtual.card_blocks import CardEngine, CardTest
+from demcal.virtual.card_blocks import CardEngine, CardShape, CardTest
 from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
@@ -69,7 +69,7 @@ def verification_line(ver: Verification, target: Target | None,
     return out
 
 
-def _engine(data: ReportData) -> tuple[CardEngine, CardTest, dict[str, Any]]:
+def _engine(data: ReportData) -> tuple[CardEngine, CardTest, CardShape | None]:
     """Engine, test and particle shape of the study (from its test settings)."""
     study = data.study
     test = study.test
@@ -79,14 +79,14 @@ def _engine(data: ReportData) -> tuple[CardEngine, CardTest, dict[str, Any]]:
                            command=" ".join(external.command or []),
                            template=str(external.template or ""),
                            template_sha256=str(external.template_sha256 or "")),
-                CardTest(kind=str(external.kind)), {})
+                CardTest(kind=str(external.kind)), None)
     name = versions.engine or study.engine
     engine = CardEngine(
         name=str(name), version=str(versions.demcal or ""),
         backend=str(versions.engine_backend or study.backend), rolling_model="A",
         # `version` stays demcal's
         lammps_version=str(versions.lammps) if name == "lammps" and versions.lammps else None)
-    shape: dict[str, Any] = {}
+    shape = None
     try:
         from demcal.virtual.config import fidelity_config
 
@@ -95,8 +95,8 @@ def _engine(data: ReportData) -> tuple[CardEngine, CardTest, dict[str, Any]]:
         rolling = "C" if name == "lammps" and cfg.rolling_model != "none" else cfg.rolling_model
         engine = replace(engine, rolling_model=rolling, dt_fraction=cfg.dt_fraction)
         p = cfg.particle
-        shape = {"template": p.template, "length_m": p.length, "diameter_m": p.diameter,
-                 "n_spheres": p.n_spheres, "size_min": p.size_min, "size_max": p.size_max}
+        shape = CardShape(template=p.template, length_m=p.length, diameter_m=p.diameter,
+                          n_spheres=p.n_spheres, size_min=p.size_min, size_max=p.size_max)
     except Exception:  # a study of another version: the engine's defaults, no shape
         if test.overrides.get("rolling_model"):
             engine = replace(engine, rolling_model=str(test.overrides["rolling_model"]))

@@ -1,8 +1,9 @@
 """What a material card says about how its parameters were found: the engine (``[engine]``)
-and the virtual test (``[test]``), the two blocks a run of the card reads.
+and the virtual test (``[test]``), the two blocks a run of the card reads, and the particle
+they were calibrated with (``[particle_shape]``, informative).
 
-The card's other blocks (``[verification]``, ``[particle_shape]``, ``[posterior]``) are
-informative and stay tables (docs/material_card.md).
+The card's ``[verification]`` and ``[posterior]`` are informative and stay tables
+(docs/material_card.md).
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from typing import Any, Self
 
 from demcal.errors import InputError
 
-__all__ = ["ENGINE_NAMES", "ROLLING_MODELS", "CardEngine", "CardTest", "flatten", "unflatten"]
+__all__ = ["ENGINE_NAMES", "ROLLING_MODELS", "CardEngine", "CardShape", "CardTest", "flatten",
+           "unflatten"]
 
 #: The engines a card may be for: demcal's own, LAMMPS (docs/lammps.md) or an external engine
 #: driven through an input template (docs/external_engines.md).
@@ -35,6 +37,17 @@ def _text(table: Mapping[str, Any], key: str, where: str) -> str | None:
     if value is None or isinstance(value, str):
         return value
     raise InputError(f"{where}.{key} must be a string; got {value!r}")
+
+
+def _number(table: Mapping[str, Any], key: str, where: str) -> float | None:
+    """``table[key]`` as a float (None where absent); anything but a number is an input
+    error."""
+    value = table.get(key)
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(f"{where}.{key} must be a number; got {value!r}")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -102,13 +115,10 @@ class CardEngine:
         if rolling is not None and rolling not in ROLLING_MODELS:
             raise InputError(f"{where}.rolling_model must be one of "
                              f"{', '.join(ROLLING_MODELS)}; got {rolling!r}")
-        dt = table.get("dt_fraction")
-        if dt is not None and (isinstance(dt, bool) or not isinstance(dt, int | float)):
-            raise InputError(f"{where}.dt_fraction must be a number; got {dt!r}")
         texts = {k: _text(table, k, where) for k in (
             "version", "backend", "lammps_version", "command", "template", "template_sha256")}
         return cls(name=name, rolling_model=rolling,
-                   dt_fraction=None if dt is None else float(dt), **texts)
+                   dt_fraction=_number(table, "dt_fraction", where), **texts)
 
 
 @dataclass(frozen=True)
@@ -157,6 +167,52 @@ class CardTest:
             overrides = flatten(overrides)
         return cls(kind=_text(table, "kind", where), fidelity=_text(table, "fidelity", where),
                    overrides=unflatten(overrides))
+
+
+@dataclass(frozen=True)
+class CardShape:
+    """The card's ``[particle_shape]``: the particle the parameters were calibrated with
+    (informative: a run takes the particle from the test settings).
+
+    Attributes
+    ----------
+    template : str or None
+        The particle template (``"stalk"``, ``"sphere"``, ...).
+    length_m, diameter_m : float or None
+        The particle's length and diameter, m.
+    n_spheres : int or None
+        Spheres per clump.
+    size_min, size_max : float or None
+        The uniform size factor's range.
+    """
+
+    template: str | None = None
+    length_m: float | None = None
+    diameter_m: float | None = None
+    n_spheres: int | None = None
+    size_min: float | None = None
+    size_max: float | None = None
+
+    def to_table(self) -> dict[str, Any]:
+        """The ``[particle_shape]`` keys, in order, where set."""
+        return _written(self)
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any], where: str = "particle_shape") -> Self:
+        """Read ``[particle_shape]``.
+
+        Raises
+        ------
+        InputError
+            A template that is not a string, a size that is not a number, a sphere count
+            that is not a whole number.
+        """
+        n = table.get("n_spheres")
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int)):
+            raise InputError(f"{where}.n_spheres must be a whole number; got {n!r}")
+        return cls(template=_text(table, "template", where), n_spheres=n,
+                   **{k: _number(table, k, where)
+                      for k in ("length_m", "diameter_m", "size_min", "size_max")})
 
 
 def flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from demcal.errors import InputError
-from demcal.virtual.card_blocks import CardEngine, CardTest, flatten
+from demcal.virtual.card_blocks import CardEngine, CardShape, CardTest, flatten
 from demcal.virtual.parameters import PARAMETERS
 
 __all__ = [
@@ -123,10 +123,9 @@ class MaterialCard:
     verification : dict
         ``line`` (one sentence) and the numbers behind it (``aor_mean_deg``, ``aor_std_deg``,
         ``n``, ``target_aor_deg``, ``relative_error_percent``, ``p_value``, ``consistent``).
-    shape : dict
+    shape : CardShape or None
         The particle the parameters were calibrated with (informative: a run takes it from
-        the test settings): ``template``, ``length_m``, ``diameter_m``, ``n_spheres``,
-        ``size_min``, ``size_max``.
+        the test settings); None where the card has no ``[particle_shape]``.
     posterior : dict
         Only from a Bayesian calibration (``[strategy] kind = "bayes"``): ``identifiable``,
         ``reason``, ``ridge`` (texts), ``parameters`` (per calibrated parameter ``mean``,
@@ -141,7 +140,7 @@ class MaterialCard:
     engine: CardEngine = field(default_factory=CardEngine)
     test: CardTest = field(default_factory=CardTest)
     verification: dict[str, Any] = field(default_factory=dict)
-    shape: dict[str, Any] = field(default_factory=dict)
+    shape: CardShape | None = None
     posterior: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -193,8 +192,8 @@ class MaterialCard:
         out = {"card": {"format": CARD_FORMAT, "version": CARD_VERSION, "study": self.study},
                "engine": engine,
                "test": self.test.to_table(), "verification": dict(self.verification)}
-        if self.shape:
-            out["particle_shape"] = dict(self.shape)
+        if self.shape is not None:
+            out["particle_shape"] = self.shape.to_table()
         if self.posterior:
             out["posterior"] = dict(self.posterior)
         out["parameters"] = params
@@ -333,16 +332,18 @@ def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
     if missing:
         raise InputError(f"{name}: parameters missing: {', '.join(missing)} (a card gives "
                          "every parameter)")
+    shape = _table(doc, "particle_shape", name, required=False)
     try:
         engine = CardEngine.from_table(_table(doc, "engine", name, required=False))
         test = CardTest.from_table(_table(doc, "test", name, required=False))
+        shape_ = CardShape.from_table(shape) if shape else None
     except InputError as exc:
         raise InputError(f"{name}: {exc}") from None
     return MaterialCard(parameters=params, calibrated=tuple(calibrated), symbols=symbols,
                         study=str(_table(doc, "card", name).get("study") or ""),
                         engine=engine, test=test,
                         verification=dict(_table(doc, "verification", name, required=False)),
-                        shape=dict(_table(doc, "particle_shape", name, required=False)),
+                        shape=shape_,
                         posterior=dict(_table(doc, "posterior", name, required=False)))
 
 
