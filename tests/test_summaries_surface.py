@@ -60,7 +60,7 @@ def _surface(**extra) -> Surface:
                         replicates=[35.0], replicate_std=None)],
         excluded_points=[], replicates=1, anova=[AnovaRecord(term="pp.static_friction", p=0.001)],
         fit=AnovaFit(r2=0.99), lack_of_fit_p=None, adequacy=ADEQUACY,
-        rounds=[SurfaceRound.judged(ADEQUACY, replicates=1, runs=13, adequate=True)],
+        rounds=[SurfaceRound(replicates=1, runs=13, adequate=True, statistics=ADEQUACY)],
         model="quadratic",
         removed_terms=[], anova_full=[], adequacy_full=ADEQUACY,
         coefficients_coded={"intercept": 40.0, "pp.static_friction": 5.0},

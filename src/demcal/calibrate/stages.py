@@ -125,10 +125,11 @@ def rsm(ctx: Context) -> Surface:
         model, table, lof_p = choice.chosen.rows, choice.chosen.table, choice.chosen.lack_of_fit_p
         adequate, fails = choice.adequacy.adequate, list(choice.adequacy.failed)
         stats_ = choice.adequacy.statistics
-        rounds.append(SurfaceRound.judged(
-            stats_, replicates=n_reps, runs=design.n_runs * n_reps,
+        rounds.append(SurfaceRound(
+            replicates=n_reps, runs=design.n_runs * n_reps,
             blocks=model.block_df + 1 if model.block_df else 0, model=choice.kind,
-            removed_terms=list(choice.removed_terms), adequate=adequate, failed=fails))
+            removed_terms=list(choice.removed_terms), adequate=adequate, failed=fails,
+            statistics=stats_))
         more = design.n_runs * (n_reps + 1)
         if adequate or not opts.add_replicates or more > budget:
             break

@@ -52,7 +52,7 @@ class FitStatistics(_Flat):
 
 
 @dataclass(frozen=True)
-class SurfaceRound(_Flat):
+class SurfaceRound:
     """One replicate round of the response-surface stage: the model fitted after it and
     Design-Expert's verdict (the stage adds replicates while the model is not adequate).
 
@@ -70,8 +70,8 @@ class SurfaceRound(_Flat):
     adequate : bool
     failed : list of str
         The adequacy rules the model failed, in words.
-    p_model, lack_of_fit_p, r2, adj_r2, pred_r2, adeq_precision : float or None
-        The statistics the rules judged (:class:`FitStatistics`, stored flat in the row).
+    statistics : FitStatistics
+        The statistics the rules judged (stored flat in the row, after ``failed``).
     """
 
     replicates: int = 1
@@ -81,23 +81,20 @@ class SurfaceRound(_Flat):
     removed_terms: list[str] = field(default_factory=list)
     adequate: bool = False
     failed: list[str] = field(default_factory=list)
-    p_model: float | None = None
-    lack_of_fit_p: float | None = None
-    r2: float | None = None
-    adj_r2: float | None = None
-    pred_r2: float | None = None
-    adeq_precision: float | None = None
+    statistics: FitStatistics = field(default_factory=FitStatistics)
 
     @classmethod
-    def judged(cls, statistics: FitStatistics, **row: Any) -> SurfaceRound:
-        """The round's row with the ``statistics`` the rules judged."""
-        return cls(**row, **dataclasses.asdict(statistics))
+    def from_summary(cls, summary: Mapping[str, Any]) -> SurfaceRound:
+        """Read a stored row (any release's)."""
+        items = _known(cls, summary)
+        items["statistics"] = FitStatistics.from_summary(summary)
+        return cls(**items)
 
-    @property
-    def statistics(self) -> FitStatistics:
-        """The statistics the rules judged."""
-        return FitStatistics(**{f.name: getattr(self, f.name)
-                                for f in dataclasses.fields(FitStatistics)})
+    def to_summary(self) -> dict[str, Any]:
+        """The stored row: the round's fields, then the statistics' keys."""
+        row = {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)
+               if f.name != "statistics"}
+        return {**row, **self.statistics.to_summary()}
 
 
 @dataclass(frozen=True)
