@@ -75,3 +75,43 @@ def test_the_signals_sent_again_do_not_cut_a_clean_up_short():
             cleaned = True
     assert stopped.value.code == 143 and cleaned
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_a_block_that_ends_before_the_signal_comes_again_still_stops():
+    # the stop dropped and the block's work done at once: SIGTERM still ends it with 143
+    reached_end = False
+    with pytest.raises(SystemExit) as stopped, sigterm_raises():
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5.0)
+        except SystemExit:
+            pass
+        reached_end = True
+    assert stopped.value.code == 143 and reached_end
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_a_block_without_sigterm_ends_as_it_would():
+    with sigterm_raises():
+        pass
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_the_cli_says_a_stop_that_came_as_the_command_ended(monkeypatch, capsys):
+    import demcal.cli
+    import demcal.cli._stdout
+
+    def a_command_that_drops_the_stop(standalone_mode: bool) -> int:
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5.0)
+        except SystemExit:
+            pass
+        return 0
+
+    monkeypatch.setattr(demcal.cli, "app", a_command_that_drops_the_stop)
+    monkeypatch.setattr(demcal.cli._stdout, "survive_hangup", lambda: None)
+    with pytest.raises(SystemExit) as stopped:
+        demcal.cli.main()
+    assert stopped.value.code == 143
+    assert capsys.readouterr().err == "terminated (SIGTERM)\n"

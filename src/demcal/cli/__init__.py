@@ -44,6 +44,8 @@ def main() -> None:
     A usage error (an unknown option, a value out of its range, a missing argument) is one
     line on stderr naming the option, and exit code 2, like every other input error.
     """
+    import contextlib
+    import signal
     import sys
 
     from demcal.cli._stdout import survive_hangup
@@ -68,4 +70,11 @@ def main() -> None:
         sys.exit(exc.exit_code)
     except typer.Abort:
         sys.exit(130)
+    except SystemExit as stop:
+        # a SIGTERM whose every stop was dropped ends the command as the block is left,
+        # past the command's own one line (sigterm_raises): say it here
+        if stop.code == 128 + signal.SIGTERM:
+            with contextlib.suppress(OSError):
+                print("terminated (SIGTERM)", file=sys.stderr)
+        raise
     sys.exit(code if isinstance(code, int) else 0)

@@ -55,7 +55,9 @@ def sigterm_raises() -> Iterator[None]:
     once SIGTERM has come, a thread signals again every :data:`RESEND_S` s until the block
     is left; the handler raises only where no such SystemExit is already unwinding (none in
     the exception being handled nor in its ``__context__`` chain), so clean-ups run to their
-    end, a second ``kill`` included (SIGKILL still ends the process at once).
+    end, a second ``kill`` included (SIGKILL still ends the process at once). A block that
+    ends as if no SIGTERM had come (every stop dropped before the next one) raises the
+    SystemExit as it is left.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -81,7 +83,7 @@ def sigterm_raises() -> Iterator[None]:
         # traceback), and signal again at once, from a thread, so that the handler runs at
         # a line after the finalizer (raised here, it would be swallowed again)
         if unraisable.exc_value is not None and unraisable.exc_value in raised:
-            soon = threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGTERM))
+            soon = threading.Timer(0.02, _signal_unless, (left,))
             soon.daemon = True
             soon.start()
             return
@@ -97,6 +99,8 @@ def sigterm_raises() -> Iterator[None]:
             resender.join()  # no signal of its own comes after the handler is restored
         sys.unraisablehook = hook
         signal.signal(signal.SIGTERM, old)
+    if raised:  # the block ended as if no SIGTERM had come (every stop dropped): stop now
+        raise SystemExit(code)
 
 
 def _unwinding(code: int) -> bool:
@@ -113,4 +117,11 @@ def _unwinding(code: int) -> bool:
 def _resend_until(left: threading.Event) -> None:
     """SIGTERM this process every :data:`RESEND_S` s until ``left`` is set."""
     while not left.wait(RESEND_S):
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
+def _signal_unless(left: threading.Event) -> None:
+    """SIGTERM this process, unless ``left`` is set (the block is left: no handler of its
+    own would take the signal)."""
+    if not left.is_set():
         os.kill(os.getpid(), signal.SIGTERM)
