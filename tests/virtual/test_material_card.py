@@ -288,3 +288,10 @@ def test_a_bad_engine_or_test_block_is_one_line_naming_the_key(line, edit, messa
     text = re.sub(line, lambda _: edit, text, count=1)
     with pytest.raises(InputError, match=message):
         parse_material_card(text, "m.toml")
+
+
+def test_the_card_names_a_law_for_every_rolling_model_of_the_engine():
+    from demcal.virtual.config import ROLLING_MODELS
+    from demcal.virtual.material_card import ROLLING_LAWS
+
+    assert tuple(ROLLING_LAWS) == ROLLING_MODELS == ("A", "C", "none")

@@ -14,15 +14,13 @@ from dataclasses import dataclass, field
 from typing import Any, Self
 
 from demcal.errors import InputError
+from demcal.virtual.config import ROLLING_MODELS
 
-__all__ = ["ENGINE_NAMES", "ROLLING_MODELS", "CardEngine", "CardShape", "CardTest", "flatten",
-           "unflatten"]
+__all__ = ["ENGINE_NAMES", "CardEngine", "CardShape", "CardTest", "flatten", "unflatten"]
 
 #: The engines a card may be for: demcal's own, LAMMPS (docs/lammps.md) or an external engine
 #: driven through an input template (docs/external_engines.md).
 ENGINE_NAMES = ("demcal", "lammps", "template")
-#: The rolling-friction models a card may name (``AoRTestConfig.rolling_model``).
-ROLLING_MODELS = ("A", "C", "none")
 
 
 def _written(block: Any) -> dict[str, Any]:

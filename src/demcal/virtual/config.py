@@ -8,13 +8,14 @@ named values, see :mod:`demcal.virtual.parameters` and :mod:`demcal.virtual.pres
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 __all__ = [
     "FIDELITIES",
     "FIDELITY_REPLICATES",
+    "ROLLING_MODELS",
     "AoRTestConfig",
     "Fill",
     "Geometry",
@@ -22,8 +23,14 @@ __all__ = [
     "OutcomeCriteria",
     "ParticleShape",
     "Phases",
+    "RollingModel",
     "fidelity_config",
 ]
+
+#: The engine's rolling-friction models (docs/physics.md): A, EDEM's constant directional
+#: torque; C, the elastic-plastic spring; none
+RollingModel = Literal["A", "C", "none"]
+ROLLING_MODELS: tuple[str, ...] = get_args(RollingModel)
 
 
 class _Model(BaseModel):
@@ -155,7 +162,7 @@ class AoRTestConfig(_Model):
     measurement: MeasurementOptions = MeasurementOptions()
     outcome: OutcomeCriteria = OutcomeCriteria()
     dt_fraction: float = Field(0.2, gt=0, le=1, description="time step / Rayleigh time step")
-    rolling_model: Literal["A", "C", "none"] = "A"
+    rolling_model: RollingModel = "A"
 
     @model_validator(mode="after")
     def _fits(self):

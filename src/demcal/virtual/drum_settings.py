@@ -18,7 +18,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from demcal.errors import InputError
-from demcal.virtual.config import ParticleShape
+from demcal.virtual.config import ROLLING_MODELS, ParticleShape
 
 __all__ = ["DRUM_FIDELITIES", "WALL_PARAMETERS", "DrumSettings", "G", "critical_rpm",
            "drum_settings", "froude"]
@@ -200,7 +200,7 @@ def _ranges(s: DrumSettings) -> None:
     if s.count is not None and (isinstance(s.count, bool) or not isinstance(s.count, int)
                                 or not 10 <= s.count <= 100_000):
         raise InputError(f"drum.count must be a whole number in [10, 100000]; got {s.count!r}")
-    if s.rolling_model not in ("A", "C", "none"):
+    if s.rolling_model not in ROLLING_MODELS:
         raise InputError(f"rolling_model must be A, C or none; got {s.rolling_model!r}")
 
 
