@@ -30,6 +30,16 @@ class _SignalledInFinalizer:
             pass
 
 
+def _drop_a_stop() -> None:
+    """SIGTERM this process and drop the SystemExit the handler raises, as C code that clears
+    any error (``PyDict_GetItem`` calling a Python ``__eq__``) does."""
+    try:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5.0)  # the handler raises here
+    except SystemExit:
+        pass
+
+
 def test_a_sigterm_swallowed_by_a_finalizer_still_stops_the_block():
     before = sys.unraisablehook
     reached_end = False
@@ -47,11 +57,7 @@ def test_a_sigterm_swallowed_by_any_code_still_stops_the_block():
     # SystemExit as this except does: a CI `simulate` killed while numba compiled ran to its end
     reached_end = False
     with pytest.raises(SystemExit) as stopped, sigterm_raises():
-        try:
-            os.kill(os.getpid(), signal.SIGTERM)
-            time.sleep(5.0)  # the handler raises here
-        except SystemExit:
-            pass
+        _drop_a_stop()
         deadline = time.monotonic() + 10.0
         while time.monotonic() < deadline:  # the signal sent again lands here
             time.sleep(0.01)
@@ -81,11 +87,7 @@ def test_a_block_that_ends_before_the_signal_comes_again_still_stops():
     # the stop dropped and the block's work done at once: SIGTERM still ends it with 143
     reached_end = False
     with pytest.raises(SystemExit) as stopped, sigterm_raises():
-        try:
-            os.kill(os.getpid(), signal.SIGTERM)
-            time.sleep(5.0)
-        except SystemExit:
-            pass
+        _drop_a_stop()
         reached_end = True
     assert stopped.value.code == 143 and reached_end
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
@@ -102,11 +104,7 @@ def test_the_cli_says_a_stop_that_came_as_the_command_ended(monkeypatch, capsys)
     import demcal.cli._stdout
 
     def a_command_that_drops_the_stop(standalone_mode: bool) -> int:
-        try:
-            os.kill(os.getpid(), signal.SIGTERM)
-            time.sleep(5.0)
-        except SystemExit:
-            pass
+        _drop_a_stop()
         return 0
 
     monkeypatch.setattr(demcal.cli, "app", a_command_that_drops_the_stop)
