@@ -49,6 +49,8 @@ def _study(tmp_path: Path, old: str, new: str) -> str:
     (["simulate", "aor", "--fidelity", "paper", "--test", "fill.rate=1e12"],
      "particles per run"),
     (["simulate", "aor", "--seeds", "1000"], "--seeds must be in 1..256"),
+    (["simulate", "aor", "--test", "fill=1", "--test", "fill.count=2"],
+     "--test: 'fill.count' sets a key of 'fill', which is a value"),
     (["simulate", "aor", "--seed", "-1"], "--seed must be in"),
     (["simulate", "aor", "--seed", str(2**63 - 1)], "--seed must be in"),
     (["design", "lhs", "--factors", str(CORN / "factors_pb.toml"), "--runs", "1000000000"],

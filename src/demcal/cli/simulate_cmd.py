@@ -97,7 +97,9 @@ def summarize_runs(results: list) -> dict:
 
 def parse_test_overrides(items: list[str]) -> dict:
     """``a.b=value`` strings -> nested dict of test-config overrides (values parsed as JSON)."""
-    out: dict = {}
+    from demcal.virtual.card_blocks import unflatten
+
+    flat: dict = {}
     for item in items:
         key, sep, raw = item.partition("=")
         if not sep or not key.strip():
@@ -106,12 +108,9 @@ def parse_test_overrides(items: list[str]) -> dict:
             value = json.loads(raw)
         except json.JSONDecodeError:
             value = raw
-        node = out
-        parts = key.strip().split(".")
-        for p in parts[:-1]:
-            node = node.setdefault(p, {})
-        node[parts[-1]] = value
-    return out
+        flat.pop(key.strip(), None)  # a key given again takes its place in order
+        flat[key.strip()] = value
+    return unflatten(flat, "--test")
 
 
 def material_inputs(path: Path) -> tuple:

@@ -225,8 +225,9 @@ def flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     return out
 
 
-def unflatten(d: Mapping[str, Any]) -> dict[str, Any]:
-    """Dotted keys as nested tables (:func:`flatten`'s inverse)."""
+def unflatten(d: Mapping[str, Any], where: str = "test.overrides") -> dict[str, Any]:
+    """Dotted keys as nested tables (:func:`flatten`'s inverse), in order (a later key wins);
+    ``where`` names the input in the error for a key below one that holds a value."""
     out: dict[str, Any] = {}
     for key, v in d.items():
         node = out
@@ -234,7 +235,7 @@ def unflatten(d: Mapping[str, Any]) -> dict[str, Any]:
         for p in parts[:-1]:
             node = node.setdefault(p, {})
             if not isinstance(node, dict):
-                raise InputError(f"test.overrides: {key!r} sets a key of {p!r}, which is a "
+                raise InputError(f"{where}: {key!r} sets a key of {p!r}, which is a "
                                  "value, not a table")
         node[parts[-1]] = v
     return out
