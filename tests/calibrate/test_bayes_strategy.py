@@ -220,7 +220,7 @@ def test_the_angle_alone_leaves_the_friction_ridge(tmp_path: Path) -> None:
     from demcal.virtual.material_card import read_material_card
 
     card = read_material_card(tmp_path / "report" / "material.toml")
-    assert card.posterior["advice"] == res["advice"] and res["advice"]
+    assert card.posterior.advice == res["advice"] and res["advice"]
     # and the command prints it (a resume: nothing runs)
     out = CliRunner().invoke(app, ["calibrate", str(tmp_path / "study.toml"), "--no-report",
                                    "--workers", "1"])
@@ -553,8 +553,9 @@ def test_the_material_card_holds_the_posterior(three: tuple[Path, dict]) -> None
     card = read_material_card(toml_path)
     assert card == read_material_card(json_path)  # both files read back the same card
     post = card.posterior
-    assert post["identifiable"] is True and post["ridge"] == []
-    assert post["advice"] == res["advice"]
-    assert post["parameters"] == res["posterior"] and post["correlation"] == res["correlation"]
+    assert post is not None and post.identifiable is True and post.ridge == []
+    assert post.advice == res["advice"]
+    assert {n: p.to_table() for n, p in post.parameters.items()} == res["posterior"]
+    assert post.correlation == res["correlation"]
     assert all(card.parameters[n] == res["optimum_full"][n] for n in FACTORS)
     assert '[posterior.parameters."pp.static_friction"]' in toml_path.read_text()

@@ -109,9 +109,9 @@ def test_three_responses_land_on_the_planted_parameters(tmp_path: Path) -> None:
     from demcal.virtual.material_card import read_material_card
 
     card = read_material_card(tmp_path / "report" / "material.toml")
-    drum = card.verification["responses"]["drum_deg"]
-    assert drum["mean"] == several["verification"]["drum_deg"]["mean"] and drum["n"] == 4
-    assert set(card.verification["responses"]) == {"aor_deg", "drum_deg",
+    drum = card.verification.responses["drum_deg"]
+    assert drum.mean == several["verification"]["drum_deg"]["mean"] and drum.n == 4
+    assert set(card.verification.responses) == {"aor_deg", "drum_deg",
                                                    "bulk_density_kg_m3"}
     assert doc["tables"]["responses_verified"]["columns"][:3] == ["response", "lab",
                                                                   "predicted"]

@@ -77,7 +77,7 @@ def test_the_material_card_of_the_paper_store(paper_report):
         {k: float(params[k]).hex() for k in PARAMETERS}
     assert set(card.calibrated) == set(doc["summaries"]["optimize"]["chosen"])
     assert doc["material_files"] == ["material.toml", "material.json"]
-    assert card.verification["line"].startswith("verified AoR 43.82 ± ")
+    assert card.verification.line.startswith("verified AoR 43.82 ± ")
     rows = read_tables(path.read_text("utf-8"))["t-material_card"]["rows"]
     assert [r[0] for r in rows] == list(PARAMETERS)
     x3 = next(r for r in rows if r[0] == "pp.static_friction")
@@ -158,7 +158,7 @@ def test_before_the_verification_the_card_holds_the_optimum(tmp_path):
         held = store.runs("rsm")[0].params
     others = {k: v for k, v in held.items() if k not in chosen}
     assert others and all(card.parameters[k] == v for k, v in others.items())
-    assert card.verification["line"] == "not verified"
+    assert card.verification.line == "not verified"
 
 
 def test_a_lammps_card_names_the_lammps_version_the_runs_used(tmp_path):

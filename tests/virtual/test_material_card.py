@@ -15,7 +15,7 @@ import demcal.virtual
 from demcal.cli import app
 from demcal.errors import InputError
 from demcal.virtual import PARAMETERS
-from demcal.virtual.card_blocks import CardEngine, CardShape, CardTest
+from demcal.virtual.card_blocks import CardEngine, CardShape, CardTest, CardVerification
 from demcal.virtual.material_card import (
     CARD_FORMAT,
     MaterialCard,
@@ -36,8 +36,8 @@ def _card(**kw) -> MaterialCard:
                         engine=CardEngine(version="0.1.0", backend="cpu", rolling_model="C"),
                         test=CardTest(kind="aor", fidelity="quick",
                                       overrides={"fill": {"count": 80}, "dt_fraction": 0.15}),
-                        verification={"line": "verified AoR 40.00 ± 1.00° (n = 3)",
-                                      "aor_mean_deg": 40.0, "n": 3},
+                        verification=CardVerification(line="verified AoR 40.00 ± 1.00° (n = 3)",
+                                                      aor_mean_deg=40.0, n=3),
                         shape=CardShape(template="stalk", length_m=0.01, n_spheres=7), **kw)
 
 
@@ -53,7 +53,7 @@ def test_card_round_trips_bit_exactly(fmt, tmp_path):
     assert back.rolling_model == "C"
     assert back.test.fidelity == "quick"
     assert back.test.overrides == {"fill": {"count": 80}, "dt_fraction": 0.15}
-    assert back.verification["line"].startswith("verified AoR")
+    assert back.verification.line.startswith("verified AoR")
     assert back.symbols["pp.static_friction"] == "x3"
     assert back.shape == CardShape(template="stalk", length_m=0.01, n_spheres=7)
 
@@ -259,8 +259,8 @@ def test_docstrings(module):
 
 @pytest.mark.parametrize("name", ["material_bayes_standard.toml", "material_lammps_small.toml"])
 def test_a_committed_card_reads_and_writes_back_byte_for_byte(name):
-    # the [engine] and [test] blocks are typed (CardEngine, CardTest): their keys and order
-    # are the card format, so a renamed or reordered field fails here
+    # every block is typed (CardEngine, CardTest, CardVerification, CardPosterior, ...): their
+    # keys and order are the card format, so a renamed or reordered field fails here
     path = Path(__file__).parents[2] / "examples" / "corn_stalk" / name
     card = read_material_card(path)
     assert card.to_toml() == path.read_text(encoding="utf-8")
@@ -281,6 +281,9 @@ def test_a_committed_card_reads_and_writes_back_byte_for_byte(name):
      r"particle_shape\.length_m must be a number; got '1 cm'"),
     (r"\[test.overrides\]", '[test.overrides]\n"fill" = 1',
      r"'fill\.count' sets a key of 'fill', which is a value"),
+    (r"(?m)^n = 3$", 'n = "three"', r"verification\.n must be a whole number; got 'three'"),
+    (r"aor_mean_deg = 40.0", 'aor_mean_deg = "40"',
+     r"verification\.aor_mean_deg must be a number; got '40'"),
 ])
 def test_a_bad_engine_or_test_block_is_one_line_naming_the_key(line, edit, message):
     text = _card().to_toml()
@@ -288,6 +291,23 @@ def test_a_bad_engine_or_test_block_is_one_line_naming_the_key(line, edit, messa
     text = re.sub(line, lambda _: edit, text, count=1)
     with pytest.raises(InputError, match=message):
         parse_material_card(text, "m.toml")
+
+
+@pytest.mark.parametrize(("line", "edit", "message"), [
+    ("identifiable = false", 'identifiable = "no"',
+     r"posterior\.identifiable must be true or false; got 'no'"),
+    ("ridge = [", "ridge = [1, ", r"posterior\.ridge must be a list of strings"),
+    ("median = 0.5218556771970133", 'median = "0.52"',
+     r"posterior\.parameters\.pp\.static_friction\.median must be a number"),
+    ('"pp.rolling_friction" = -0.6483126566400635', '"pp.rolling_friction" = true',
+     r"posterior\.correlation\.pp\.static_friction\.pp\.rolling_friction must be a number"),
+])
+def test_a_bad_posterior_is_one_line_naming_the_key(line, edit, message):
+    path = Path(__file__).parents[2] / "examples" / "corn_stalk" / "material_bayes_standard.toml"
+    text = path.read_text(encoding="utf-8")
+    assert line in text, line
+    with pytest.raises(InputError, match=message):
+        parse_material_card(text.replace(line, edit, 1), "m.toml")
 
 
 def test_the_card_names_a_law_for_every_rolling_model_of_the_engine():

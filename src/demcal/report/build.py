@@ -226,7 +226,7 @@ def _material(b: _Builder) -> str:
                if eng.dt_fraction is not None else "") + ".</p>"
             + _shape_line(card.shape)
             + f'<p class="verdict"><b>Verification:</b> '
-            f"{escape(str(card.verification.get('line', '')))}.</p>")
+            f"{escape(card.verification.line)}.</p>")
     if card.is_external:  # an external engine: its laws, not demcal's
         line = (f"<p><b>Engine:</b> {escape(str(eng.name))}: "
                 f"<code>{escape(str(eng.command or ''))}</code> (input template "
@@ -234,7 +234,7 @@ def _material(b: _Builder) -> str:
                 f"{escape(str(eng.template_sha256 or '')[:12])}). The parameters are "
                 "that engine's: they mean its contact laws, not demcal's.</p>"
                 f'<p class="verdict"><b>Verification:</b> '
-                f"{escape(str(card.verification.get('line', '')))}.</p>")
+                f"{escape(card.verification.line)}.</p>")
         return _section("material", "Calibrated material", None,
                         line + b.table(M.card_table(card))
                         + "<p>Material card: <code>material.toml</code> and "

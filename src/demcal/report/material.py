@@ -23,10 +23,18 @@ from demcal.display import readable
 from demcal.report import responses as RS
 from demcal.report.data import Lead, ReportData
 from demcal.report.tables import Table, _frame, _num, format_cell
-from demcal.summaries import Optimum, Target, Verification, by_key, stored_key
+from demcal.summaries import Optimum, Target, Verification
 from demcal.summaries.bayes import BayesSummary
 from demcal.summaries.physical_meta import MeasuredQuantity
-from demcal.virtual.card_blocks import CardEngine, CardShape, CardTest
+from demcal.virtual.card_blocks import (
+    CardEngine,
+    CardInterval,
+    CardPosterior,
+    CardResponseCheck,
+    CardShape,
+    CardTest,
+    CardVerification,
+)
 from demcal.virtual.material_card import MaterialCard, parameter_law
 from demcal.virtual.parameters import PARAMETERS
 
@@ -109,32 +117,30 @@ def _engine(data: ReportData) -> tuple[CardEngine, CardTest, CardShape | None]:
 
 
 def _verification_block(ver: Verification, opt: Optimum,
-                        data: ReportData) -> dict[str, Any]:
+                        data: ReportData) -> CardVerification:
     """The card's [verification]: its line, the numbers behind it, the round it is from."""
     lead = data.lead
-    verification = {"line": verification_line(ver, data.lead_lab, lead),
-                    **({} if lead.is_angle else {"lead": lead.name})}
-    verification.update((k, v) for k, v in by_key(ver, (
-        "mean", "std", "n", "relative_error_percent", "p_value", "consistent", "ci_low",
-        "ci_high", "confirm_pi_low", "confirm_pi_high", "confirmed", "target_in_interval",
-    )).items() if v is not None)
-    if data.lead_target is not None:
-        verification[stored_key(Optimum, "target")] = data.lead_target
-    if opt.predicted_lead is not None:
-        verification.update(by_key(opt, ("predicted_lead",)))
     several = RS.responses_view(data.surface, opt, ver)
-    if several is not None:  # every response at the optimum and verified
-        verification["desirability"] = several.desirability
-        verification["responses"] = {r.name: {k: v for k, v in (
-            ("lab", r.lab_mean), ("predicted", r.predicted), ("mean", r.verified_mean),
-            ("std", r.verified_std), ("n", r.verified_n),
-            ("relative_error_percent", r.relative_error_percent),
-            ("consistent", r.consistent)) if v is not None} for r in several.rows}
-    if ver.round_number > 1:  # a refinement round's (demcal.calibrate.refine)
-        verification["round"] = ver.round_number
-        verification.update((k, v) for k, v in by_key(
-            opt, ("surface_offset", "measured_offset", "offset_weight")).items() if v is not None)
-    return verification
+    responses = {} if several is None else {  # every response at the optimum and verified
+        r.name: CardResponseCheck(
+            lab=r.lab_mean, predicted=r.predicted, mean=r.verified_mean, std=r.verified_std,
+            n=r.verified_n, relative_error_percent=r.relative_error_percent,
+            consistent=r.consistent) for r in several.rows}
+    refined = ver.round_number > 1  # a refinement round's (demcal.calibrate.refine)
+    return CardVerification(
+        line=verification_line(ver, data.lead_lab, lead),
+        lead=None if lead.is_angle else lead.name,
+        aor_mean_deg=ver.mean, aor_std_deg=ver.std, n=ver.n,
+        relative_error_percent=ver.relative_error_percent, p_value=ver.p_value,
+        consistent=ver.consistent, ci_low_deg=ver.ci_low, ci_high_deg=ver.ci_high,
+        confirm_pi_low_deg=ver.confirm_pi_low, confirm_pi_high_deg=ver.confirm_pi_high,
+        confirmed=ver.confirmed, target_in_interval=ver.target_in_interval,
+        target_aor_deg=data.lead_target, predicted_aor_deg=opt.predicted_lead,
+        desirability=None if several is None else several.desirability, responses=responses,
+        round=ver.round_number if refined else None,
+        surface_offset_deg=opt.surface_offset if refined else None,
+        measured_offset_deg=opt.measured_offset if refined else None,
+        offset_weight=opt.offset_weight if refined else None)
 
 
 def material_card(data: ReportData) -> MaterialCard | None:
@@ -176,20 +182,21 @@ def material_card(data: ReportData) -> MaterialCard | None:
                         posterior=_posterior_block(data.stage("bayes").summary))
 
 
-def _posterior_block(stored: Mapping[str, Any]) -> dict[str, Any]:
-    """The card's [posterior] from a Bayesian study's stage summary ({} for a DOE study):
+def _posterior_block(stored: Mapping[str, Any]) -> CardPosterior | None:
+    """The card's [posterior] from a Bayesian study's stage summary (None for a DOE study):
     the verdict, the ridges, what would shrink each, each parameter's interval and the
     correlation (SI)."""
     bayes = BayesSummary.from_summary(stored)
     if bayes is None or not bayes.posterior:
-        return {}
-    return {"identifiable": bool(bayes.identifiable), "reason": str(bayes.reason),
-            "ridge": [str(r) for r in bayes.ridge],
-            "advice": [str(a) for a in bayes.advice],
-            "parameters": {n: {k: float(v) for k, v in p.to_summary().items()}
-                           for n, p in bayes.posterior.items()},
-            "correlation": {a: {b: float(r) for b, r in row.items()}
-                            for a, row in bayes.correlation.items()}}
+        return None
+    return CardPosterior(
+        identifiable=bool(bayes.identifiable), reason=str(bayes.reason),
+        ridge=[str(r) for r in bayes.ridge], advice=[str(a) for a in bayes.advice],
+        parameters={n: CardInterval(mean=float(p.mean), median=float(p.median),
+                                    ci95_low=float(p.ci95_low), ci95_high=float(p.ci95_high))
+                    for n, p in bayes.posterior.items()},
+        correlation={a: {b: float(r) for b, r in row.items()}
+                     for a, row in bayes.correlation.items()})
 
 
 def write_material_card(study_dir: str | Path,

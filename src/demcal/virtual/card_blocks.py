@@ -1,9 +1,11 @@
 """What a material card says about how its parameters were found: the engine (``[engine]``)
-and the virtual test (``[test]``), the two blocks a run of the card reads, and the particle
-they were calibrated with (``[particle_shape]``, informative).
+and the virtual test (``[test]``), the two blocks a run of the card reads; the particle they
+were calibrated with (``[particle_shape]``), the verification (``[verification]``) and a
+Bayesian calibration's posterior (``[posterior]``), which are informative (docs/material_card.md).
 
-The card's ``[verification]`` and ``[posterior]`` are informative and stay tables
-(docs/material_card.md).
+Each block is a frozen dataclass whose field names are the card's keys, in the order the card
+writes them; ``to_table`` gives the keys that are set and ``from_table`` reads them back,
+checking each key's type (keys a card of another release adds are left out).
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ from typing import Any, Self
 from demcal.errors import InputError
 from demcal.virtual.config import ROLLING_MODELS
 
-__all__ = ["ENGINE_NAMES", "CardEngine", "CardShape", "CardTest", "flatten", "unflatten"]
+__all__ = ["ENGINE_NAMES", "CardEngine", "CardInterval", "CardPosterior", "CardResponseCheck",
+           "CardShape", "CardTest", "CardVerification", "flatten", "number", "unflatten"]
 
 #: The engines a card may be for: demcal's own, LAMMPS (docs/lammps.md) or an external engine
 #: driven through an input template (docs/external_engines.md).
@@ -37,15 +40,60 @@ def _text(table: Mapping[str, Any], key: str, where: str) -> str | None:
     raise InputError(f"{where}.{key} must be a string; got {value!r}")
 
 
-def _number(table: Mapping[str, Any], key: str, where: str) -> float | None:
+def number(table: Mapping[str, Any], key: str, where: str) -> float | None:
     """``table[key]`` as a float (None where absent); anything but a number is an input
-    error."""
+    error naming ``where.key``."""
     value = table.get(key)
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise InputError(f"{where}.{key} must be a number; got {value!r}")
     return float(value)
+
+
+def _whole(table: Mapping[str, Any], key: str, where: str) -> int | None:
+    """``table[key]`` as an int (None where absent); anything but a whole number is an input
+    error."""
+    value = table.get(key)
+    if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
+        raise InputError(f"{where}.{key} must be a whole number; got {value!r}")
+    return value
+
+
+def _flag(table: Mapping[str, Any], key: str, where: str) -> bool | None:
+    """``table[key]`` as a bool (None where absent); anything else is an input error."""
+    value = table.get(key)
+    if value is not None and not isinstance(value, bool):
+        raise InputError(f"{where}.{key} must be true or false; got {value!r}")
+    return value
+
+
+def _texts(table: Mapping[str, Any], key: str, where: str) -> list[str] | None:
+    """``table[key]`` as a list of strings (None where absent)."""
+    value = table.get(key)
+    if value is None:
+        return None
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise InputError(f"{where}.{key} must be a list of strings; got {value!r}")
+    return list(value)
+
+
+def _subtables(table: Mapping[str, Any], key: str, where: str) -> dict[str, Mapping[str, Any]]:
+    """``table[key]``: a table of tables, by name ({} where absent)."""
+    value = table.get(key) or {}
+    if not isinstance(value, Mapping) or not all(isinstance(v, Mapping)
+                                                 for v in value.values()):
+        raise InputError(f"{where}.{key} must be a table of tables")
+    return {str(k): v for k, v in value.items()}
+
+
+def _read_fields(cls: Any, table: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """The scalar fields of the dataclass ``cls`` read from ``table`` by their annotated
+    type (``str``, ``int``, ``bool``, else a number); the others are the caller's."""
+    readers = {"str | None": _text, "int | None": _whole, "bool | None": _flag,
+               "float | None": number}
+    return {f.name: readers[f.type](table, f.name, where) for f in dataclasses.fields(cls)
+            if f.type in readers}
 
 
 @dataclass(frozen=True)
@@ -116,7 +164,7 @@ class CardEngine:
         texts = {k: _text(table, k, where) for k in (
             "version", "backend", "lammps_version", "command", "template", "template_sha256")}
         return cls(name=name, rolling_model=rolling,
-                   dt_fraction=_number(table, "dt_fraction", where), **texts)
+                   dt_fraction=number(table, "dt_fraction", where), **texts)
 
 
 @dataclass(frozen=True)
@@ -205,12 +253,199 @@ class CardShape:
             A template that is not a string, a size that is not a number, a sphere count
             that is not a whole number.
         """
-        n = table.get("n_spheres")
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int)):
-            raise InputError(f"{where}.n_spheres must be a whole number; got {n!r}")
-        return cls(template=_text(table, "template", where), n_spheres=n,
-                   **{k: _number(table, k, where)
-                      for k in ("length_m", "diameter_m", "size_min", "size_max")})
+        return cls(**_read_fields(cls, table, where))
+
+
+@dataclass(frozen=True)
+class CardResponseCheck:
+    """One response of ``[verification.responses.NAME]`` (a several-response study): its lab
+    value, the surface's prediction and the verification, in the response's unit.
+
+    Attributes
+    ----------
+    lab, predicted, mean, std : float or None
+        The lab mean, the prediction at the optimum, the verified mean and its standard
+        deviation.
+    n : int or None
+        The verification's runs.
+    relative_error_percent : float or None
+        ``|mean - lab| / lab``, %.
+    consistent : bool or None
+        Whether the verified mean is consistent with the lab's (Welch's test).
+    """
+
+    lab: float | None = None
+    predicted: float | None = None
+    mean: float | None = None
+    std: float | None = None
+    n: int | None = None
+    relative_error_percent: float | None = None
+    consistent: bool | None = None
+
+    def to_table(self) -> dict[str, Any]:
+        """The keys, in order, where set."""
+        return _written(self)
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any], where: str) -> Self:
+        """Read one response's table."""
+        return cls(**_read_fields(cls, table, where))
+
+
+@dataclass(frozen=True)
+class CardVerification:
+    """The card's ``[verification]``: one line and the numbers behind it. The lead response's
+    values are under the angle's keys (``aor_mean_deg``) whatever the lead (``lead`` names it
+    where it is not the angle), as in the result JSON.
+
+    Attributes
+    ----------
+    line : str
+        The verification in one sentence (``"not verified"`` without runs).
+    lead : str or None
+        The lead response where it is not the angle.
+    aor_mean_deg, aor_std_deg : float or None
+        The verified mean and its standard deviation, the lead's unit.
+    n : int or None
+        The verification's runs.
+    relative_error_percent, p_value : float or None
+        Against the lab's mean: ``|mean - lab| / lab`` (%) and Welch's p.
+    consistent, confirmed, target_in_interval : bool or None
+        Welch's verdict, the surface's prediction interval holding the mean, the lab's mean
+        inside the 95 % interval of the verified one.
+    ci_low_deg, ci_high_deg : float or None
+        The 95 % interval of the verified mean.
+    confirm_pi_low_deg, confirm_pi_high_deg : float or None
+        The surface's 95 % prediction interval of the verification's mean.
+    target_aor_deg, predicted_aor_deg : float or None
+        The lab's mean and the prediction at the optimum.
+    desirability : float or None
+        The overall desirability at the optimum (several responses).
+    responses : dict of str to CardResponseCheck
+        Every response's check (several responses; empty otherwise).
+    round : int or None
+        The refinement round the verification is from (where above 1).
+    surface_offset_deg, measured_offset_deg, offset_weight : float or None
+        That round's shift of the surface (:mod:`demcal.calibrate.refine`).
+    """
+
+    line: str = ""
+    lead: str | None = None
+    aor_mean_deg: float | None = None
+    aor_std_deg: float | None = None
+    n: int | None = None
+    relative_error_percent: float | None = None
+    p_value: float | None = None
+    consistent: bool | None = None
+    ci_low_deg: float | None = None
+    ci_high_deg: float | None = None
+    confirm_pi_low_deg: float | None = None
+    confirm_pi_high_deg: float | None = None
+    confirmed: bool | None = None
+    target_in_interval: bool | None = None
+    target_aor_deg: float | None = None
+    predicted_aor_deg: float | None = None
+    desirability: float | None = None
+    responses: dict[str, CardResponseCheck] = field(default_factory=dict)
+    round: int | None = None
+    surface_offset_deg: float | None = None
+    measured_offset_deg: float | None = None
+    offset_weight: float | None = None
+
+    def to_table(self) -> dict[str, Any]:
+        """The keys, in order, where set; ``responses`` (a table per response) where any."""
+        out = _written(self)
+        if self.responses:
+            out["responses"] = {k: r.to_table() for k, r in self.responses.items()}
+        else:
+            del out["responses"]
+        return out
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any], where: str = "verification") -> Self:
+        """Read ``[verification]`` (``line`` absent: an empty one).
+
+        Raises
+        ------
+        InputError
+            A key whose value has the wrong type.
+        """
+        fields = _read_fields(cls, table, where)
+        responses = {name: CardResponseCheck.from_table(row, f"{where}.responses.{name}")
+                     for name, row in _subtables(table, "responses", where).items()}
+        return cls(line=_text(table, "line", where) or "", responses=responses, **fields)
+
+
+@dataclass(frozen=True)
+class CardInterval:
+    """One calibrated parameter's posterior in ``[posterior.parameters.NAME]``, SI."""
+
+    mean: float | None = None
+    median: float | None = None
+    ci95_low: float | None = None
+    ci95_high: float | None = None
+
+    def to_table(self) -> dict[str, Any]:
+        """The keys, in order, where set."""
+        return _written(self)
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any], where: str) -> Self:
+        """Read one parameter's interval."""
+        return cls(**_read_fields(cls, table, where))
+
+
+@dataclass(frozen=True)
+class CardPosterior:
+    """The card's ``[posterior]``, from a Bayesian calibration (``[strategy] kind =
+    "bayes"``): whether the tests pin every parameter and what each parameter's posterior is.
+    Informative: a run takes the values of ``[parameters]``.
+
+    Attributes
+    ----------
+    identifiable : bool or None
+        Whether the tests pin every calibrated parameter.
+    reason : str or None
+        The verdict in one sentence.
+    ridge, advice : list of str or None
+        The ridges left (combinations the tests cannot tell apart) and what would shrink each.
+    parameters : dict of str to CardInterval
+        Each calibrated parameter's mean, median and 95 % credible interval, SI.
+    correlation : dict of str to dict of str to float
+        The posterior's correlation, per pair of parameters.
+    """
+
+    identifiable: bool | None = None
+    reason: str | None = None
+    ridge: list[str] | None = None
+    advice: list[str] | None = None
+    parameters: dict[str, CardInterval] = field(default_factory=dict)
+    correlation: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def to_table(self) -> dict[str, Any]:
+        """The keys, in order, where set; ``parameters`` and ``correlation`` as a table per
+        parameter."""
+        out = _written(self)
+        out["parameters"] = {k: p.to_table() for k, p in self.parameters.items()}
+        return out
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any], where: str = "posterior") -> Self:
+        """Read ``[posterior]``.
+
+        Raises
+        ------
+        InputError
+            A key whose value has the wrong type, a correlation that is not a number.
+        """
+        params = {name: CardInterval.from_table(row, f"{where}.parameters.{name}")
+                  for name, row in _subtables(table, "parameters", where).items()}
+        corr = {a: {b: number(row, b, f"{where}.correlation.{a}") for b in row}
+                for a, row in _subtables(table, "correlation", where).items()}
+        return cls(identifiable=_flag(table, "identifiable", where),
+                   reason=_text(table, "reason", where),
+                   ridge=_texts(table, "ridge", where), advice=_texts(table, "advice", where),
+                   parameters=params, correlation=corr)  # type: ignore[arg-type]
 
 
 def flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

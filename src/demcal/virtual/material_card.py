@@ -28,7 +28,15 @@ from pathlib import Path
 from typing import Any
 
 from demcal.errors import InputError
-from demcal.virtual.card_blocks import CardEngine, CardShape, CardTest, flatten
+from demcal.virtual.card_blocks import (
+    CardEngine,
+    CardPosterior,
+    CardShape,
+    CardTest,
+    CardVerification,
+    flatten,
+    number,
+)
 from demcal.virtual.parameters import PARAMETERS
 
 __all__ = [
@@ -120,17 +128,18 @@ class MaterialCard:
     test : CardTest
         The virtual test: ``kind`` (``aor`` or ``analytic``), ``fidelity`` and
         ``overrides`` (nested settings of :class:`demcal.virtual.AoRTestConfig`).
-    verification : dict
+    verification : CardVerification
         ``line`` (one sentence) and the numbers behind it (``aor_mean_deg``, ``aor_std_deg``,
         ``n``, ``target_aor_deg``, ``relative_error_percent``, ``p_value``, ``consistent``).
     shape : CardShape or None
         The particle the parameters were calibrated with (informative: a run takes it from
         the test settings); None where the card has no ``[particle_shape]``.
-    posterior : dict
+    posterior : CardPosterior or None
         Only from a Bayesian calibration (``[strategy] kind = "bayes"``): ``identifiable``,
-        ``reason``, ``ridge`` (texts), ``parameters`` (per calibrated parameter ``mean``,
-        ``median``, ``ci95_low``, ``ci95_high``, SI) and ``correlation`` (per pair); empty
-        otherwise. Informative: a run takes the values of ``parameters`` above.
+        ``reason``, ``ridge`` and ``advice`` (texts), ``parameters`` (per calibrated
+        parameter ``mean``, ``median``, ``ci95_low``, ``ci95_high``, SI) and ``correlation``
+        (per pair); None otherwise. Informative: a run takes the values of ``parameters``
+        above.
     """
 
     parameters: dict[str, float]
@@ -139,9 +148,9 @@ class MaterialCard:
     study: str = ""
     engine: CardEngine = field(default_factory=CardEngine)
     test: CardTest = field(default_factory=CardTest)
-    verification: dict[str, Any] = field(default_factory=dict)
+    verification: CardVerification = field(default_factory=CardVerification)
     shape: CardShape | None = None
-    posterior: dict[str, Any] = field(default_factory=dict)
+    posterior: CardPosterior | None = None
 
     @property
     def engine_name(self) -> str:
@@ -191,11 +200,11 @@ class MaterialCard:
             engine.update(rolling_model=self.rolling_model, contact_laws=laws)
         out = {"card": {"format": CARD_FORMAT, "version": CARD_VERSION, "study": self.study},
                "engine": engine,
-               "test": self.test.to_table(), "verification": dict(self.verification)}
+               "test": self.test.to_table(), "verification": self.verification.to_table()}
         if self.shape is not None:
             out["particle_shape"] = self.shape.to_table()
-        if self.posterior:
-            out["posterior"] = dict(self.posterior)
+        if self.posterior is not None:
+            out["posterior"] = self.posterior.to_table()
         out["parameters"] = params
         return out
 
@@ -333,18 +342,20 @@ def parse_material_card(text: str, name: str = "material card") -> MaterialCard:
         raise InputError(f"{name}: parameters missing: {', '.join(missing)} (a card gives "
                          "every parameter)")
     shape = _table(doc, "particle_shape", name, required=False)
+    posterior = _table(doc, "posterior", name, required=False)
     try:
         engine = CardEngine.from_table(_table(doc, "engine", name, required=False))
         test = CardTest.from_table(_table(doc, "test", name, required=False))
         shape_ = CardShape.from_table(shape) if shape else None
+        verification = CardVerification.from_table(
+            _table(doc, "verification", name, required=False))
+        posterior_ = CardPosterior.from_table(posterior) if posterior else None
     except InputError as exc:
         raise InputError(f"{name}: {exc}") from None
     return MaterialCard(parameters=params, calibrated=tuple(calibrated), symbols=symbols,
                         study=str(_table(doc, "card", name).get("study") or ""),
-                        engine=engine, test=test,
-                        verification=dict(_table(doc, "verification", name, required=False)),
-                        shape=shape_,
-                        posterior=dict(_table(doc, "posterior", name, required=False)))
+                        engine=engine, test=test, verification=verification, shape=shape_,
+                        posterior=posterior_)
 
 
 def _document(text: str, name: str) -> dict[str, Any]:
@@ -379,15 +390,15 @@ def _parameter(pname: str, entry: Any, name: str) -> tuple[float, str, str | Non
                          f"{', '.join(PARAMETERS)}")
     if not isinstance(entry, dict):
         entry = {"value": entry}
-    value = entry.get("value")
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{name}: parameters.{pname}.value must be a number; got {value!r}")
+    value = number(entry, "value", f"{name}: parameters.{pname}")
+    if value is None:
+        raise InputError(f"{name}: parameters.{pname}.value must be a number; got None")
     unit = entry.get("unit")
     if unit is not None and unit not in (spec.unit, "-" if not spec.unit else spec.unit):
         raise InputError(f"{name}: parameters.{pname}.unit must be "
                          f"{spec.unit or '-'!r} (SI); got {unit!r}")
     try:
-        checked = spec.check(float(value))
+        checked = spec.check(value)
     except InputError as exc:
         raise InputError(f"{name}: parameters.{exc}") from None
     role = entry.get("role", "fixed")
