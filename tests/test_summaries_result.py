@@ -92,6 +92,17 @@ def test_the_bayesian_result_s_fields_are_its_keys():
     assert not any(x.aimed for x in r.rounds)  # the posterior's rounds: no offset
 
 
+def test_a_bayesian_result_whose_optimum_is_not_its_posterior_s_is_refused():
+    # the result JSON writes the posterior's optimum: another one would be lost silently
+    from dataclasses import replace
+
+    stored = json.loads((EXAMPLES / "corn_stalk" / "result_bayes_standard.json").read_text())
+    r = CalibrationResult.from_summary(stored)
+    moved = {**r.optimum, "pp.static_friction": r.optimum["pp.static_friction"] + 0.01}
+    with pytest.raises(ValueError, match="not its posterior's optimum"):
+        replace(r, optimum=moved)
+
+
 def test_a_lead_that_is_not_the_angle_is_named_and_read_back():
     r = CalibrationResult(study="s", optimum={"a": 1.0}, optimum_full={"a": 1.0},
                           predicted_lead=0.5, target=0.52, verification=Verification(n=3),

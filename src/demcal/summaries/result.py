@@ -246,6 +246,13 @@ class CalibrationResult:
     responses: ResultResponses | None = None
     bayes: BayesSummary | None = None
 
+    def __post_init__(self) -> None:
+        # the result JSON writes a Bayesian study's optimum from its posterior: a different
+        # one here would be lost without a word
+        if self.bayes is not None and dict(self.optimum) != dict(self.bayes.optimum):
+            raise ValueError(f"CalibrationResult.optimum {self.optimum} is not its posterior's "
+                             f"optimum {self.bayes.optimum}")
+
     @property
     def strategy(self) -> str:
         """``"bayes"`` or ``"doe"``."""
