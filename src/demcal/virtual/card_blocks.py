@@ -96,6 +96,20 @@ def _read_fields(cls: Any, table: Mapping[str, Any], where: str) -> dict[str, An
             if f.type in readers}
 
 
+class _ScalarBlock:
+    """A block of scalar keys only (a dataclass of ``str``, ``int``, ``bool`` and number
+    fields, each None where the card leaves it out): written and read field by field."""
+
+    def to_table(self) -> dict[str, Any]:
+        """The keys, in order, where set."""
+        return _written(self)
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any], where: str) -> Self:
+        """Read the block, each key's type checked (``where`` names it in the error)."""
+        return cls(**_read_fields(cls, table, where))
+
+
 @dataclass(frozen=True)
 class CardEngine:
     """The card's ``[engine]``: which engine the parameters are for and how it ran.
@@ -216,7 +230,7 @@ class CardTest:
 
 
 @dataclass(frozen=True)
-class CardShape:
+class CardShape(_ScalarBlock):
     """The card's ``[particle_shape]``: the particle the parameters were calibrated with
     (informative: a run takes the particle from the test settings).
 
@@ -239,10 +253,6 @@ class CardShape:
     size_min: float | None = None
     size_max: float | None = None
 
-    def to_table(self) -> dict[str, Any]:
-        """The ``[particle_shape]`` keys, in order, where set."""
-        return _written(self)
-
     @classmethod
     def from_table(cls, table: Mapping[str, Any], where: str = "particle_shape") -> Self:
         """Read ``[particle_shape]``.
@@ -253,11 +263,11 @@ class CardShape:
             A template that is not a string, a size that is not a number, a sphere count
             that is not a whole number.
         """
-        return cls(**_read_fields(cls, table, where))
+        return super().from_table(table, where)
 
 
 @dataclass(frozen=True)
-class CardResponseCheck:
+class CardResponseCheck(_ScalarBlock):
     """One response of ``[verification.responses.NAME]`` (a several-response study): its lab
     value, the surface's prediction and the verification, in the response's unit.
 
@@ -281,15 +291,6 @@ class CardResponseCheck:
     n: int | None = None
     relative_error_percent: float | None = None
     consistent: bool | None = None
-
-    def to_table(self) -> dict[str, Any]:
-        """The keys, in order, where set."""
-        return _written(self)
-
-    @classmethod
-    def from_table(cls, table: Mapping[str, Any], where: str) -> Self:
-        """Read one response's table."""
-        return cls(**_read_fields(cls, table, where))
 
 
 @dataclass(frozen=True)
@@ -377,22 +378,13 @@ class CardVerification:
 
 
 @dataclass(frozen=True)
-class CardInterval:
+class CardInterval(_ScalarBlock):
     """One calibrated parameter's posterior in ``[posterior.parameters.NAME]``, SI."""
 
     mean: float | None = None
     median: float | None = None
     ci95_low: float | None = None
     ci95_high: float | None = None
-
-    def to_table(self) -> dict[str, Any]:
-        """The keys, in order, where set."""
-        return _written(self)
-
-    @classmethod
-    def from_table(cls, table: Mapping[str, Any], where: str) -> Self:
-        """Read one parameter's interval."""
-        return cls(**_read_fields(cls, table, where))
 
 
 @dataclass(frozen=True)
