@@ -221,3 +221,45 @@ def test_common_seed_blocks_fall_back_to_no_blocks_when_a_run_failed():
     fallback, notes = _fit_rows(rep, y, 3, common_seeds=True)
     assert fallback.block_df == 0
     assert len(notes) == 1 and "not used as blocks" in notes[0]
+
+
+def test_an_inadequate_surface_says_how_many_replicates_would_resolve_it(tmp_path):
+    """The budget allows one replicate of a 6-deg-noise test: the stage says how far the
+    largest main effect was from seen, and what would see it."""
+    def edit(text: str) -> str:
+        text = text.replace("noise_deg = 0.3", "noise_deg = 6.0")
+        return text.replace("center_points = 3", "center_points = 3\nmax_runs = 15")
+
+    path = _write(tmp_path, edit)
+    calibrate(path)
+    with RunStore(path.parent) as store:
+        rsm = store.stage("rsm").summary
+    assert not rsm["adequate"]
+    note = next(w for w in rsm["warnings"] if "standard errors from zero" in w)
+    assert note.startswith("its largest main effect, ")
+    assert "replicates of each design point" in note
+
+
+def test_the_resolution_note_counts_the_runs_and_knows_its_limits():
+    from demcal.calibrate.surface_fit import MANY_REPLICATES, resolution_note
+
+    weak = _bbd(lambda x: 40 + 1.0 * x[0], noise=3.0, seed=5)
+    note = resolution_note(weak, 1, 15)
+    assert note is not None and "from the centre to the high level" in note
+    need = int(note.split("about ")[1].split(" replicates")[0])
+    assert f"({need * 15} runs)" in note and need > 1
+    # the same t seen at 2 replicates of each point: twice the replicates (the noise is
+    # larger than the fit at one replicate suggested)
+    twice = resolution_note(weak, 2, 15)
+    assert twice is not None and f"about {2 * need} replicates" in twice
+    strong = _bbd(lambda x: 40 + 8 * x[0], noise=0.3)
+    assert resolution_note(strong, 1, 15) is None
+    # a main effect of 0.05 deg in 3 deg of noise (the residual orthogonal to every term)
+    d = doe.box_behnken(3, center_points=3, randomize=False)
+    X = doe.fit(d, d.coded[:, 0], model="quadratic").model_matrix
+    e = np.random.default_rng(2).standard_normal(d.n_runs)
+    e -= X @ np.linalg.lstsq(X, e, rcond=None)[0]
+    e *= 3.0 * np.sqrt(5 / (e @ e))
+    flat = doe.fit(d, 40 + 0.05 * d.coded[:, 0] + e, model="quadratic")
+    far = resolution_note(flat, 1, 15)
+    assert far is not None and f"more than {MANY_REPLICATES} replicates" in far

@@ -43,6 +43,7 @@ from demcal.calibrate.surface_fit import (
     fit_rows,
     no_variation,
     replicated,
+    resolution_note,
 )
 from demcal.calibrate.verify import (
     compare_to_target,
@@ -146,6 +147,10 @@ def rsm(ctx: Context) -> Surface:
             f"the model is not adequate after {n_reps} replicate(s) of each design point "
             f"({spent} runs; budget stages.rsm.max_runs = {budget}): its optimum is a guess "
             "within the noise; raise the budget or the fidelity, or narrow the ranges")
+        resolution = resolution_note(choice.full.rows, n_reps, design.n_runs,
+                                     ctx.unit.strip())
+        if resolution is not None:
+            warnings.append(resolution)
     warnings += choice.notes
     warnings += block_notes
     responses, response_warnings = _other_responses(ctx, design, recs, n_reps)

@@ -15,7 +15,7 @@ from demcal.errors import InputError
 from demcal.summaries.surface import FitStatistics
 
 __all__ = ["Adequacy", "JudgedModel", "ModelChoice", "adequacy", "choose_model",
-           "fit_rows", "no_variation", "replicated"]
+           "fit_rows", "no_variation", "replicated", "resolution_note"]
 
 
 def replicated(design: doe.Design, runs: list[list[float]], n_reps: int
@@ -210,3 +210,31 @@ def choose_model(kind: str, alpha_out: float, rows: Any, means: Any) -> ModelCho
             f"{alpha_out:g}; removed: {', '.join(removed)}); {why}")
     return ModelChoice(chosen=_judged(reduced, means_r), kind="reduced", removed_terms=removed,
                        full=full, notes=(note,))
+
+
+#: above this many replicates per design point the note says the test barely responds
+MANY_REPLICATES = 50
+
+
+def resolution_note(full: Any, replicates: int, n_points: int, unit: str = "deg") -> str | None:
+    """What an inadequate surface lacked, in one sentence: its largest main effect, how many
+    standard errors it stands from zero and about how many replicates of every design point
+    would tell an effect of that size from the test's noise (p < 0.05, 80 % power;
+    :func:`demcal.doe.power.replicates_to_resolve`). None where the fit has no noise to
+    judge against, or already has the replicates."""
+    from demcal.doe.power import replicates_to_resolve
+
+    res = replicates_to_resolve(full, replicates)
+    if res is None or res.replicates_needed is None or res.replicates_needed <= replicates:
+        return None
+    u = f" {unit}" if unit else ""
+    need = res.replicates_needed
+    head = (f"its largest main effect, {res.term} ({res.coefficient:+.3g}{u} from the centre "
+            f"to the high level), is {abs(res.t):.2g} standard errors from zero at the "
+            f"test's noise ({res.noise_std:.3g}{u})")
+    if need > MANY_REPLICATES:
+        return (f"{head}: telling it from the noise would take more than {MANY_REPLICATES} "
+                "replicates of each design point; over these ranges the test barely responds "
+                "to the factors")
+    return (f"{head}: about {need} replicates of each design point ({need * n_points} runs) "
+            "would tell an effect of that size from the noise (p < 0.05, 80 % power)")

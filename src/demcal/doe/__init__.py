@@ -51,6 +51,8 @@ __getattr__, __dir__, __all__ = exports(__name__, {
     "UnbalancedBlocksError": "model",
     "fit": "model",
     "OptimizationResult": "optimize",
+    "EffectResolution": "power",
+    "replicates_to_resolve": "power",
     "Solution": "optimize",
     "optimize_target": "optimize",
     "target_desirability": "optimize",
