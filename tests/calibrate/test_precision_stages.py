@@ -231,13 +231,20 @@ def test_an_inadequate_surface_says_how_many_replicates_would_resolve_it(tmp_pat
         return text.replace("center_points = 3", "center_points = 3\nmax_runs = 15")
 
     path = _write(tmp_path, edit)
-    calibrate(path)
+    res = calibrate(path)
     with RunStore(path.parent) as store:
         rsm = store.stage("rsm").summary
     assert not rsm["adequate"]
-    note = next(w for w in rsm["warnings"] if "standard errors from zero" in w)
-    assert note.startswith("its largest main effect, ")
+    note = rsm["resolution"]
+    assert note.startswith("its largest main effect, ") and "standard errors from zero" in note
     assert "replicates of each design point" in note
+    assert res["rsm_resolution"] == note  # the result says it, and so the command line
+    from demcal.report import build_report
+    from demcal.summaries import CalibrationResult
+
+    assert CalibrationResult.from_summary(res).surface.resolution == note
+    html = build_report(path.parent).read_text()
+    assert "Not resolved: its largest main effect" in html
 
 
 def test_the_resolution_note_counts_the_runs_and_knows_its_limits():

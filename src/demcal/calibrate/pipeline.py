@@ -354,7 +354,8 @@ def run_stages(ctx: st.Context) -> CalibrationResult:
         surface=SurfaceFacts(adequate=surface.adequate,
                              adequacy=surface.adequacy or FitStatistics(),
                              model=surface.model_kind,
-                             removed_terms=list(surface.removed_terms or [])),
+                             removed_terms=list(surface.removed_terms or []),
+                             resolution=surface.resolution),
         stages=_stage_json(ctx), responses=several)
     ctx.store.set_meta("result", result.to_summary())
     return result

@@ -135,7 +135,7 @@ def rsm(ctx: Context) -> Surface:
         if adequate or not opts.add_replicates or more > budget:
             break
         n_reps += 1
-    warnings = []
+    warnings, resolution = [], None
     if excluded:
         warnings.append(exclusion_note(excluded, outcomes))
     warnings += fails
@@ -149,8 +149,6 @@ def rsm(ctx: Context) -> Surface:
             "within the noise; raise the budget or the fidelity, or narrow the ranges")
         resolution = resolution_note(choice.full.rows, n_reps, design.n_runs,
                                      ctx.unit.strip())
-        if resolution is not None:
-            warnings.append(resolution)
     warnings += choice.notes
     warnings += block_notes
     responses, response_warnings = _other_responses(ctx, design, recs, n_reps)
@@ -167,7 +165,7 @@ def rsm(ctx: Context) -> Surface:
         coefficients_actual={k: float(v) for k, v in model.coefficients_actual.items()},
         equation_coded=model.equation(units="coded"),
         equation_actual=model.equation(units="actual"), adequate=bool(adequate),
-        warnings=warnings)
+        warnings=warnings, resolution=resolution)
     ctx.store.set_stage("rsm", "done", surface.to_summary(), inputs_hash=h)
     ctx.results.rsm = surface
     ctx.results.rsm_model = model

@@ -75,6 +75,8 @@ def _print_surface(result: CalibrationResult) -> None:
         console.print(styled(("warning:", "yellow"), " the response-surface model is not "
                              "adequate (see the rsm stage's warnings): its optimum is a guess "
                              "within the noise"))
+        if s.resolution is not None:
+            console.print(f"  {s.resolution}", highlight=False)
 
 
 def _runs_stored(result: CalibrationResult) -> str:

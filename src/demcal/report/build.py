@@ -479,6 +479,14 @@ def _rsm_anova_tables(b: _Builder, s: Surface) -> list[str]:
     return parts
 
 
+def _rsm_warnings(s: Surface) -> list[str]:
+    """The stage's warnings and, for a model that is not adequate, what would resolve it."""
+    out = [f'<p class="warn">Warning: {escape(str(w))}</p>' for w in s.warnings]
+    if s.resolution is not None:  # what the budget lacked, in replicates
+        out.append(f'<p class="warn">Not resolved: {escape(s.resolution)}.</p>')
+    return out
+
+
 def _rsm(b: _Builder) -> str:
     d, view = b.data, b.data.stage("rsm")
 
@@ -486,8 +494,7 @@ def _rsm(b: _Builder) -> str:
         s = d.surface
         parts = [b.table(T.rsm_design_table(s, d.symbols))]
         parts += _rsm_anova_tables(b, s)
-        for w in s.warnings:
-            parts.append(f'<p class="warn">Warning: {escape(str(w))}</p>')
+        parts += _rsm_warnings(s)
         if s.coefficients_coded:
             parts.append(b.table(T.rsm_coefficients_table(s, d.symbols)))
         for coefs, label in ((s.coefficients_coded, "Coded equation (factors from -1 to +1)"),

@@ -113,17 +113,24 @@ class SurfaceFacts:
         ``"quadratic"`` or ``"reduced"``.
     removed_terms : list of str
         The terms a reduced model dropped.
+    resolution : str or None
+        Where the model is not adequate: its largest main effect against the noise and the
+        replicates that would resolve it (``rsm_resolution``, only where set).
     """
 
     adequate: bool | None = None
     adequacy: FitStatistics = field(default_factory=FitStatistics)
     model: str = "quadratic"
     removed_terms: list[str] = field(default_factory=list)
+    resolution: str | None = None
 
     def to_summary(self) -> dict[str, Any]:
-        """The result's keys, in their order."""
-        return {"rsm_adequate": self.adequate, "rsm_adequacy": self.adequacy.to_summary(),
-                "rsm_model": self.model, "rsm_removed_terms": list(self.removed_terms)}
+        """The result's keys, in their order (``rsm_resolution`` only where set)."""
+        out = {"rsm_adequate": self.adequate, "rsm_adequacy": self.adequacy.to_summary(),
+               "rsm_model": self.model, "rsm_removed_terms": list(self.removed_terms)}
+        if self.resolution is not None:
+            out["rsm_resolution"] = self.resolution
+        return out
 
     @classmethod
     def from_result(cls, result: Mapping[str, Any]) -> SurfaceFacts | None:
@@ -133,7 +140,8 @@ class SurfaceFacts:
         return cls(adequate=result.get("rsm_adequate"),
                    adequacy=FitStatistics.from_summary(result.get("rsm_adequacy") or {}),
                    model=str(result.get("rsm_model") or "quadratic"),
-                   removed_terms=list(result.get("rsm_removed_terms") or []))
+                   removed_terms=list(result.get("rsm_removed_terms") or []),
+                   resolution=result.get("rsm_resolution"))
 
     def label(self) -> str:
         """The model in words: ``full quadratic`` or ``reduced (removed A^2, ...)``."""

@@ -185,6 +185,9 @@ class Surface:
     equation_coded, equation_actual : str or None
     adequate : bool or None
     warnings : list of str
+    resolution : str or None
+        Where the model is not adequate: its largest main effect against the noise and the
+        replicates that would resolve it (:func:`demcal.calibrate.surface_fit.resolution_note`).
     """
 
     design: str | None = None
@@ -208,6 +211,7 @@ class Surface:
     equation_actual: str | None = None
     adequate: bool | None = None
     warnings: list[str] = field(default_factory=list)
+    resolution: str | None = None
 
     #: written even when None (no lack-of-fit test); the other fields: when not None
     ALWAYS = ("lack_of_fit_p",)
