@@ -140,6 +140,28 @@ def test_optimize_with_fixed_factors_json(workdir):
     assert best["predicted"] == pytest.approx(44.12, abs=1e-3)
 
 
+def test_optimize_says_a_target_it_only_approaches_and_an_extrapolation(workdir):
+    # a target far above every prediction: the best desirability is tiny but not 0
+    far = _invoke(["optimize", "table7_bbd.csv", "--response", "aor_deg", "--target", "1e6",
+                   "--factors", "factors_bbd.toml", "--units", "coded"])
+    assert far.exit_code == 0, far.output
+    text = " ".join(far.output.split())
+    assert "is not reached within the factors' ranges" in text
+    assert "predicted to give" not in text
+    # a factor held far outside the design (x3 spans 0.55-0.75): the model extrapolates
+    out = _invoke(["optimize", "table7_bbd.csv", "--response", "aor_deg", "--target", "44.12",
+                   "--factors", "factors_bbd.toml", "--units", "coded", "--fix", "x3=1.5",
+                   "--json", "far.json"])
+    assert out.exit_code == 0, out.output
+    assert "x3 held or searched outside the design's range" in " ".join(out.output.split())
+    assert json.loads((workdir / "far.json").read_text())["outside_design"] == ["x3"]
+    inside = _invoke(["optimize", "table7_bbd.csv", "--response", "aor_deg", "--target",
+                      "44.12", "--factors", "factors_bbd.toml", "--units", "coded", "--fix",
+                      "x3=0.75", "--json", "in.json"])
+    assert "outside the design" not in inside.output
+    assert json.loads((workdir / "in.json").read_text())["outside_design"] == []
+
+
 def test_design_then_analyze_round_trip_with_excluded_runs(workdir):
     assert _invoke(
         ["design", "bbd", "--factors", "factors_bbd.toml", "--center-points", "3", "--seed", "2",

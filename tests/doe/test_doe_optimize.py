@@ -57,6 +57,17 @@ def test_fixed_factor_and_bounds_are_respected(sphere_fit):
         assert s.predicted == pytest.approx(9.0, abs=1e-3)
 
 
+def test_a_value_held_or_searched_beyond_the_design_is_named(sphere_fit):
+    # a spans 0-2 (coded -1..1): 3 is coded +2; b's search widened past its -5..5
+    res = doe.optimize_target(sphere_fit, 9.0, fixed={"a": 3.0}, seed=2)
+    assert res.outside == ("a",)
+    res = doe.optimize_target(sphere_fit, 9.0, bounds={"b": (-8.0, 5.0)}, seed=2)
+    assert res.outside == ("b",)
+    res = doe.optimize_target(sphere_fit, 9.0, fixed={"a": 2.0}, bounds={"b": (0.0, 5.0)},
+                              seed=2)
+    assert res.outside == ()  # on the edge and inside: no extrapolation
+
+
 def test_unreachable_target_goes_to_the_nearest_edge(sphere_fit):
     res = doe.optimize_target(sphere_fit, 12.0, seed=0)
     best = res.best

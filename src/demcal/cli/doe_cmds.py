@@ -19,7 +19,7 @@ from rich.table import Table
 
 from demcal import doe
 from demcal.cli import app
-from demcal.cli._common import check_output_file, cli_errors, console, log
+from demcal.cli._common import check_output_file, cli_errors, console, log, styled
 from demcal.cli._outputs import refuse_overwrites
 from demcal.cli.optimize_goals import GoalsRun, check_goal_options, optimize_goals
 from demcal.errors import InputError
@@ -640,13 +640,24 @@ def analyze(
         console.print(f"results written to {json_out}", highlight=False)
 
 
+#: the best desirability at which a target counts as reached (1: the prediction is the
+#: target; the search stops within about 1e-4 of it)
+REACHED = 0.99
+
+
 def _optimize_headline(frame: Any, response: str, target: float, model: str) -> str:
     """The solutions table's title; a target no setting reaches (every desirability 0:
-    every prediction outside the limits) is called unreachable, never "predicted to give"."""
-    if len(frame) and float(frame["desirability"].max()) > 0:
+    every prediction outside the limits) is called unreachable, and one the best setting
+    only approaches (desirability below :data:`REACHED`) not reached, never "predicted to
+    give"."""
+    best = float(frame["desirability"].max()) if len(frame) else 0.0
+    if best >= REACHED:
         return f"Settings predicted to give {response} = {target:g} ({model} model)"
     closest = "" if not len(frame) else \
         f"; the closest settings predict {float(frame['predicted'].iloc[0]):.5g}"
+    if best > 0:
+        return (f"Target {response} = {target:g} is not reached within the factors' ranges "
+                f"({model} model, best desirability {best:.3g}{closest})")
     return (f"Target {response} = {target:g} is unreachable within the factors' ranges "
             f"({model} model, desirability 0{closest})")
 
@@ -736,6 +747,10 @@ def optimize_cmd(
         f"95 % CI of the mean and PI of one run",
         highlight=False,
     )
+    if res.outside:
+        console.print(styled(("warning:", "yellow"), f" {', '.join(res.outside)} held or "
+                             "searched outside the design's range (--fix, --range): the model "
+                             "extrapolates there, and its predictions are a guess"))
     if json_out is not None:
         doc = {
             "response": response,
@@ -744,6 +759,7 @@ def optimize_cmd(
             "lower": res.lower,
             "upper": res.upper,
             "excluded_runs": [_clean(v) for v in rs.excluded_runs],
+            "outside_design": list(res.outside),
             "solutions": [
                 {k: _clean(v) for k, v in rec.items()} for rec in frame.to_dict(orient="records")
             ],

@@ -128,6 +128,11 @@ class OptimizationResult:
         Local optima dropped because the constraint called them infeasible.
     alpha : float
         1 - confidence level of the intervals.
+    names : tuple of str
+        The model's factors.
+    outside : tuple of str
+        The factors held (``fixed``) or searched (``bounds``) beyond the design's coded box
+        [-1, 1]: there the model extrapolates, and its predictions are a guess.
     """
 
     solutions: tuple[Solution, ...]
@@ -138,6 +143,7 @@ class OptimizationResult:
     n_rejected: int
     alpha: float = 0.05
     names: tuple[str, ...] = field(default=())
+    outside: tuple[str, ...] = field(default=())
 
     @property
     def best(self) -> Solution:
@@ -559,4 +565,18 @@ def optimize_target(
         n_rejected=n_rejected,
         alpha=alpha,
         names=rs.names,
+        outside=_outside(rs.names, lo, hi, fixed_c),
     )
+
+
+#: how far past the design's coded box a held value or a search bound may go before the
+#: result calls it an extrapolation (rounding of actual values converted to coded)
+_BOX_SLACK = 1e-9
+
+
+def _outside(names: tuple[str, ...], lo: np.ndarray, hi: np.ndarray,
+             fixed_c: Mapping[str, float]) -> tuple[str, ...]:
+    """The factors held or searched beyond the coded box [-1, 1], in the model's order."""
+    return tuple(n for j, n in enumerate(names)
+                 if (abs(fixed_c[n]) > 1 + _BOX_SLACK if n in fixed_c
+                     else lo[j] < -1 - _BOX_SLACK or hi[j] > 1 + _BOX_SLACK))
