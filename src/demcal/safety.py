@@ -30,7 +30,8 @@ if TYPE_CHECKING:  # pandas loads with the caller's frame, not with every comman
 
 __all__ = ["MAX_IMAGE_BYTES", "MAX_IMAGE_PIXELS", "MEASURE_BYTES_PER_PIXEL", "available_memory",
            "csv_cell", "csv_safe", "image_problem", "memory_problem", "not_regular",
-           "photo_too_large", "regular_input", "safe_filename", "study_image"]
+           "photo_too_large", "regular_input", "repeated_column", "safe_filename",
+           "study_image"]
 
 MAX_IMAGE_BYTES = 50 * 1024 * 1024
 MAX_IMAGE_PIXELS = 100_000_000
@@ -110,6 +111,22 @@ def safe_filename(text: str, max_len: int = 100) -> str:
     """
     name = _UNSAFE.sub("_", str(text)).strip("._") or "_"
     return name[:max_len]
+
+
+def repeated_column(path: str | Path) -> str | None:
+    """The first column name a CSV file's header repeats (spaces stripped; empty names, as a
+    spreadsheet's trailing commas leave, not counted), or None. A reader that renames the
+    second (pandas: ``x3.1``) would otherwise use one of the two without a word."""
+    import csv
+
+    with open(path, newline="", encoding="utf-8", errors="replace") as fh:
+        header = next(csv.reader(fh), [])
+    seen: set[str] = set()
+    for name in (c.strip() for c in header):
+        if name and name in seen:
+            return name
+        seen.add(name)
+    return None
 
 
 def csv_cell(value: Any) -> Any:

@@ -62,3 +62,15 @@ def test_an_empty_row_is_still_not_done_yet(sheet, study_file):
     res = CliRunner().invoke(app, ["import", str(sheet), "--study", str(study_file)])
     assert res.exit_code == 0, res.output
     assert _stored(study_file) == len(frame) - 1
+
+
+def test_a_column_named_twice_is_refused_not_half_read(sheet, study_file):
+    # pandas would read the second 'aor_deg' as 'aor_deg.1' and import the first in silence
+    text = sheet.read_text(encoding="utf-8").splitlines()
+    text[0] = text[0].replace("outcome", "aor_deg", 1)
+    sheet.write_text("\n".join(text) + "\n", encoding="utf-8")
+    res = CliRunner().invoke(app, ["import", str(sheet), "--study", str(study_file)])
+    assert res.exit_code == 2, res.output
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and "the column 'aor_deg' appears twice" in lines[0], lines
+    assert _stored(study_file) == 0

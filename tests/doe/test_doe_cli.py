@@ -162,6 +162,17 @@ def test_optimize_says_a_target_it_only_approaches_and_an_extrapolation(workdir)
     assert json.loads((workdir / "in.json").read_text())["outside_design"] == []
 
 
+def test_a_run_sheet_column_named_twice_is_one_line(workdir):
+    text = (workdir / "table7_bbd.csv").read_text().splitlines()
+    names = text[0].split(",")
+    names[names.index("x8")] = " x3"  # spaces around a name do not make it another
+    text[0] = ",".join(names) + ",,"  # a spreadsheet's trailing empty names are no repeat
+    (workdir / "twice.csv").write_text("\n".join([text[0], *(r + ",," for r in text[1:])]))
+    res = runner.invoke(app, ["analyze", "twice.csv", "--response", "aor_deg"])
+    assert res.exit_code == 2, res.output
+    assert "the column 'x3' appears twice in the header" in " ".join(res.output.split())
+
+
 def test_design_then_analyze_round_trip_with_excluded_runs(workdir):
     assert _invoke(
         ["design", "bbd", "--factors", "factors_bbd.toml", "--center-points", "3", "--seed", "2",

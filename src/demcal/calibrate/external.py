@@ -21,6 +21,7 @@ from demcal.calibrate.runner import ExternalPending, Point, Runner
 from demcal.errors import InputError
 from demcal.limits import MAX_INPUT_FILE_BYTES
 from demcal.results import RunResult
+from demcal.safety import repeated_column
 from demcal.virtual import PARAMETERS
 
 __all__ = ["OUTCOMES", "import_results", "write_run_sheet"]
@@ -74,6 +75,9 @@ def import_results(csv: str | Path, runner: Runner, responses: Sequence[str] = (
             from None
     except (pd.errors.ParserError, ValueError) as exc:
         raise InputError(f"{path}: not a readable CSV run sheet ({one_line(exc)})") from None
+    if (twice := repeated_column(path)) is not None:
+        raise InputError(f"{path}: the column {twice!r} appears twice in the header; give "
+                         "each column one name")
     need = {"key", "stage", "point", "replicate", "seed", *responses, "outcome"}
     if missing := need - set(frame.columns):
         raise InputError(f"{path}: missing column(s) {', '.join(sorted(missing))}")

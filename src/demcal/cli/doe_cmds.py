@@ -24,7 +24,7 @@ from demcal.cli._outputs import refuse_overwrites
 from demcal.cli.optimize_goals import GoalsRun, check_goal_options, optimize_goals
 from demcal.errors import InputError
 from demcal.limits import MAX_DESIGN_RUNS, MAX_SEED, check_finite
-from demcal.safety import regular_input
+from demcal.safety import regular_input, repeated_column
 
 if TYPE_CHECKING:  # pandas loads when a sheet is read, not with `demcal --help`
     import pandas as pd
@@ -159,6 +159,9 @@ def _read_csv(path: Path) -> pd.DataFrame:
         frame = pd.read_csv(path, skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise InputError(f"runs file {str(path)!r} is not a readable CSV: {exc}") from None
+    if (twice := repeated_column(path)) is not None:
+        raise InputError(f"runs file {str(path)!r}: the column {twice!r} appears twice in the "
+                         "header; give each column one name")
     frame.columns = [str(c).strip() for c in frame.columns]
     if frame.empty:
         raise InputError(f"runs file {str(path)!r} has no rows")
