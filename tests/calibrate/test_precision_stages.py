@@ -245,6 +245,17 @@ def test_an_inadequate_surface_says_how_many_replicates_would_resolve_it(tmp_pat
     assert CalibrationResult.from_summary(res).surface.resolution == note
     html = build_report(path.parent).read_text()
     assert "Not resolved: its largest main effect" in html
+    # and the command line, resuming (nothing runs): the note, and what its confirmation is worth
+    from typer.testing import CliRunner
+
+    from demcal.cli import app
+
+    out = CliRunner().invoke(app, ["calibrate", str(path), "--no-report"])
+    text = " ".join(out.output.split())
+    assert out.exit_code == 0, out.output
+    assert note in text
+    assert res["verification"]["confirmed"]  # the 6 deg test's wide interval holds the mean
+    assert "its wide interval confirms little" in text
 
 
 def test_the_resolution_note_counts_the_runs_and_knows_its_limits():

@@ -174,7 +174,11 @@ def _print_verification(result: CalibrationResult) -> None:
             f"{' (corrected by the last offset)' if n_rounds > 1 else ''}"
             f" predicted {result.predicted_lead:.2f}"
             f"{u}, 95 % interval for the mean of {v.n} runs "
-            f"{v.confirm_pi_low:.2f}-{v.confirm_pi_high:.2f}: ", word))
+            f"{v.confirm_pi_low:.2f}-{v.confirm_pi_high:.2f}: ", word,
+            # an inadequate surface's interval is wide: inside it says little
+            " (by a surface that is not adequate: its wide interval confirms little)"
+            if v.confirmed and result.surface is not None and not result.surface.adequate
+            else ""))
     tol, hw, target = v.tolerance_percent, v.half_width, result.target
     if v.within_tolerance is False:
         console.print(styled(("note:", "yellow"), f" the verification misses the target by "
