@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -38,6 +38,7 @@ from demcal.calibrate.runner import Point
 from demcal.calibrate.screening import screening
 from demcal.calibrate.steepest import steepest
 from demcal.calibrate.surface_fit import (
+    ModelChoice,
     adequacy,
     choose_model,
     fit_rows,
@@ -89,7 +90,46 @@ def rsm(ctx: Context) -> Surface:
     h = ctx.begin("rsm", {"factors": rows, "opts": opts.model_dump(mode="json"),
                           "fixed": ctx.fixed, "reps": ctx.reps("rsm"),
                           "crn": ctx.study.common_seeds})
-    space = factor_space(factors)
+    design, design_name = _rsm_design(opts, factor_space(factors))
+    n_reps = ctx.reps("rsm")
+    budget = opts.max_runs if opts.max_runs is not None else design.n_runs * n_reps
+    rounds: list[SurfaceRound] = []
+    while True:
+        last = _replicate_round(ctx, design, n_reps, lambda base: ctx.store.set_stage(
+            "rsm", "failed", {"design": design_name, "factors": rows, **base}, inputs_hash=h))
+        rounds.append(last.row())
+        more = design.n_runs * (n_reps + 1)
+        if last.choice.adequacy.adequate or not opts.add_replicates or more > budget:
+            break
+        n_reps += 1
+    choice, model = last.choice, last.choice.chosen.rows
+    table, lof_p = choice.chosen.table, choice.chosen.lack_of_fit_p
+    responses, response_warnings = _other_responses(ctx, design, last.recs, n_reps)
+    surface = Surface(
+        design=design_name, factors=factors, runs=last.design_rows,
+        excluded_points=last.excluded, replicates=n_reps, responses=responses,
+        anova=anova_records(table.to_records()),
+        fit=AnovaFit.from_summary(table.fit.to_dict()), lack_of_fit_p=lof_p,
+        adequacy=choice.adequacy.statistics, rounds=rounds,
+        model=choice.kind, removed_terms=list(choice.removed_terms),
+        anova_full=anova_records(choice.full.table.to_records()),
+        adequacy_full=choice.full.adequacy.statistics,
+        coefficients_coded={k: float(v) for k, v in model.coefficients_coded.items()},
+        coefficients_actual={k: float(v) for k, v in model.coefficients_actual.items()},
+        equation_coded=model.equation(units="coded"),
+        equation_actual=model.equation(units="actual"),
+        adequate=bool(choice.adequacy.adequate),
+        warnings=[*last.warnings(budget), *response_warnings],
+        resolution=None if choice.adequacy.adequate else resolution_note(
+            choice.full.rows, n_reps, design.n_runs, ctx.unit.strip()))
+    ctx.store.set_stage("rsm", "done", surface.to_summary(), inputs_hash=h)
+    ctx.results.rsm = surface
+    ctx.results.rsm_model = model
+    return surface
+
+
+def _rsm_design(opts: Any, space: doe.FactorSpace) -> tuple[doe.Design, str]:
+    """The stage's design in coded units and its stored name (``box_behnken`` or ``ccd``)."""
     try:
         if opts.design == "bbd":
             design = doe.box_behnken(space, center_points=opts.center_points, randomize=False)
@@ -98,78 +138,74 @@ def rsm(ctx: Context) -> Surface:
                                            randomize=False)
     except InputError as exc:
         raise InputError(f"stages.rsm.design: {exc}") from None
-    design_name = "box_behnken" if opts.design == "bbd" else "ccd"
-    n_reps = ctx.reps("rsm")
-    budget = opts.max_runs if opts.max_runs is not None else design.n_runs * n_reps
-    rounds: list[SurfaceRound] = []
-    while True:
-        recs = ctx.run("rsm", design_points(ctx, design, range(n_reps)))
-        y, outcomes, runs = point_runs(recs, design.n_runs, ctx.lead.name)
-        excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
-        design_rows = run_rows(design, y, outcomes, runs)
-        base = {"design": design_name, "factors": rows,  # what a failure stores
-                "runs": [r.to_summary() for r in design_rows], "excluded_points": excluded,
-                "replicates": n_reps}
-        rep_design, y_rows = replicated(design, runs, n_reps)
-        try:
-            model, block_notes = fit_rows(rep_design, y_rows, n_reps, ctx.study.common_seeds,
-                                          unit=ctx.unit.strip())
-            if model.df_resid < 1:
-                raise InputError("no residual degrees of freedom")
-        except InputError as exc:
-            err = f"rsm: the quadratic model cannot be fitted ({exc}); " + exclusion_note(
-                excluded, outcomes)
-            ctx.store.set_stage("rsm", "failed", {**base, "error": err}, inputs_hash=h)
-            raise StudyError(err) from None
-        full = doe.fit(design, y, model="quadratic") if n_reps > 1 else model
-        choice = choose_model(opts.model, opts.alpha_out, model, full)
-        model, table, lof_p = choice.chosen.rows, choice.chosen.table, choice.chosen.lack_of_fit_p
-        adequate, fails = choice.adequacy.adequate, list(choice.adequacy.failed)
-        stats_ = choice.adequacy.statistics
-        rounds.append(SurfaceRound(
-            replicates=n_reps, runs=design.n_runs * n_reps,
-            blocks=model.block_df + 1 if model.block_df else 0, model=choice.kind,
-            removed_terms=list(choice.removed_terms), adequate=adequate, failed=fails,
-            statistics=stats_))
-        more = design.n_runs * (n_reps + 1)
-        if adequate or not opts.add_replicates or more > budget:
-            break
-        n_reps += 1
-    warnings, resolution = [], None
-    if excluded:
-        warnings.append(exclusion_note(excluded, outcomes))
-    warnings += fails
-    if lof_p is None:
-        warnings.append("no lack-of-fit test (no replicated points with spare df)")
-    if not adequate:
-        spent = design.n_runs * n_reps
-        warnings.append(
-            f"the model is not adequate after {n_reps} replicate(s) of each design point "
-            f"({spent} runs; budget stages.rsm.max_runs = {budget}): its optimum is a guess "
-            "within the noise; raise the budget or the fidelity, or narrow the ranges")
-        resolution = resolution_note(choice.full.rows, n_reps, design.n_runs,
-                                     ctx.unit.strip())
-    warnings += choice.notes
-    warnings += block_notes
-    responses, response_warnings = _other_responses(ctx, design, recs, n_reps)
-    warnings += response_warnings
-    surface = Surface(
-        design=design_name, factors=factors, runs=design_rows, excluded_points=excluded,
-        replicates=n_reps, responses=responses, anova=anova_records(table.to_records()),
-        fit=AnovaFit.from_summary(table.fit.to_dict()), lack_of_fit_p=lof_p, adequacy=stats_,
-        rounds=rounds,
-        model=choice.kind, removed_terms=list(choice.removed_terms),
-        anova_full=anova_records(choice.full.table.to_records()),
-        adequacy_full=choice.full.adequacy.statistics,
-        coefficients_coded={k: float(v) for k, v in model.coefficients_coded.items()},
-        coefficients_actual={k: float(v) for k, v in model.coefficients_actual.items()},
-        equation_coded=model.equation(units="coded"),
-        equation_actual=model.equation(units="actual"), adequate=bool(adequate),
-        warnings=warnings, resolution=resolution)
-    ctx.store.set_stage("rsm", "done", surface.to_summary(), inputs_hash=h)
-    ctx.results.rsm = surface
-    ctx.results.rsm_model = model
-    return surface
+    return design, "box_behnken" if opts.design == "bbd" else "ccd"
+
+
+@dataclass(frozen=True)
+class _ReplicateRound:
+    """One round of the response-surface stage: ``n_reps`` replicates of every design point
+    run, fitted and judged."""
+
+    design: doe.Design
+    n_reps: int
+    recs: list[RunRecord]
+    outcomes: list[Any]
+    excluded: list[int]
+    design_rows: list[Any]
+    choice: ModelChoice
+    block_notes: list[str]
+
+    def row(self) -> SurfaceRound:
+        """The round as the stage's ``rounds`` keeps it."""
+        model, adequacy_ = self.choice.chosen.rows, self.choice.adequacy
+        return SurfaceRound(
+            replicates=self.n_reps, runs=self.design.n_runs * self.n_reps,
+            blocks=model.block_df + 1 if model.block_df else 0, model=self.choice.kind,
+            removed_terms=list(self.choice.removed_terms), adequate=adequacy_.adequate,
+            failed=list(adequacy_.failed), statistics=adequacy_.statistics)
+
+    def warnings(self, budget: int) -> list[str]:
+        """What the stage warns of after its last round (``budget``: its run budget)."""
+        out = [exclusion_note(self.excluded, self.outcomes)] if self.excluded else []
+        out += self.choice.adequacy.failed
+        if self.choice.chosen.lack_of_fit_p is None:
+            out.append("no lack-of-fit test (no replicated points with spare df)")
+        if not self.choice.adequacy.adequate:
+            out.append(
+                f"the model is not adequate after {self.n_reps} replicate(s) of each design "
+                f"point ({self.design.n_runs * self.n_reps} runs; budget stages.rsm.max_runs "
+                f"= {budget}): its optimum is a guess within the noise; raise the budget or "
+                "the fidelity, or narrow the ranges")
+        return [*out, *self.choice.notes, *self.block_notes]
+
+
+def _replicate_round(ctx: Context, design: doe.Design, n_reps: int,
+                     store_failure: Any) -> _ReplicateRound:
+    """Run ``n_reps`` replicates of every design point (the stored ones are reused), fit the
+    quadratic to every row and choose the model; a fit that fails stores the stage as failed
+    (``store_failure(summary)``) and raises :class:`StudyError`."""
+    opts = ctx.study.stages.rsm
+    recs = ctx.run("rsm", design_points(ctx, design, range(n_reps)))
+    y, outcomes, runs = point_runs(recs, design.n_runs, ctx.lead.name)
+    excluded = [i for i in range(design.n_runs) if math.isnan(y[i])]
+    design_rows = run_rows(design, y, outcomes, runs)
+    rep_design, y_rows = replicated(design, runs, n_reps)
+    try:
+        model, block_notes = fit_rows(rep_design, y_rows, n_reps, ctx.study.common_seeds,
+                                      unit=ctx.unit.strip())
+        if model.df_resid < 1:
+            raise InputError("no residual degrees of freedom")
+    except InputError as exc:
+        err = f"rsm: the quadratic model cannot be fitted ({exc}); " + exclusion_note(
+            excluded, outcomes)
+        store_failure({"runs": [r.to_summary() for r in design_rows],
+                       "excluded_points": excluded, "replicates": n_reps, "error": err})
+        raise StudyError(err) from None
+    means = doe.fit(design, y, model="quadratic") if n_reps > 1 else model
+    return _ReplicateRound(design=design, n_reps=n_reps, recs=list(recs), outcomes=outcomes,
+                           excluded=excluded, design_rows=design_rows,
+                           choice=choose_model(opts.model, opts.alpha_out, model, means),
+                           block_notes=list(block_notes))
 
 
 def _other_responses(ctx: Context, design: doe.Design, recs: Sequence[RunRecord], n_reps: int
