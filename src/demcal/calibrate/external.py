@@ -59,6 +59,29 @@ def import_results(csv: str | Path, runner: Runner, responses: Sequence[str] = (
     run given twice) stores nothing.
     """
     path = Path(csv)
+    frame = _read_sheet(path, {"key", "stage", "point", "replicate", "seed", *responses,
+                               "outcome"})
+    # every row is checked before any is stored; then all are stored in one transaction
+    todo: list[tuple[str, Point, RunResult, int]] = []
+    seen: dict[str, int] = {}
+    for i, row in frame.iterrows():
+        line = int(i) + 2  # type: ignore[call-overload]
+        stage, p = _checked_row(row, f"{path.name} row {line}", runner, frame.columns, seen)
+        seen[row["key"]] = line
+        if (response := _response(row, f"{path.name} row {line}", responses)) is None:
+            continue  # not done yet
+        outcome, values = response
+        todo.append((stage, p, _imported(runner.key(stage, p), outcome, values, path),
+                     2 if outcome in ("unstable", "unsettled") else 1))
+    with runner.store.batch():
+        for stage, p, res, attempts in todo:
+            runner.record(stage, p, res, attempts=attempts, started=0.0)
+    return len(todo)
+
+
+def _read_sheet(path: Path, need: set[str]) -> pd.DataFrame:
+    """A filled run sheet as read (only an empty cell missing), its columns checked: a file
+    that is not one, a column named twice or one missing is an input error."""
     if not path.is_file():
         raise InputError(f"results file not found (or not a file): {path}")
     if path.stat().st_size > MAX_INPUT_FILE_BYTES:
@@ -78,38 +101,29 @@ def import_results(csv: str | Path, runner: Runner, responses: Sequence[str] = (
     if (twice := repeated_column(path)) is not None:
         raise InputError(f"{path}: the column {twice!r} appears twice in the header; give "
                          "each column one name")
-    need = {"key", "stage", "point", "replicate", "seed", *responses, "outcome"}
     if missing := need - set(frame.columns):
         raise InputError(f"{path}: missing column(s) {', '.join(sorted(missing))}")
-    # every row is checked before any is stored; then all are stored in one transaction
-    todo: list[tuple[str, Point, dict, int]] = []
-    seen: dict[str, int] = {}
-    for i, row in frame.iterrows():
-        line = int(i) + 2  # type: ignore[call-overload]
-        where = f"{path.name} row {line}"
-        try:
-            params = {n: _finite(row[n], n) for n in PARAMETERS if n in frame.columns}
-            p = Point(_int(row["point"], "point"), _int(row["replicate"], "replicate"), params,
-                      _int(row["seed"], "seed"))
-        except ValueError as exc:
-            raise InputError(f"{where}: {exc}") from None
-        stage = str(row["stage"])
-        if runner.key(stage, p) != row["key"]:
-            raise InputError(f"{where}: key does not match its stage, parameters and seed "
-                             "(a sheet of another study, or edited parameters)")
-        if row["key"] in seen:
-            raise InputError(f"{where}: the same run (key {row['key']}) as row "
-                             f"{seen[row['key']]}; give each run once")
-        seen[row["key"]] = line
-        if (response := _response(row, where, responses)) is None:
-            continue  # not done yet
-        outcome, values = response
-        todo.append((stage, p, _imported(runner.key(stage, p), outcome, values, path),
-                     2 if outcome in ("unstable", "unsettled") else 1))
-    with runner.store.batch():
-        for stage, p, res, attempts in todo:
-            runner.record(stage, p, res, attempts=attempts, started=0.0)
-    return len(todo)
+    return frame
+
+
+def _checked_row(row: pd.Series, where: str, runner: Runner, columns: pd.Index,
+                 seen: dict[str, int]) -> tuple[str, Point]:
+    """A row's stage and run, its key recomputed and checked against the row's and against
+    the rows before it (``seen``: key -> line)."""
+    try:
+        params = {n: _finite(row[n], n) for n in PARAMETERS if n in columns}
+        p = Point(_int(row["point"], "point"), _int(row["replicate"], "replicate"), params,
+                  _int(row["seed"], "seed"))
+    except ValueError as exc:
+        raise InputError(f"{where}: {exc}") from None
+    stage = str(row["stage"])
+    if runner.key(stage, p) != row["key"]:
+        raise InputError(f"{where}: key does not match its stage, parameters and seed "
+                         "(a sheet of another study, or edited parameters)")
+    if row["key"] in seen:
+        raise InputError(f"{where}: the same run (key {row['key']}) as row "
+                         f"{seen[row['key']]}; give each run once")
+    return stage, p
 
 
 def _imported(key: str, outcome: str, values: dict[str, float], path: Path) -> RunResult:
