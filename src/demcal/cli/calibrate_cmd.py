@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated
 
@@ -28,6 +30,7 @@ from demcal.cli._common import (
     cli_errors,
     console,
     styled,
+    with_options,
 )
 from demcal.display import readable
 from demcal.errors import InputError
@@ -249,53 +252,80 @@ def _refuse_json_onto_inputs(study: Path, json_out: Path | None) -> None:
     refuse_overwrites({"--json": json_out}, study_inputs(study, load_study(study)))
 
 
-@app.command("calibrate")
-@cli_errors
-def calibrate_cmd(
-    study: Annotated[Path, typer.Argument(help="Study file (TOML); see `demcal init`.")],
-    json_out: Annotated[Path | None, typer.Option("--json", help="Write the result as JSON.")]
-    = None,
+@dataclass(frozen=True)
+class CalibrateOptions:
+    """The options of ``demcal calibrate``, typed (:func:`~demcal.cli._common.with_options`)."""
+
+    study: Annotated[Path, typer.Argument(help="Study file (TOML); see `demcal init`.")]
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write the result as JSON.")] \
+        = None
     external: Annotated[bool, typer.Option(
-        "--external", help="Run nothing: write the next stage's run sheet (CSV) and stop.")]
-    = False,
-    dask: Annotated[str | None, typer.Option(help="Dask scheduler address (tcp://...).")]
-    = None,
+        "--external", help="Run nothing: write the next stage's run sheet (CSV) and stop.")] \
+        = False
+    dask: Annotated[str | None, typer.Option(help="Dask scheduler address (tcp://...).")] \
+        = None
     dask_timeout: Annotated[float | None, typer.Option(
         "--dask-timeout", help="Give up after this many seconds with no Dask worker "
-        "(default: the study's, else wait and say so).")] = None,
+        "(default: the study's, else wait and say so).")] = None
     workers: Annotated[int | None, typer.Option(
         min=1, max=1024, help="Local worker processes, 1-1024 (default: the study's, else the "
-        "CPU count).")]
-    = None,
-    report: Annotated[bool, typer.Option(help="Build the HTML report at the end.")] = True,
+        "CPU count).")] = None
+    report: Annotated[bool, typer.Option(help="Build the HTML report at the end.")] = True
     break_lock: Annotated[bool, typer.Option(
         "--break-lock", help="Take the study's writer lock even if another host holds it "
-        "(only when that process is gone).")] = False,
-) -> None:
+        "(only when that process is gone).")] = False
+
+
+@app.command("calibrate")
+@cli_errors
+@with_options(CalibrateOptions)
+def calibrate_cmd(o: CalibrateOptions) -> None:
     """Run (or resume) a calibration study; print the calibrated parameters."""
-    from demcal.calibrate.external import write_run_sheet
-    from demcal.calibrate.pipeline import run_stages
-    from demcal.calibrate.runner import ExternalPending
+    dask = _checked_inputs(o)
+    outcome = _run(o, dask)
+    if outcome is None:  # --external: a run sheet was written
+        return
+    result, demonstration = outcome
+    # every file first (the JSON, the card or report), the console last: a console that
+    # is gone (a closed pipe, a hung-up terminal) or blocks costs no result
+    if o.json_out is not None:
+        o.json_out.write_text(json.dumps(result.to_summary(), indent=2))
+    lines, report_path = _write_card_or_report(study_folder(o.study), o.report)
+    _print_result(result)
+    if o.json_out is not None:
+        console.print(f"result: {o.json_out}")
+    for line in lines:
+        console.print(line, markup=False, highlight=False)
+    if report_path is not None:
+        check_report_problems(report_path)
+    if demonstration:  # last, where a first run's reader looks
+        _print_demonstration_worth(result)
 
-    # every output path is checked before the first run (not after the whole study)
-    check_output_file(json_out, "--json")
-    study_dir = study_folder(study)
-    if not Path(study).is_file():
-        raise InputError(f"study file not found (or not a file): {study}")
-    _refuse_json_onto_inputs(study, json_out)
-    if report:
-        check_output_dir(study_dir / "report", "report folder")
-    if dask_timeout is not None and not 0 < dask_timeout <= 7 * 86400:
-        raise InputError(f"--dask-timeout must be in (0, 604800] s; got {dask_timeout!r}")
-    if dask is not None:
-        from demcal.execute.dask_exec import check_address
 
-        dask = check_address(dask)
+def _checked_inputs(o: CalibrateOptions) -> str | None:
+    """Every input and output path checked before the first run (not after the whole
+    study); the Dask scheduler's address, checked (None: local workers)."""
+    check_output_file(o.json_out, "--json")
+    if not Path(o.study).is_file():
+        raise InputError(f"study file not found (or not a file): {o.study}")
+    _refuse_json_onto_inputs(o.study, o.json_out)
+    if o.report:
+        check_output_dir(study_folder(o.study) / "report", "report folder")
+    if o.dask_timeout is not None and not 0 < o.dask_timeout <= 7 * 86400:
+        raise InputError(f"--dask-timeout must be in (0, 604800] s; got {o.dask_timeout!r}")
+    if o.dask is None:
+        return None
+    from demcal.execute.dask_exec import check_address
 
+    return check_address(o.dask)
+
+
+def _progress(external: bool) -> tuple[Progress, Callable[[str, int, int], None]]:
+    """The stages' progress bars and the callback that feeds them; they start at the first
+    run's progress, so an early error prints one line and nothing else."""
     columns = (TextColumn("{task.description}", markup=False), BarColumn(),
                MofNCompleteColumn(), TimeElapsedColumn(), TextColumn("left"),
                TimeRemainingColumn())
-    # started at the first run's progress: an early error prints one line, nothing else
     progress = Progress(*columns, console=console, transient=False, disable=external)
     tasks: dict[str, int] = {}
 
@@ -306,53 +336,47 @@ def calibrate_cmd(
             tasks[stage] = progress.add_task(stage, total=total)
         progress.update(tasks[stage], completed=done, total=total)
 
-    from demcal.calibrate.pipeline import open_study
+    return progress, on_progress
 
+
+def _run(o: CalibrateOptions, dask: str | None) -> tuple[CalibrationResult, bool] | None:
+    """Run the study's stages: its result and whether it is the quick demonstration; None
+    where ``--external`` wrote the next run sheet. A Ctrl-C or SIGTERM says how many runs
+    are stored and exits with its code."""
+    from demcal.calibrate.external import write_run_sheet
+    from demcal.calibrate.pipeline import open_study, run_stages
+    from demcal.calibrate.runner import ExternalPending
+
+    progress, on_progress = _progress(o.external)
     try:
-        ctx = open_study(study, workers=workers, dask=dask, external=external,
-                         progress=on_progress, break_lock=break_lock)
-        ctx.runner.dask_timeout = dask_timeout if dask_timeout is not None else \
+        ctx = open_study(o.study, workers=o.workers, dask=dask, external=o.external,
+                         progress=on_progress, break_lock=o.break_lock)
+        ctx.runner.dask_timeout = o.dask_timeout if o.dask_timeout is not None else \
             ctx.study.executor.dask_timeout
-        demonstration = _is_quick_demonstration(ctx.study)
         try:
-            result = run_stages(ctx)
+            return run_stages(ctx), _is_quick_demonstration(ctx.study)
         except (KeyboardInterrupt, SystemExit) as stop:
             code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else stop.code
             if code not in (EXIT_INTERRUPTED, EXIT_TERMINATED):
                 raise
             progress.stop()
-            n = ctx.store.count()
             how = "interrupted:" if code == EXIT_INTERRUPTED else "terminated (SIGTERM):"
-            console.print(styled((how, "yellow"), f" {n} finished runs are stored; "
-                                 f"run `demcal calibrate {study}` again to resume"))
+            console.print(styled((how, "yellow"), f" {ctx.store.count()} finished runs are "
+                                 f"stored; run `demcal calibrate {o.study}` again to resume"))
             raise typer.Exit(code) from None
         except ExternalPending as pending:
             progress.stop()
             names = [r.name for r in ctx.responses]
-            path = write_run_sheet(pending, ctx.runner, study_dir, names)
+            path = write_run_sheet(pending, ctx.runner, study_folder(o.study), names)
             console.print(f"{pending.stage}: {len(pending.points)} runs to do externally; run "
                           f"sheet: {path}\nfill {', '.join(names)} (or outcome) and run "
-                          f"`demcal import {path.name} --study {study}`, then `demcal "
+                          f"`demcal import {path.name} --study {o.study}`, then `demcal "
                           "calibrate` again")
-            return
+            return None
         finally:
             ctx.store.close()
     finally:
         progress.stop()
-    # every file first (the JSON, the card or report), the console last: a console that
-    # is gone (a closed pipe, a hung-up terminal) or blocks costs no result
-    if json_out is not None:
-        json_out.write_text(json.dumps(result.to_summary(), indent=2))
-    lines, report_path = _write_card_or_report(study_dir, report)
-    _print_result(result)
-    if json_out is not None:
-        console.print(f"result: {json_out}")
-    for line in lines:
-        console.print(line, markup=False, highlight=False)
-    if report_path is not None:
-        check_report_problems(report_path)
-    if demonstration:  # last, where a first run's reader looks
-        _print_demonstration_worth(result)
 
 
 def _write_card_or_report(study_dir: Path, report: bool) -> tuple[list[str], Path | None]:
