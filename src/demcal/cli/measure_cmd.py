@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated
 
@@ -12,7 +13,14 @@ from rich.text import Text
 
 from demcal import measure as pile_photos  # lazy: scikit-image loads when a photo is read
 from demcal.cli import app
-from demcal.cli._common import check_output_dir, check_output_file, cli_errors, console, log
+from demcal.cli._common import (
+    check_output_dir,
+    check_output_file,
+    cli_errors,
+    console,
+    log,
+    with_options,
+)
 from demcal.cli._outputs import refuse_overwrites
 from demcal.errors import InputError
 from demcal.safety import photo_too_large
@@ -77,81 +85,88 @@ def _figure_names(photos: list[Path], plot_dir: Path) -> list[Path]:
             for i, stem in enumerate(stems, 1)]
 
 
-@app.command("measure")
-@cli_errors
-def measure(
+@dataclass(frozen=True)
+class MeasureOptions:
+    """The options of ``demcal measure``, typed (:func:`~demcal.cli._common.with_options`)."""
+
     photos: Annotated[
         list[Path],
         typer.Argument(help="Front photos of piles (JPEG/PNG/TIFF/BMP), e.g. repeated tests."),
-    ],
+    ]
     threshold: Annotated[
         str,
         typer.Option("--threshold", "-t",
                      help="auto (Otsu, falling back to adaptive when the base line it gives "
                      "is implausible), otsu, adaptive (uneven lighting) or a grey level in "
                      "(0, 1)."),
-    ] = "auto",
+    ] = "auto"
     fit_window: Annotated[
         tuple[float, float],
         typer.Option("--fit-window", help="Flank heights fitted, fractions of the pile height "
                      "(LO HI, 0 <= LO < HI <= 1)."),
-    ] = pile_photos.DEFAULT_FIT_WINDOW,
+    ] = pile_photos.DEFAULT_FIT_WINDOW
     fit: Annotated[
         str,
         typer.Option("--fit", help="Line fit: theil_sen, least_squares or ransac."),
-    ] = "theil_sen",
+    ] = "theil_sen"
     pile: Annotated[
         str, typer.Option("--pile", help="Tone of the pile: auto, dark or light.")
-    ] = "auto",
+    ] = "auto"
     base_row: Annotated[
         int | None,
         typer.Option("--base-row", help="Image row of the plate surface (default: found)."),
-    ] = None,
+    ] = None
     roi: Annotated[
         tuple[int, int, int, int] | None,
         typer.Option("--roi", help="Region of interest: ROW0 ROW1 COL0 COL1 (pixels)."),
-    ] = None,
+    ] = None
     roll_deg: Annotated[
         float, typer.Option("--roll-deg", help="Camera roll, deg (counter-clockwise).")
-    ] = 0.0,
+    ] = 0.0
     pixel_aspect: Annotated[
         float, typer.Option("--pixel-aspect", help="Pixel height / width.")
-    ] = 1.0,
+    ] = 1.0
     plot: Annotated[
         Path | None,
         typer.Option("--plot", help="Diagnostic figure of the single photo given."),
-    ] = None,
+    ] = None
     plot_dir: Annotated[
         Path | None,
         typer.Option("--plot-dir", help="Write one diagnostic figure per photo here."),
-    ] = None,
+    ] = None
     csv: Annotated[
         Path | None, typer.Option("--csv", help="Write the table as CSV here.")
-    ] = None,
+    ] = None
     json_out: Annotated[
         Path | None, typer.Option("--json", help="Write the table as JSON here.")
-    ] = None,
-) -> None:
+    ] = None
+
+
+@app.command("measure")
+@cli_errors
+@with_options(MeasureOptions)
+def measure(o: MeasureOptions) -> None:
     """Measure the angle of repose of each photo; print each, the mean and the std."""
-    if plot is not None and len(photos) != 1:
-        raise InputError(f"--plot takes one photo ({len(photos)} given); use --plot-dir")
-    check_output_file(plot, "--plot", make_parents=True)
-    check_output_file(csv, "--csv", make_parents=True)
-    check_output_file(json_out, "--json", make_parents=True)
-    check_output_dir(plot_dir, "--plot-dir")
-    figures = {} if plot_dir is None else {
-        f"--plot-dir ({f.name})": f for f in _figure_names(photos, plot_dir)}
-    refuse_overwrites({"--plot": plot, "--csv": csv, "--json": json_out, **figures},
-                      [(p, "an input photo") for p in photos])
-    for photo in photos:
+    if o.plot is not None and len(o.photos) != 1:
+        raise InputError(f"--plot takes one photo ({len(o.photos)} given); use --plot-dir")
+    check_output_file(o.plot, "--plot", make_parents=True)
+    check_output_file(o.csv, "--csv", make_parents=True)
+    check_output_file(o.json_out, "--json", make_parents=True)
+    check_output_dir(o.plot_dir, "--plot-dir")
+    figures = {} if o.plot_dir is None else {
+        f"--plot-dir ({f.name})": f for f in _figure_names(o.photos, o.plot_dir)}
+    refuse_overwrites({"--plot": o.plot, "--csv": o.csv, "--json": o.json_out, **figures},
+                      [(p, "an input photo") for p in o.photos])
+    for photo in o.photos:
         if why := photo_too_large(photo):
             raise InputError(f"photo {photo}: {why}")
-    log.info("measuring %d photo(s)", len(photos))
+    log.info("measuring %d photo(s)", len(o.photos))
     table = pile_photos.photos_aor(
-        photos, threshold=parse_threshold(threshold), fit_window=fit_window, fit=fit, pile=pile,
-        base_line=base_row, roi=roi, roll_deg=roll_deg, pixel_aspect=pixel_aspect)
+        o.photos, threshold=parse_threshold(o.threshold), fit_window=o.fit_window, fit=o.fit,
+        pile=o.pile, base_line=o.base_row, roi=o.roi, roll_deg=o.roll_deg,
+        pixel_aspect=o.pixel_aspect)
     # every file first, the console last: a console that is gone or blocks costs no file
-    written = _write_outputs(table, plot, plot_dir, csv, json_out)
+    written = _write_outputs(table, o.plot, o.plot_dir, o.csv, o.json_out)
     console.print(aor_table(table))
     for r in table.results:
         for note in r.notes:
