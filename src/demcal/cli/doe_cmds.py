@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -19,7 +20,14 @@ from rich.table import Table
 
 from demcal import doe
 from demcal.cli import app
-from demcal.cli._common import check_output_file, cli_errors, console, log, styled
+from demcal.cli._common import (
+    check_output_file,
+    cli_errors,
+    console,
+    log,
+    styled,
+    with_options,
+)
 from demcal.cli._outputs import refuse_overwrites
 from demcal.cli.optimize_goals import GoalsRun, check_goal_options, optimize_goals
 from demcal.errors import InputError
@@ -423,76 +431,90 @@ def design_bbd(
     _write_sheet(d, out)
 
 
-@design_app.command("ccd")
-@cli_errors
-def design_ccd(
-    factors: FactorsOpt,
+@dataclass(frozen=True)
+class CcdOptions:
+    """The options of ``demcal design ccd``, typed
+    (:func:`~demcal.cli._common.with_options`)."""
+
+    factors: FactorsOpt
     kind: Annotated[
         str, typer.Option("--kind", help="circumscribed, inscribed or face.")
-    ] = "circumscribed",
+    ] = "circumscribed"
     alpha: Annotated[
         str, typer.Option("--alpha", help="rotatable, orthogonal or a number.")
-    ] = "rotatable",
+    ] = "rotatable"
     center_points: Annotated[
         int | None, typer.Option("--center-points", help="Centre runs.")
-    ] = None,
+    ] = None
     generators: Annotated[
         str | None, typer.Option("--generators", help="Fractional core, e.g. 'E=ABCD'.")
-    ] = None,
-    out: OutOpt = None,
-    seed: SeedOpt = None,
-    randomize: RandOpt = True,
-) -> None:
+    ] = None
+    out: OutOpt = None
+    seed: SeedOpt = None
+    randomize: RandOpt = True
+
+
+@design_app.command("ccd")
+@cli_errors
+@with_options(CcdOptions)
+def design_ccd(o: CcdOptions) -> None:
     """Central composite design."""
-    _bounded(seed, "--seed", 0, MAX_SEED)
-    _bounded(center_points, "--center-points", 0, 1000)
-    space = doe.load_factors(factors)
-    a: Any = alpha
-    if alpha not in ("rotatable", "orthogonal"):
+    _bounded(o.seed, "--seed", 0, MAX_SEED)
+    _bounded(o.center_points, "--center-points", 0, 1000)
+    space = doe.load_factors(o.factors)
+    a: Any = o.alpha
+    if o.alpha not in ("rotatable", "orthogonal"):
         try:
-            a = float(alpha)
+            a = float(o.alpha)
         except ValueError:
             raise InputError(
-                f"--alpha must be rotatable, orthogonal or a number; got {alpha!r}"
+                f"--alpha must be rotatable, orthogonal or a number; got {o.alpha!r}"
             ) from None
     d = doe.central_composite(
         space,
-        kind=kind,  # type: ignore[arg-type]
+        kind=o.kind,  # type: ignore[arg-type]
         alpha=a,
-        center_points=center_points,
-        generators=generators,
-        randomize=randomize,
-        seed=seed,
+        center_points=o.center_points,
+        generators=o.generators,
+        randomize=o.randomize,
+        seed=o.seed,
     )
-    _write_sheet(d, out)
+    _write_sheet(d, o.out)
+
+
+@dataclass(frozen=True)
+class FactorialOptions:
+    """The options of ``demcal design factorial``, typed
+    (:func:`~demcal.cli._common.with_options`)."""
+
+    factors: FactorsOpt
+    fraction: Annotated[int, typer.Option("--fraction", help="p of a 2^(k-p) fraction.")] = 0
+    generators: Annotated[
+        str | None, typer.Option("--generators", help="e.g. 'E=ABC F=BCD' (letters A, B, ...).")
+    ] = None
+    center_points: Annotated[int, typer.Option("--center-points", help="Centre runs.")] = 0
+    out: OutOpt = None
+    seed: SeedOpt = None
+    randomize: RandOpt = True
 
 
 @design_app.command("factorial")
 @cli_errors
-def design_factorial(
-    factors: FactorsOpt,
-    fraction: Annotated[int, typer.Option("--fraction", help="p of a 2^(k-p) fraction.")] = 0,
-    generators: Annotated[
-        str | None, typer.Option("--generators", help="e.g. 'E=ABC F=BCD' (letters A, B, ...).")
-    ] = None,
-    center_points: Annotated[int, typer.Option("--center-points", help="Centre runs.")] = 0,
-    out: OutOpt = None,
-    seed: SeedOpt = None,
-    randomize: RandOpt = True,
-) -> None:
+@with_options(FactorialOptions)
+def design_factorial(o: FactorialOptions) -> None:
     """Two-level full or fractional factorial (resolution and aliases are printed)."""
-    _bounded(seed, "--seed", 0, MAX_SEED)
-    _bounded(center_points, "--center-points", 0, 1000)
-    space = doe.load_factors(factors)
+    _bounded(o.seed, "--seed", 0, MAX_SEED)
+    _bounded(o.center_points, "--center-points", 0, 1000)
+    space = doe.load_factors(o.factors)
     d = doe.factorial(
         space,
-        fraction=fraction,
-        generators=generators,
-        center_points=center_points,
-        randomize=randomize,
-        seed=seed,
+        fraction=o.fraction,
+        generators=o.generators,
+        center_points=o.center_points,
+        randomize=o.randomize,
+        seed=o.seed,
     )
-    _write_sheet(d, out)
+    _write_sheet(d, o.out)
 
 
 @design_app.command("lhs")
@@ -523,68 +545,75 @@ def design_sobol(
     _write_sheet(doe.sobol(doe.load_factors(factors), runs, seed=seed), out)
 
 
-@design_app.command("steepest")
-@cli_errors
-def design_steepest(
-    factors: FactorsOpt,
+@dataclass(frozen=True)
+class SteepestOptions:
+    """The options of ``demcal design steepest``, typed
+    (:func:`~demcal.cli._common.with_options`)."""
+
+    factors: FactorsOpt
     from_runs: Annotated[
         Path | None,
         typer.Option("--from-runs", help="Screening run sheet to fit a first-order model on."),
-    ] = None,
+    ] = None
     response: Annotated[
         str | None, typer.Option("--response", help="Response column of --from-runs.")
-    ] = None,
+    ] = None
     runs_factors: Annotated[
         Path | None,
         typer.Option("--runs-factors", help="Factors of --from-runs if its values are actual."),
-    ] = None,
+    ] = None
     coef: Annotated[
         str | None, typer.Option("--coef", help="Coded coefficients instead: 'x3=1.29,x4=1.83'.")
-    ] = None,
+    ] = None
     move: Annotated[
         str | None, typer.Option("--move", help="Factors that move, e.g. 'x3,x4,x8'.")
-    ] = None,
+    ] = None
     steps: Annotated[
         str | None, typer.Option("--steps", help="Per-factor steps: 'x3=0.1,x4=0.03'.")
-    ] = None,
+    ] = None
     step: Annotated[
         float, typer.Option("--step", help="Step of the largest-effect factor (proportional).")
-    ] = 1.0,
+    ] = 1.0
     start: Annotated[
         str | None, typer.Option("--start", help="First point: 'x3=0.35,x4=0.03'.")
-    ] = None,
-    points: Annotated[int, typer.Option("--points", help="Runs on the path.")] = 5,
+    ] = None
+    points: Annotated[int, typer.Option("--points", help="Runs on the path.")] = 5
     units: Annotated[
         str, typer.Option("--units", help="Units of steps/start: coded or actual.")
-    ] = "actual",
-    direction: Annotated[str, typer.Option("--direction", help="ascent or descent.")] = "ascent",
-    out: OutOpt = None,
-) -> None:
+    ] = "actual"
+    direction: Annotated[str, typer.Option("--direction", help="ascent or descent.")] = "ascent"
+    out: OutOpt = None
+
+
+@design_app.command("steepest")
+@cli_errors
+@with_options(SteepestOptions)
+def design_steepest(o: SteepestOptions) -> None:
     """Path of steepest ascent/descent from a screening fit or given coefficients."""
-    _bounded(points, "--points", 2, 1000)
-    _bounded(step, "--step", -1e6, 1e6)
-    space = doe.load_factors(factors)
-    if (from_runs is None) == (coef is None):
+    _bounded(o.points, "--points", 2, 1000)
+    _bounded(o.step, "--step", -1e6, 1e6)
+    space = doe.load_factors(o.factors)
+    if (o.from_runs is None) == (o.coef is None):
         raise InputError("give either --from-runs (with --response) or --coef")
-    if from_runs is not None:
-        if not response:
+    if o.from_runs is not None:
+        if not o.response:
             raise InputError("--response is required with --from-runs")
-        rs = _load_surface(from_runs, response, "linear", runs_factors, None, None)
+        rs = _load_surface(o.from_runs, o.response, "linear", o.runs_factors, None, None)
         coefficients: Any = {k: v for k, v in rs.coefficients_coded.items() if k in rs.names}
     else:
-        coefficients = _parse_assignments(coef, "--coef")
+        coefficients = _parse_assignments(o.coef, "--coef")
     d = doe.steepest_path(
         coefficients,
         factors=space,
-        n_points=points,
-        step=step,
-        steps=_parse_assignments(steps, "--steps") or None,
-        move=[m.strip() for m in move.split(",")] if move else None,
-        start=_parse_assignments(start, "--start") or None,
-        direction=direction,  # type: ignore[arg-type]
-        units=units,  # type: ignore[arg-type]
+        n_points=o.points,
+        step=o.step,
+        steps=_parse_assignments(o.steps, "--steps") or None,
+        move=[m.strip() for m in o.move.split(",")] if o.move else None,
+        start=_parse_assignments(o.start, "--start") or None,
+        direction=o.direction,  # type: ignore[arg-type]
+        units=o.units,  # type: ignore[arg-type]
     )
-    _write_sheet(d, out)
+    _write_sheet(d, o.out)
 
 
 # ------------------------------------------------------------------------- analyze / optimize
@@ -607,40 +636,46 @@ UnitsOpt = Annotated[
 JsonOpt = Annotated[Path | None, typer.Option("--json", help="Write the results as JSON here.")]
 
 
-@app.command("analyze")
-@cli_errors
-def analyze(
-    runs: Annotated[Path, typer.Argument(help="Run sheet (CSV) with a response column.")],
-    response: ResponseOpt,
-    model: ModelOpt = "quadratic",
-    factors: FactorsFileOpt = None,
-    columns: ColumnsOpt = None,
-    units: UnitsOpt = None,
+@dataclass(frozen=True)
+class AnalyzeOptions:
+    """The options of ``demcal analyze``, typed (:func:`~demcal.cli._common.with_options`)."""
+
+    runs: Annotated[Path, typer.Argument(help="Run sheet (CSV) with a response column.")]
+    response: ResponseOpt
+    model: ModelOpt = "quadratic"
+    factors: FactorsFileOpt = None
+    columns: ColumnsOpt = None
+    units: UnitsOpt = None
     reduce: Annotated[
         float | None,
         typer.Option("--reduce", help="Backward elimination (hierarchical) with this alpha out."),
-    ] = None,
+    ] = None
     block: Annotated[
         str | None,
         typer.Option("--block", help="Block column (Design-Expert's blocks, e.g. the seed set "
                      "or day of each run); every block must hold the same design points."),
-    ] = None,
-    json_out: JsonOpt = None,
-) -> None:
+    ] = None
+    json_out: JsonOpt = None
+
+
+@app.command("analyze")
+@cli_errors
+@with_options(AnalyzeOptions)
+def analyze(o: AnalyzeOptions) -> None:
     """Fit a model to a run sheet and print Design-Expert's ANOVA and fit statistics."""
-    check_output_file(json_out, "--json", make_parents=True)
-    refuse_overwrites({"--json": json_out}, [(runs, "the run sheet"), (factors, "factors")])
-    rs = _load_surface(runs, response, model, factors, columns, units, block=block)
-    if reduce is not None:
-        rs = rs.reduce(alpha_out=reduce)
+    check_output_file(o.json_out, "--json", make_parents=True)
+    refuse_overwrites({"--json": o.json_out}, [(o.runs, "the run sheet"), (o.factors, "factors")])
+    rs = _load_surface(o.runs, o.response, o.model, o.factors, o.columns, o.units, block=o.block)
+    if o.reduce is not None:
+        rs = rs.reduce(alpha_out=o.reduce)
     _print_analysis(rs)
     if not rs.ss_total > 0:  # 0/0 above: say why every statistic is 0 or n/a
-        console.print(f"note: {response} does not vary (every run gave the same value): there "
+        console.print(f"note: {o.response} does not vary (every run gave the same value): there "
                       "is no effect to estimate", highlight=False)
-    if json_out is not None:
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(analysis_dict(rs), indent=2))
-        console.print(f"results written to {json_out}", highlight=False)
+    if o.json_out is not None:
+        o.json_out.parent.mkdir(parents=True, exist_ok=True)
+        o.json_out.write_text(json.dumps(analysis_dict(rs), indent=2))
+        console.print(f"results written to {o.json_out}", highlight=False)
 
 
 #: the best desirability at which a target counts as reached (1: the prediction is the
@@ -665,74 +700,80 @@ def _optimize_headline(frame: Any, response: str, target: float, model: str) -> 
             f"({model} model, desirability 0{closest})")
 
 
-@app.command("optimize")
-@cli_errors
-def optimize_cmd(
-    runs: Annotated[Path, typer.Argument(help="Run sheet (CSV) with a response column.")],
-    response: Annotated[str | None, typer.Option("--response", help="Response column.")] = None,
+@dataclass(frozen=True)
+class OptimizeOptions:
+    """The options of ``demcal optimize``, typed (:func:`~demcal.cli._common.with_options`)."""
+
+    runs: Annotated[Path, typer.Argument(help="Run sheet (CSV) with a response column.")]
+    response: Annotated[str | None, typer.Option("--response", help="Response column.")] = None
     target: Annotated[
         float | None, typer.Option("--target", help="Target response value.")
-    ] = None,
+    ] = None
     goals: Annotated[
         Path | None,
         typer.Option("--goals", help="Several responses at once: a TOML file of "
                      "[\\[responses]] (name, goal, low, high, target, weight, importance, model)."),
-    ] = None,
-    model: ModelOpt = "quadratic",
-    factors: FactorsFileOpt = None,
-    columns: ColumnsOpt = None,
-    units: UnitsOpt = None,
+    ] = None
+    model: ModelOpt = "quadratic"
+    factors: FactorsFileOpt = None
+    columns: ColumnsOpt = None
+    units: UnitsOpt = None
     fix: Annotated[
         str | None, typer.Option("--fix", help="Hold factors: 'x3=0.55' (actual with --factors).")
-    ] = None,
+    ] = None
     ranges: Annotated[
         str | None, typer.Option("--range", help="Search ranges: 'x4=0.1:0.15'.")
-    ] = None,
+    ] = None
     near: Annotated[
         str | None, typer.Option("--near", help="Prefer solutions near 'x3=0.6,x4=0.12'.")
-    ] = None,
+    ] = None
     lower: Annotated[
         float | None, typer.Option("--lower", help="Desirability lower limit.")
-    ] = None,
+    ] = None
     upper: Annotated[
         float | None, typer.Option("--upper", help="Desirability upper limit.")
-    ] = None,
-    solutions: Annotated[int, typer.Option("--solutions", help="Distinct solutions to list.")] = 5,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the starting points.")] = 0,
-    json_out: JsonOpt = None,
-) -> None:
+    ] = None
+    solutions: Annotated[int, typer.Option("--solutions", help="Distinct solutions to list.")] = 5
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the starting points.")] = 0
+    json_out: JsonOpt = None
+
+
+@app.command("optimize")
+@cli_errors
+@with_options(OptimizeOptions)
+def optimize_cmd(o: OptimizeOptions) -> None:
     """Propose factor settings whose predicted response hits --target (ranked), or that
     maximise the overall desirability of several responses (--goals)."""
-    check_output_file(json_out, "--json", make_parents=True)
-    refuse_overwrites({"--json": json_out}, [(runs, "the run sheet"), (factors, "factors"),
-                                             (goals, "the goals")])
-    check_goal_options(goals, response, target)
-    if goals is not None:
-        _bounded(solutions, "--solutions", 1, 1000)
-        _bounded(seed, "--seed", 0, MAX_SEED)
-        run = GoalsRun(runs, goals, model, lambda name, mdl, cols: _load_surface(
-            runs, name, mdl, factors, cols, units))
-        optimize_goals(run, columns, solutions, seed, json_out)
+    check_output_file(o.json_out, "--json", make_parents=True)
+    refuse_overwrites({"--json": o.json_out}, [(o.runs, "the run sheet"), (o.factors, "factors"),
+                                             (o.goals, "the goals")])
+    check_goal_options(o.goals, o.response, o.target)
+    if o.goals is not None:
+        _bounded(o.solutions, "--solutions", 1, 1000)
+        _bounded(o.seed, "--seed", 0, MAX_SEED)
+        run = GoalsRun(o.runs, o.goals, o.model, lambda name, mdl, cols: _load_surface(
+            o.runs, name, mdl, o.factors, cols, o.units))
+        optimize_goals(run, o.columns, o.solutions, o.seed, o.json_out)
         return
-    assert response is not None and target is not None  # check_goal_options
-    for value, option in ((target, "--target"), (lower, "--lower"), (upper, "--upper")):
+    assert o.response is not None and o.target is not None  # check_goal_options
+    for value, option in ((o.target, "--target"), (o.lower, "--lower"), (o.upper, "--upper")):
         _bounded(value, option, -1e300, 1e300)
-    _bounded(solutions, "--solutions", 1, 1000)
-    _bounded(seed, "--seed", 0, MAX_SEED)
-    rs = _load_surface(runs, response, model, factors, columns, units)
+    _bounded(o.solutions, "--solutions", 1, 1000)
+    _bounded(o.seed, "--seed", 0, MAX_SEED)
+    rs = _load_surface(o.runs, o.response, o.model, o.factors, o.columns, o.units)
     res = doe.optimize_target(
         rs,
-        target,
-        lower=lower,
-        upper=upper,
-        fixed=_parse_assignments(fix, "--fix") or None,
-        bounds=_parse_ranges(ranges, "--range") or None,
-        near=_parse_assignments(near, "--near") or None,
-        n_solutions=solutions,
-        seed=seed,
+        o.target,
+        lower=o.lower,
+        upper=o.upper,
+        fixed=_parse_assignments(o.fix, "--fix") or None,
+        bounds=_parse_ranges(o.ranges, "--range") or None,
+        near=_parse_assignments(o.near, "--near") or None,
+        n_solutions=o.solutions,
+        seed=o.seed,
     )
     frame = res.to_frame()
-    t = Table(title=_optimize_headline(frame, response, target, rs.model))
+    t = Table(title=_optimize_headline(frame, o.response, o.target, rs.model))
     for c in ("rank", *rs.names, "predicted", "desirability", "95% CI", "95% PI"):
         t.add_column(c, justify="right")
     for _, row in frame.iterrows():
@@ -754,11 +795,11 @@ def optimize_cmd(
         console.print(styled(("warning:", "yellow"), f" {', '.join(res.outside)} held or "
                              "searched outside the design's range (--fix, --range): the model "
                              "extrapolates there, and its predictions are a guess"))
-    if json_out is not None:
+    if o.json_out is not None:
         doc = {
-            "response": response,
+            "response": o.response,
             "model": rs.model,
-            "target": target,
+            "target": o.target,
             "lower": res.lower,
             "upper": res.upper,
             "excluded_runs": [_clean(v) for v in rs.excluded_runs],
@@ -767,5 +808,5 @@ def optimize_cmd(
                 {k: _clean(v) for k, v in rec.items()} for rec in frame.to_dict(orient="records")
             ],
         }
-        json_out.parent.mkdir(parents=True, exist_ok=True)
-        json_out.write_text(json.dumps(doc, indent=2))
+        o.json_out.parent.mkdir(parents=True, exist_ok=True)
+        o.json_out.write_text(json.dumps(doc, indent=2))
