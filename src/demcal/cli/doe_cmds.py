@@ -176,28 +176,62 @@ def _read_csv(path: Path) -> pd.DataFrame:
     return frame
 
 
-def _load_surface(
-    runs: Path,
-    response: str,
-    model: str,
-    factors_path: Path | None,
-    columns: str | None,
-    units: str | None,
-    terms: str | None = None,
-    block: str | None = None,
-) -> doe.ResponseSurface:
+@dataclass(frozen=True)
+class SurfaceRequest:
+    """What ``analyze``, ``optimize`` and ``design steepest`` fit: the run sheet, the
+    response column, the model, the factors file, the factor columns (comma-separated; None:
+    the factors file's, else the ``_coded`` columns, else every other column), their units
+    and an optional block column."""
+
+    runs: Path
+    response: str
+    model: str
+    factors: Path | None = None
+    columns: str | None = None
+    units: str | None = None
+    block: str | None = None
+
+
+def _load_surface(req: SurfaceRequest) -> doe.ResponseSurface:
     """Read a run sheet and fit the model (the shared front half of analyze and optimize)."""
     import pandas as pd
 
-    frame = _read_csv(runs)
-    if block is not None and block not in frame.columns:
-        raise InputError(f"--block: column {block!r} not found in {runs.name}; columns: "
-                         + ", ".join(frame.columns))
+    frame = _read_csv(req.runs)
+    if req.block is not None and req.block not in frame.columns:
+        raise InputError(f"--block: column {req.block!r} not found in {req.runs.name}; "
+                         "columns: " + ", ".join(frame.columns))
+    y = _response_values(frame, req)
+    space = doe.load_factors(req.factors) if req.factors is not None else None
+    names = _factor_columns(frame, req, space)
+    x = frame[names].copy()
+    renamed = {c: c[: -len("_coded")] for c in names if c.endswith("_coded")}
+    x = x.rename(columns=renamed)
+    units = "coded" if renamed and req.units is None else req.units
+    if "run" in frame.columns and frame["run"].notna().all():
+        x.index = pd.Index(frame["run"].tolist())
+    else:
+        x.index = pd.RangeIndex(1, len(frame) + 1)
+    if units not in (None, "coded", "actual"):
+        raise InputError(f"--units must be 'coded' or 'actual'; got {units!r}")
+    if req.model not in doe.MODELS:
+        raise InputError(f"--model must be one of {', '.join(doe.MODELS)}; got {req.model!r}")
+    return doe.fit(
+        x, y, model=req.model, factors=space,
+        units=units,  # type: ignore[arg-type]
+        response_name=req.response,
+        blocks=frame[req.block].tolist() if req.block is not None else None,
+    )
+
+
+def _response_values(frame: pd.DataFrame, req: SurfaceRequest) -> np.ndarray:
+    """The response column as floats (an empty cell: NaN, a run without a result); a column
+    that is missing or holds text is an input error naming the first bad row."""
+    import pandas as pd
+
+    response = req.response
     if response not in frame.columns:
-        raise InputError(
-            f"--response: column {response!r} not found in {runs.name}; columns: "
-            + ", ".join(frame.columns)
-        )
+        raise InputError(f"--response: column {response!r} not found in {req.runs.name}; "
+                         "columns: " + ", ".join(frame.columns))
     y = pd.to_numeric(frame[response], errors="coerce")
     bad = y.isna() & frame[response].notna() & (frame[response].astype(str).str.strip() != "")
     if bad.any():
@@ -206,57 +240,35 @@ def _load_surface(
             f"(row {int(np.flatnonzero(bad)[0]) + 1}: "
             f"{frame[response][bad].iloc[0]!r}); leave a cell empty for a run without a result"
         )
-    space = doe.load_factors(factors_path) if factors_path is not None else None
-    if columns:
-        names = [c.strip() for c in columns.split(",") if c.strip()]
+    return y.to_numpy(dtype=float)
+
+
+def _factor_columns(frame: pd.DataFrame, req: SurfaceRequest,
+                    space: doe.FactorSpace | None) -> list[str]:
+    """The sheet's factor columns: ``--columns``, else the factors file's free factors, else
+    the ``_coded`` columns, else every column but the response, the block and the sheet's
+    bookkeeping; each checked to exist and to be neither the response nor the block."""
+    if req.columns:
+        names = [c.strip() for c in req.columns.split(",") if c.strip()]
     elif space is not None:
-        names = [n for n in space.free.names]
+        names = list(space.free.names)
     else:
-        coded_cols = [c for c in frame.columns if c.endswith("_coded")]
-        if coded_cols:
-            names = coded_cols
-        else:
-            names = [c for c in frame.columns
-                     if c not in (response, block) and c not in BOOKKEEPING]
+        names = [c for c in frame.columns if c.endswith("_coded")] or [
+            c for c in frame.columns
+            if c not in (req.response, req.block) and c not in BOOKKEEPING]
     if not names:
         raise InputError("--columns: no factor columns left in the runs file")
     missing = [n for n in names if n not in frame.columns]
     if missing:
         raise InputError(
-            f"--columns: column(s) {', '.join(missing)} not found in {runs.name}; columns: "
+            f"--columns: column(s) {', '.join(missing)} not found in {req.runs.name}; columns: "
             + ", ".join(frame.columns)
         )
-    if response in names:
-        raise InputError(f"--columns: the response {response!r} cannot be a factor")
-    if block is not None and block in names:
-        raise InputError(f"--block: the block column {block!r} cannot be a factor")
-    x = frame[names].copy()
-    renamed = {c: c[: -len("_coded")] for c in names if c.endswith("_coded")}
-    x = x.rename(columns=renamed)
-    if renamed and units is None:
-        units = "coded"
-    if "run" in frame.columns and frame["run"].notna().all():
-        labels = frame["run"].tolist()
-        x.index = pd.Index(labels)
-    else:
-        x.index = pd.RangeIndex(1, len(frame) + 1)
-    if units not in (None, "coded", "actual"):
-        raise InputError(f"--units must be 'coded' or 'actual'; got {units!r}")
-    term_list = [t.strip() for t in terms.split(",")] if terms else None
-    if model not in doe.MODELS:
-        raise InputError(f"--model must be one of {', '.join(doe.MODELS)}; got {model!r}")
-    return doe.fit(
-        x,
-        y.to_numpy(dtype=float),
-        model=model,
-        terms=(
-            ["intercept", *term_list] if term_list and "intercept" not in term_list else term_list
-        ),
-        factors=space,
-        units=units,  # type: ignore[arg-type]
-        response_name=response,
-        blocks=frame[block].tolist() if block is not None else None,
-    )
+    if req.response in names:
+        raise InputError(f"--columns: the response {req.response!r} cannot be a factor")
+    if req.block is not None and req.block in names:
+        raise InputError(f"--block: the block column {req.block!r} cannot be a factor")
+    return names
 
 
 def _is_two_level(rs: doe.ResponseSurface) -> bool:
@@ -322,6 +334,25 @@ def analysis_dict(rs: doe.ResponseSurface) -> dict[str, Any]:
     return out
 
 
+def _coefficients_table(rs: doe.ResponseSurface) -> Table:
+    """Each term's coded coefficient, standard error and VIF, and its actual coefficient
+    where the model has factors."""
+    c = Table(title="Coefficients")
+    c.add_column("Term")
+    c.add_column("Coded", justify="right")
+    c.add_column("Std. Error", justify="right")
+    c.add_column("VIF", justify="right")
+    if rs.factors is not None:
+        c.add_column("Actual", justify="right")
+    vif = rs.vif
+    for name, b in rs.coefficients_coded.items():
+        row = [str(name), _fmt(b, 5), _fmt(rs.bse[name], 4), _fmt(vif.get(name, float("nan")), 4)]
+        if rs.factors is not None:
+            row.append(_fmt(rs.coefficients_actual[name], 6))
+        c.add_row(*row)
+    return c
+
+
 def _print_analysis(rs: doe.ResponseSurface) -> None:
     table = rs.anova()
     if rs.excluded_runs:
@@ -361,21 +392,7 @@ def _print_analysis(rs: doe.ResponseSurface) -> None:
     ):
         s.add_row(label, _fmt(v, 5))
     console.print(s)
-    c = Table(title="Coefficients")
-    c.add_column("Term")
-    c.add_column("Coded", justify="right")
-    c.add_column("Std. Error", justify="right")
-    c.add_column("VIF", justify="right")
-    if rs.factors is not None:
-        c.add_column("Actual", justify="right")
-        actual = rs.coefficients_actual
-    vif = rs.vif
-    for name, b in rs.coefficients_coded.items():
-        row = [str(name), _fmt(b, 5), _fmt(rs.bse[name], 4), _fmt(vif.get(name, float("nan")), 4)]
-        if rs.factors is not None:
-            row.append(_fmt(actual[name], 6))
-        c.add_row(*row)
-    console.print(c)
+    console.print(_coefficients_table(rs))
     if rs.model == "linear" and _is_two_level(rs):
         eff = rs.effects()
         e = Table(title="Screening effects (Pareto order)")
@@ -598,7 +615,7 @@ def design_steepest(o: SteepestOptions) -> None:
     if o.from_runs is not None:
         if not o.response:
             raise InputError("--response is required with --from-runs")
-        rs = _load_surface(o.from_runs, o.response, "linear", o.runs_factors, None, None)
+        rs = _load_surface(SurfaceRequest(o.from_runs, o.response, "linear", o.runs_factors))
         coefficients: Any = {k: v for k, v in rs.coefficients_coded.items() if k in rs.names}
     else:
         coefficients = _parse_assignments(o.coef, "--coef")
@@ -665,7 +682,8 @@ def analyze(o: AnalyzeOptions) -> None:
     """Fit a model to a run sheet and print Design-Expert's ANOVA and fit statistics."""
     check_output_file(o.json_out, "--json", make_parents=True)
     refuse_overwrites({"--json": o.json_out}, [(o.runs, "the run sheet"), (o.factors, "factors")])
-    rs = _load_surface(o.runs, o.response, o.model, o.factors, o.columns, o.units, block=o.block)
+    rs = _load_surface(SurfaceRequest(o.runs, o.response, o.model, o.factors, o.columns,
+                                      o.units, o.block))
     if o.reduce is not None:
         rs = rs.reduce(alpha_out=o.reduce)
     _print_analysis(rs)
@@ -752,7 +770,7 @@ def optimize_cmd(o: OptimizeOptions) -> None:
         _bounded(o.solutions, "--solutions", 1, 1000)
         _bounded(o.seed, "--seed", 0, MAX_SEED)
         run = GoalsRun(o.runs, o.goals, o.model, lambda name, mdl, cols: _load_surface(
-            o.runs, name, mdl, o.factors, cols, o.units))
+            SurfaceRequest(o.runs, name, mdl, o.factors, cols, o.units)))
         optimize_goals(run, o.columns, o.solutions, o.seed, o.json_out)
         return
     assert o.response is not None and o.target is not None  # check_goal_options
@@ -760,7 +778,8 @@ def optimize_cmd(o: OptimizeOptions) -> None:
         _bounded(value, option, -1e300, 1e300)
     _bounded(o.solutions, "--solutions", 1, 1000)
     _bounded(o.seed, "--seed", 0, MAX_SEED)
-    rs = _load_surface(o.runs, o.response, o.model, o.factors, o.columns, o.units)
+    rs = _load_surface(SurfaceRequest(o.runs, o.response, o.model, o.factors, o.columns,
+                                      o.units))
     res = doe.optimize_target(
         rs,
         o.target,
