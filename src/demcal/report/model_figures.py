@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -44,53 +45,82 @@ def _label_flagged(ax, x, y, labels, flags) -> None:
                         fontsize=7, color=_FLAG)
 
 
+@dataclass(frozen=True)
+class _Runs:
+    """What every residual panel marks: the studentized residuals, their outlier limit, the
+    runs beyond it, the runs' labels and their positions on a run axis."""
+
+    t: np.ndarray
+    lim: float
+    out: np.ndarray
+    labels: list
+    runs: np.ndarray
+    run_axis: str
+
+    @classmethod
+    def of(cls, diag: Diagnostics) -> _Runs:
+        t, lim = diag.studentized, diag.outlier_limit
+        out = np.abs(np.nan_to_num(t)) > lim if math.isfinite(lim) else np.zeros(diag.n, bool)
+        labels = list(diag.labels)
+        try:  # the design point of each run (the run order of demcal's designs)
+            runs = np.array([float(v) for v in labels])
+            run_axis = "design point (run order)"
+        except (TypeError, ValueError):
+            runs, run_axis = np.arange(1, diag.n + 1, dtype=float), "run"
+        return cls(t=t, lim=lim, out=out, labels=labels, runs=runs, run_axis=run_axis)
+
+    def limits(self, ax) -> None:
+        """The zero line and the outlier limits either side."""
+        ax.axhline(0, color="k", lw=0.6)
+        if math.isfinite(self.lim):
+            for s in (-self.lim, self.lim):
+                ax.axhline(s, color=_LIM, lw=1, ls="--")
+
+
 def residual_figure(diag: Diagnostics, title: str = "") -> Figure:
     """The six residual diagnostics of one model in a 2 x 3 grid (see module doc)."""
     fig = _figure(10.5, 6.4)
     axes = fig.subplots(2, 3)
-    t, lim = diag.studentized, diag.outlier_limit
-    out = np.abs(np.nan_to_num(t)) > lim if math.isfinite(lim) else np.zeros(diag.n, bool)
-    labels = list(diag.labels)
-    try:  # the design point of each run (the run order of demcal's designs)
-        runs = np.array([float(v) for v in labels])
-        run_axis = "design point (run order)"
-    except (TypeError, ValueError):
-        runs, run_axis = np.arange(1, diag.n + 1, dtype=float), "run"
+    r = _Runs.of(diag)
+    _normal_plot(axes[0, 0], diag, r)
+    _residual_plots(axes[0, 1], axes[0, 2], diag, r)
+    _predicted_vs_actual(axes[1, 0], diag)
+    _influence_plots(axes[1, 1], axes[1, 2], diag, r)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig
 
-    ax = axes[0, 0]
-    ax.plot(t, diag.normal_quantile, "o", color=_PT, ms=4)
-    fin = np.isfinite(t)
-    if fin.sum() >= 2:
-        lo, hi = np.nanmin(t), np.nanmax(t)
+
+def _normal_plot(ax, diag: Diagnostics, r: _Runs) -> None:
+    """The studentized residuals against their normal quantiles, the N(0, 1) line."""
+    ax.plot(r.t, diag.normal_quantile, "o", color=_PT, ms=4)
+    if np.isfinite(r.t).sum() >= 2:
+        lo, hi = np.nanmin(r.t), np.nanmax(r.t)
         ax.plot([lo, hi], [lo, hi], "k-", lw=0.8)  # N(0, 1): quantile = residual
     ax.set_xlabel("externally studentized residual")
     ax.set_ylabel("normal quantile")
     ax.set_title("Normal plot of residuals", fontsize=9)
-    _label_flagged(ax, t, diag.normal_quantile, labels, out)
+    _label_flagged(ax, r.t, diag.normal_quantile, r.labels, r.out)
 
-    def limits(ax) -> None:
-        ax.axhline(0, color="k", lw=0.6)
-        if math.isfinite(lim):
-            for s in (-lim, lim):
-                ax.axhline(s, color=_LIM, lw=1, ls="--")
 
-    ax = axes[0, 1]
-    ax.plot(diag.predicted, t, "o", color=_PT, ms=4)
-    limits(ax)
-    ax.set_xlabel("predicted AoR (°)")
-    ax.set_ylabel("studentized residual")
-    ax.set_title("Residuals vs predicted", fontsize=9)
-    _label_flagged(ax, diag.predicted, t, labels, out)
+def _residual_plots(by_predicted, by_run, diag: Diagnostics, r: _Runs) -> None:
+    """The studentized residuals against the predictions and against the run order."""
+    by_predicted.plot(diag.predicted, r.t, "o", color=_PT, ms=4)
+    r.limits(by_predicted)
+    by_predicted.set_xlabel("predicted AoR (°)")
+    by_predicted.set_ylabel("studentized residual")
+    by_predicted.set_title("Residuals vs predicted", fontsize=9)
+    _label_flagged(by_predicted, diag.predicted, r.t, r.labels, r.out)
+    by_run.plot(r.runs, r.t, "o-", color=_PT, ms=4, lw=0.6)
+    r.limits(by_run)
+    by_run.set_xlabel(r.run_axis)
+    by_run.set_ylabel("studentized residual")
+    by_run.set_title("Residuals vs run", fontsize=9)
+    _label_flagged(by_run, r.runs, r.t, r.labels, r.out)
 
-    ax = axes[0, 2]
-    ax.plot(runs, t, "o-", color=_PT, ms=4, lw=0.6)
-    limits(ax)
-    ax.set_xlabel(run_axis)
-    ax.set_ylabel("studentized residual")
-    ax.set_title("Residuals vs run", fontsize=9)
-    _label_flagged(ax, runs, t, labels, out)
 
-    ax = axes[1, 0]
+def _predicted_vs_actual(ax, diag: Diagnostics) -> None:
+    """The predictions against the measured values, the line where they agree."""
     ax.plot(diag.actual, diag.predicted, "o", color=_PT, ms=4)
     both = np.concatenate([diag.actual, diag.predicted])
     if both.size:
@@ -101,30 +131,27 @@ def residual_figure(diag: Diagnostics, title: str = "") -> Figure:
     ax.set_ylabel("predicted AoR (°)")
     ax.set_title("Predicted vs actual", fontsize=9)
 
-    ax = axes[1, 1]
-    cflag = np.nan_to_num(diag.cooks) > diag.cooks_limit
-    ax.vlines(runs, 0, np.nan_to_num(diag.cooks), color=np.where(cflag, _FLAG, _PT))
-    ax.plot(runs, diag.cooks, "o", color=_PT, ms=3)
-    if math.isfinite(diag.cooks_limit):
-        ax.axhline(diag.cooks_limit, color=_LIM, ls="--", lw=1)
-    ax.set_xlabel(run_axis)
-    ax.set_ylabel("Cook's distance")
-    ax.set_title("Cook's distance", fontsize=9)
-    _label_flagged(ax, runs, diag.cooks, labels, cflag)
 
-    ax = axes[1, 2]
+def _influence_plots(cooks, leverage, diag: Diagnostics, r: _Runs) -> None:
+    """Cook's distance and the leverage per run, each against its limit."""
+    cflag = np.nan_to_num(diag.cooks) > diag.cooks_limit
+    cooks.vlines(r.runs, 0, np.nan_to_num(diag.cooks), color=np.where(cflag, _FLAG, _PT))
+    cooks.plot(r.runs, diag.cooks, "o", color=_PT, ms=3)
+    if math.isfinite(diag.cooks_limit):
+        cooks.axhline(diag.cooks_limit, color=_LIM, ls="--", lw=1)
+    cooks.set_xlabel(r.run_axis)
+    cooks.set_ylabel("Cook's distance")
+    cooks.set_title("Cook's distance", fontsize=9)
+    _label_flagged(cooks, r.runs, diag.cooks, r.labels, cflag)
     lflag = diag.leverage > diag.leverage_limit + 1e-12
-    ax.vlines(runs, 0, diag.leverage, color=np.where(lflag, _FLAG, _PT))
-    ax.plot(runs, diag.leverage, "o", color=_PT, ms=3)
-    ax.axhline(diag.leverage_limit, color=_LIM, ls="--", lw=1)
-    ax.set_ylim(0, max(1.0, float(np.nanmax(diag.leverage)) * 1.05))
-    ax.set_xlabel(run_axis)
-    ax.set_ylabel("leverage")
-    ax.set_title("Leverage (limit 2p/n)", fontsize=9)
-    _label_flagged(ax, runs, diag.leverage, labels, lflag)
-    if title:
-        fig.suptitle(title, fontsize=10)
-    return fig
+    leverage.vlines(r.runs, 0, diag.leverage, color=np.where(lflag, _FLAG, _PT))
+    leverage.plot(r.runs, diag.leverage, "o", color=_PT, ms=3)
+    leverage.axhline(diag.leverage_limit, color=_LIM, ls="--", lw=1)
+    leverage.set_ylim(0, max(1.0, float(np.nanmax(diag.leverage)) * 1.05))
+    leverage.set_xlabel(r.run_axis)
+    leverage.set_ylabel("leverage")
+    leverage.set_title("Leverage (limit 2p/n)", fontsize=9)
+    _label_flagged(leverage, r.runs, diag.leverage, r.labels, lflag)
 
 
 def boxcox_figure(diag: Diagnostics) -> Figure:
