@@ -69,26 +69,15 @@ def run_dask(chunks: Sequence[list[RunTask]], on_result: Callable[[dict[str, Any
         No worker (or no scheduler) for ``idle_timeout`` seconds, or the scheduler was lost;
         every finished run is already stored.
     """
-    from distributed import Client, wait
+    from distributed import wait
 
-    own = False
-    if isinstance(address, Client):
-        client = address
-    else:
-        address = check_address(address)
-        try:
-            client = Client(address, timeout="30s")
-        except OSError as exc:
-            raise InputError(f"--dask: cannot reach a Dask scheduler at {address!r}: {exc}") \
-                from None
-        own = True
+    client, own = _client(address)
     where = getattr(client, "scheduler", None)
     where = getattr(where, "address", None) or address
     try:
         futures = [client.submit(run_chunk, list(c), pure=False, retries=1) for c in chunks]
         pending = set(futures)
-        idle_since: float | None = None
-        said = -math.inf
+        watch = _IdleWatch(idle_timeout, str(where))
         try:
             while pending:
                 try:
@@ -96,33 +85,10 @@ def run_dask(chunks: Sequence[list[RunTask]], on_result: Callable[[dict[str, Any
                 except TimeoutError:
                     done = set()
                 if done:
-                    idle_since = None
-                for fut in done:
-                    try:
-                        results = fut.result()
-                    except (OSError, CancelledError) as exc:
-                        raise StudyError(f"dask: lost the scheduler at {where} "
-                                         f"({type(exc).__name__}); the finished runs are "
-                                         "stored: run again to resume") from None
-                    for r in results:
-                        on_result(r)
-                if done:
-                    continue
-                why = _stalled(client)
-                if why is None:
-                    idle_since = None
-                    continue
-                now = time.monotonic()
-                idle_since = idle_since or now
-                if idle_timeout is not None and now - idle_since >= idle_timeout:
-                    raise StudyError(f"dask: {why} at {where} for {now - idle_since:.0f} s "
-                                     f"(timeout {idle_timeout:g} s); the finished runs are "
-                                     "stored: run again to resume")
-                if now - said >= 60:
-                    said = now
-                    log.warning("dask: %s at %s; %d tasks wait%s", why, where, len(pending),
-                                "" if idle_timeout is None else
-                                f" (giving up after {idle_timeout:g} s)")
+                    watch.busy()
+                    _deliver(done, on_result, where)
+                else:
+                    watch.check(_stalled(client), len(pending))
         except BaseException:
             with contextlib.suppress(Exception):
                 client.cancel(futures)
@@ -131,6 +97,65 @@ def run_dask(chunks: Sequence[list[RunTask]], on_result: Callable[[dict[str, Any
         if own:
             with contextlib.suppress(Exception):
                 client.close()
+
+
+def _client(address: Any) -> tuple[Any, bool]:
+    """A Dask client for ``address`` (a Client is used as it is) and whether it is this
+    call's own (closed at the end)."""
+    from distributed import Client
+
+    if isinstance(address, Client):
+        return address, False
+    address = check_address(address)
+    try:
+        return Client(address, timeout="30s"), True
+    except OSError as exc:
+        raise InputError(f"--dask: cannot reach a Dask scheduler at {address!r}: {exc}") \
+            from None
+
+
+def _deliver(done: Any, on_result: Callable[[dict[str, Any]], None], where: Any) -> None:
+    """Hand every run of the finished tasks to ``on_result``; a task lost with the
+    scheduler is a :class:`StudyError` (what was handed over is stored)."""
+    for fut in done:
+        try:
+            results = fut.result()
+        except (OSError, CancelledError) as exc:
+            raise StudyError(f"dask: lost the scheduler at {where} ({type(exc).__name__}); "
+                             "the finished runs are stored: run again to resume") from None
+        for r in results:
+            on_result(r)
+
+
+class _IdleWatch:
+    """How long the cluster has made no progress: a warning every minute, a
+    :class:`StudyError` after ``timeout`` seconds (None: wait)."""
+
+    def __init__(self, timeout: float | None, where: str) -> None:
+        self.timeout, self.where = timeout, where
+        self.since: float | None = None
+        self.said = -math.inf
+
+    def busy(self) -> None:
+        """A task ended: the cluster works."""
+        self.since = None
+
+    def check(self, why: str | None, waiting: int) -> None:
+        """Nothing ended in a poll; ``why``: the cluster's stall (None: it works, slowly)."""
+        if why is None:
+            self.since = None
+            return
+        now = time.monotonic()
+        self.since = self.since or now
+        if self.timeout is not None and now - self.since >= self.timeout:
+            raise StudyError(f"dask: {why} at {self.where} for {now - self.since:.0f} s "
+                             f"(timeout {self.timeout:g} s); the finished runs are "
+                             "stored: run again to resume")
+        if now - self.said >= 60:
+            self.said = now
+            log.warning("dask: %s at %s; %d tasks wait%s", why, self.where, waiting,
+                        "" if self.timeout is None else
+                        f" (giving up after {self.timeout:g} s)")
 
 
 def _stalled(client: Any) -> str | None:
