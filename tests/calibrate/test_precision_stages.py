@@ -228,6 +228,8 @@ def test_an_inadequate_surface_says_how_many_replicates_would_resolve_it(tmp_pat
     largest main effect was from seen, and what would see it."""
     def edit(text: str) -> str:
         text = text.replace("noise_deg = 0.3", "noise_deg = 6.0")
+        text = text.replace("[stages.verification]\nn = 3", "[stages.verification]\nn = 3\n"
+                            "max_rounds = 2\ntolerance_percent = 0.5")  # a second round
         return text.replace("center_points = 3", "center_points = 3\nmax_runs = 15")
 
     path = _write(tmp_path, edit)
@@ -256,6 +258,9 @@ def test_an_inadequate_surface_says_how_many_replicates_would_resolve_it(tmp_pat
     assert note in text
     assert res["verification"]["confirmed"]  # the 6 deg test's wide interval holds the mean
     assert "its wide interval confirms little" in text
+    # the second round was aimed by that surface: the command says what the aim is worth
+    assert len(res["rounds"]) == 2
+    assert "the surface is not adequate, so each aim moved the optimum within the noise" in text
 
 
 def test_the_resolution_note_counts_the_runs_and_knows_its_limits():

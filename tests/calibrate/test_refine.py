@@ -130,6 +130,7 @@ def test_the_command_line_and_the_report_show_every_round(curved_study, tmp_path
     for k in (1, 2, 3):
         assert f"round {k}: " in res.output
     assert "corrected by the last offset" in res.output
+    assert "so each aim moved the optimum within the noise" not in res.output  # adequate
     html = next(study_folder(curved_study).glob("report/*.html")).read_text()
     assert "Verification rounds" in html and "surface offset" in html
     card = (study_folder(curved_study) / "report" / "material.toml").read_text()

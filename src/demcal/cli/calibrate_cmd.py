@@ -157,6 +157,10 @@ def _print_rounds(result: CalibrationResult) -> None:
            "confirmed ones; stages.verification.max_rounds)")
     console.print(f"the optimum above is round {rounds[-1].round}'s: each later round {how}",
                   highlight=False)
+    if result.strategy != "bayes" and result.surface is not None and not result.surface.adequate:
+        console.print(styled(("note:", "yellow"), " the surface is not adequate, so each aim "
+                             "moved the optimum within the noise: the rounds' piles, not the "
+                             "surface, say where the target lies"), highlight=False)
 
 
 def _print_verification(result: CalibrationResult) -> None:
