@@ -42,6 +42,7 @@ from demcal.summaries import (
     by_key,
 )
 from demcal.summaries.provenance import EngineMeta, Versions
+from demcal.summaries.spread import target_spread
 from demcal.summaries.target import Target, TargetPhoto
 
 __all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def",
@@ -356,6 +357,7 @@ def run_stages(ctx: st.Context) -> CalibrationResult:
                              model=surface.model_kind,
                              removed_terms=list(surface.removed_terms or []),
                              resolution=surface.resolution),
-        stages=_stage_json(ctx), responses=several)
+        stages=_stage_json(ctx), responses=several,
+        spread=target_spread(opt, {f.name: (f.low, f.high) for f in surface.factors}))
     ctx.store.set_meta("result", result.to_summary())
     return result

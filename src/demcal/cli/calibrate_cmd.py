@@ -74,6 +74,10 @@ def _print_surface(result: CalibrationResult) -> None:
                       f"predicted R^2 {f(a.pred_r2, '.3f')}, Adeq Precision "
                       f"{f(a.adeq_precision, '.2f')}, model p {f(a.p_model, '.3g')}, lack of "
                       f"fit p {f(a.lack_of_fit_p, '.3g')}", highlight=False)
+    if result.spread is not None:  # the target met far apart: one response, no point
+        console.print(styled(("note:", "yellow"),
+                             f" {result.spread.line(result.lead_name.after_number())}"),
+                      highlight=False)
     if not s.adequate:  # None too: a surface whose adequacy could not be judged
         console.print(styled(("warning:", "yellow"), " the response-surface model is not "
                              "adequate (see the rsm stage's warnings): its optimum is a guess "

@@ -35,6 +35,7 @@ from demcal.report.lead_labels import relabel_figure, relabel_html, relabel_tabl
 from demcal.report.surface import StoredSurface, significant_pairs
 from demcal.safety import csv_safe, safe_filename, study_image
 from demcal.summaries import Screening, Surface, Target, Verification
+from demcal.summaries.spread import target_spread
 from demcal.virtual.card_blocks import CardShape
 from demcal.virtual.material_card import CONTACT_LAWS, ROLLING_LAWS, MaterialCard
 
@@ -564,10 +565,13 @@ def _optimize(b: _Builder) -> str:
     def render() -> str:
         opt = d.optimum
         chosen = ", ".join(f"{d.symbol(k)} = {_fmt(v, '.4g')}" for k, v in opt.chosen.items())
+        spread = target_spread(opt, {f.name: (f.low, f.high) for f in d.surface.factors})
         return (f"<p>Target {_fmt(opt.target)}°. <b>Chosen:</b> "
                 f"{escape(chosen or '—')}, predicted AoR "
                 f"{_fmt(opt.predicted_lead)}°.</p>"
-                + b.table(T.candidates_table(opt, d.symbols)))
+                + b.table(T.candidates_table(opt, d.symbols))
+                + ("" if spread is None else
+                   f'<p class="warn">Note: {escape(spread.line("°"))}.</p>'))
 
     return _section("optimize", "Optimum and alternatives", view.status, _guard(b, view, render))
 

@@ -20,6 +20,7 @@ from demcal.lead import LeadName
 from demcal.summaries._stored import _Keyed, stored_as
 from demcal.summaries.bayes import BayesSummary
 from demcal.summaries.optimum import Goal, Optimum
+from demcal.summaries.spread import TargetSpread
 from demcal.summaries.surface import FitStatistics
 from demcal.summaries.verification import ResponseVerification, Verification
 
@@ -235,6 +236,10 @@ class CalibrationResult:
     bayes : BayesSummary or None
         The posterior, verdict and advice (strategy ``"bayes"``; without its samples and
         slices, which only the stage's store keeps).
+    spread : TargetSpread or None
+        Where two or more of the optimize stage's distinct settings reach the target and lie
+        far apart: how many, and each factor's span among them (``target_spread``; DOE
+        path).
     """
 
     study: str
@@ -253,6 +258,7 @@ class CalibrationResult:
     stages: dict[str, Any] | None = None
     responses: ResultResponses | None = None
     bayes: BayesSummary | None = None
+    spread: TargetSpread | None = None
 
     def __post_init__(self) -> None:
         # the result JSON writes a Bayesian study's optimum from its posterior: a different
@@ -302,6 +308,8 @@ class CalibrationResult:
             out["stages"] = self.stages
         if self.responses is not None:
             out["responses"] = self.responses.to_summary()
+        if self.spread is not None:
+            out["target_spread"] = self.spread.to_summary()
         return out
 
     @classmethod
@@ -328,4 +336,4 @@ class CalibrationResult:
             n_runs_used=stored.get("n_runs_used"), surface=SurfaceFacts.from_result(stored),
             stages=stored.get("stages"),
             responses=None if several is None else ResultResponses.from_summary(several),
-            bayes=bayes)
+            bayes=bayes, spread=TargetSpread.from_summary(stored.get("target_spread")))
