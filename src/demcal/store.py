@@ -495,6 +495,12 @@ class RunStore:
         holder = self.meta(LOCK_KEY)
         return holder if isinstance(holder, dict) else None
 
+    def lock_holder_alive(self) -> bool | None:
+        """Whether the writer lock's holder still runs: True, False (or no holder), or None
+        (held from another host: it cannot be checked here)."""
+        holder = self.lock_holder()
+        return False if holder is None else _holder_alive(holder)
+
     def acquire_lock(self, *, break_lock: bool = False) -> None:
         """Take the study's writer lock (one immediate transaction: check, then write).
 
