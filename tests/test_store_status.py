@@ -70,3 +70,14 @@ def test_a_writer_that_is_gone_and_a_running_stage_are_said(finished, tmp_path):
 def test_no_store_is_one_line(tmp_path):
     code, text = _status(tmp_path / "study.toml")
     assert code == 2 and text.startswith("error: ") and "no run store" in text
+
+
+def test_a_bayesian_stage_says_its_verdict():
+    import json
+
+    from demcal.report.progress import _found
+
+    stored = json.loads((EXAMPLE.parents[1] / "corn_stalk" / "result_bayes_standard.json")
+                        .read_text())
+    assert _found("bayes", stored) == "not identifiable: 2 ridge(s) left"
+    assert _found("bayes", {}) == ""  # a stage not finished: nothing to say

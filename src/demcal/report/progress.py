@@ -16,6 +16,7 @@ from typing import Any
 
 from demcal.store import RunStore, describe_holder
 from demcal.summaries import CalibrationResult, Optimum, Surface, Verification
+from demcal.summaries.bayes import BayesSummary
 from demcal.summaries.study_meta import StudyMeta
 
 __all__ = ["StageProgress", "StudyProgress", "Writer", "study_progress"]
@@ -108,28 +109,49 @@ class StudyProgress:
                 f"{spread} ({', '.join(f'{x:.2f}' for x in v)})")
 
 
+def _surface_found(summary: dict[str, Any]) -> str:
+    s = Surface.from_summary(summary)
+    if s.adequate is None:
+        return ""
+    p = s.adequacy.p_model if s.adequacy is not None else None
+    return ("adequate" if s.adequate else "not adequate") + (
+        "" if p is None else f" (model p {p:.3g})")
+
+
+def _optimum_found(summary: dict[str, Any]) -> str:
+    opt = Optimum.from_summary(summary)
+    chosen = ", ".join(f"{k} {v:.4g}" for k, v in opt.chosen.items())
+    pred = "" if opt.predicted_lead is None else f"; predicted {opt.predicted_lead:.2f}"
+    return f"{chosen}{pred}" if chosen else ""
+
+
+def _verification_found(summary: dict[str, Any]) -> str:
+    v = Verification.from_summary(summary)
+    if v.mean is None:
+        return ""
+    rel = "" if v.relative_error_percent is None else \
+        f", {v.relative_error_percent:.2f} % from the target"
+    std = "" if v.std is None else f" +/- {v.std:.2f}"
+    return f"mean {v.mean:.2f}{std} on {v.n} piles{rel}"
+
+
+def _bayes_found(summary: dict[str, Any]) -> str:
+    bayes = BayesSummary.from_summary(summary)
+    if bayes is None:
+        return ""
+    return "identifiable" if bayes.identifiable else \
+        f"not identifiable: {len(bayes.ridge)} ridge(s) left"
+
+
+#: what each stage's summary says, in a few words (the others: their one-line ``message``)
+_FOUND = {"rsm": _surface_found, "optimize": _optimum_found,
+          "verification": _verification_found, "bayes": _bayes_found}
+
+
 def _found(name: str, summary: dict[str, Any]) -> str:
     """What a finished stage's summary says, in a few words."""
-    if name == "rsm":
-        s = Surface.from_summary(summary)
-        if s.adequate is None:
-            return ""
-        p = s.adequacy.p_model if s.adequacy is not None else None
-        words = "adequate" if s.adequate else "not adequate"
-        return words + ("" if p is None else f" (model p {p:.3g})")
-    if name == "optimize":
-        opt = Optimum.from_summary(summary)
-        chosen = ", ".join(f"{k} {v:.4g}" for k, v in opt.chosen.items())
-        pred = "" if opt.predicted_lead is None else f"; predicted {opt.predicted_lead:.2f}"
-        return f"{chosen}{pred}" if chosen else ""
-    if name == "verification":
-        v = Verification.from_summary(summary)
-        if v.mean is None:
-            return ""
-        rel = "" if v.relative_error_percent is None else \
-            f", {v.relative_error_percent:.2f} % from the target"
-        std = "" if v.std is None else f" +/- {v.std:.2f}"
-        return f"mean {v.mean:.2f}{std} on {v.n} piles{rel}"
+    if name in _FOUND:
+        return _FOUND[name](summary)
     message = summary.get("message")  # range finding says what it did in one line
     return str(message) if isinstance(message, str) else ""
 
