@@ -10,7 +10,7 @@ import pytest
 
 import demcal.execute.tasks as tasks
 from demcal.calibrate import calibrate
-from demcal.calibrate.runner import Point, Runner
+from demcal.calibrate.runner import Point, Runner, RunnerOptions
 from demcal.calibrate.study import parse_study
 from demcal.errors import InputError
 from demcal.execute.tasks import TestDef
@@ -75,8 +75,8 @@ def test_a_stage_fidelity_changes_that_stage_s_run_keys_only(two_fidelity_study)
     path, _ = two_fidelity_study
     study = parse_study(tomllib.loads(path.read_text()))
     base = TestDef(kind="aor", fidelity="standard")
-    runner = Runner(None, base, stage_tests={"screening": dataclasses.replace(
-        base, fidelity=study.stages.screening.fidelity)})
+    runner = Runner(None, base, RunnerOptions(stage_tests={"screening": dataclasses.replace(
+        base, fidelity=study.stages.screening.fidelity)}))
     p = Point(point=0, replicate=0, params={"pp.static_friction": 0.5}, seed=1)
     plain = Runner(None, base)
     assert runner.key("rsm", p) == plain.key("rsm", p)
@@ -110,7 +110,7 @@ def _pool_calls(study_file, monkeypatch, counts, **runner_kw):
     full = preset_parameters("corn_stalk")
     out = {}
     with RunStore(study_file.parent) as store:
-        runner = Runner(store, test_def(study), workers=2, **runner_kw)
+        runner = Runner(store, test_def(study), RunnerOptions(workers=2, **runner_kw))
         for n in counts:
             calls.clear()
             points = [Point(point=i, replicate=0, seed=1000 * n + i,
@@ -147,9 +147,9 @@ def test_a_study_spreads_on_the_cpu_unless_it_sets_a_chunk(two_fidelity_study, m
     seen: list[tuple[int, bool]] = []
     real = pipeline_mod.Runner
 
-    def spy(*args, **kw):
-        seen.append((kw["chunk"], kw["spread"]))
-        return real(*args, **kw)
+    def spy(store, test, options):
+        seen.append((options.chunk, options.spread))
+        return real(store, test, options)
 
     monkeypatch.setattr(pipeline_mod, "Runner", spy)
     monkeypatch.setattr("demcal.dem.backends.resolve_backend", lambda backend: "cpu")

@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from demcal.calibrate.pipeline import beside_tests
-from demcal.calibrate.runner import Point, Runner, joined
+from demcal.calibrate.runner import Point, Runner, RunnerOptions, joined
 from demcal.calibrate.study import parse_study
 from demcal.cli import app
 from demcal.errors import InputError
@@ -88,7 +88,7 @@ def test_each_test_is_stored_and_resumed_on_its_own(tmp_path):
     drum = TestDef(kind="drum", overrides={"drum": SMALL_DRUM})
     points = [Point(0, 0, params, 11)]
     with RunStore(tmp_path) as store:
-        runner = Runner(store, lift, beside={"drum": drum})
+        runner = Runner(store, lift, RunnerOptions(beside={"drum": drum}))
         (rec,) = runner.run("screening", points)
         assert runner.executed == 2
         stored = {r.stage: r for r in store.runs()}
@@ -108,7 +108,7 @@ def test_each_test_is_stored_and_resumed_on_its_own(tmp_path):
         assert runner.test_for("bayes+drum") is drum and runner.test_for("bayes") is lift
         assert runner.stage_hash("bayes+drum") == runner.stage_hash("screening+drum")
         # a resumed study re-runs nothing, and gets the same joined run back
-        again = Runner(store, lift, beside={"drum": drum})
+        again = Runner(store, lift, RunnerOptions(beside={"drum": drum}))
         assert again.run("screening", points)[0].responses == rec.responses
         assert again.executed == 0
 

@@ -20,7 +20,7 @@ import numpy as np
 from demcal.calibrate import refine
 from demcal.calibrate import stages as st
 from demcal.calibrate.responses import AOR, ResponseSpec, aor_spec
-from demcal.calibrate.runner import Runner
+from demcal.calibrate.runner import Runner, RunnerOptions
 from demcal.calibrate.study import Study, load_study, study_folder
 from demcal.errors import InputError
 from demcal.execute.local import GPU_CHUNK, default_chunk, default_workers
@@ -207,14 +207,13 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     # the CPU's default on a local pool: lone runs in full rounds, the rest batched here
     spread = batched and ex.chunk is None and chunk < GPU_CHUNK
     test = test_def(study, folder)
-    runner = Runner(store, test,
-                    workers=workers or ex.workers or default_workers(),
-                    dask=dask if dask is not None else ex.dask, chunk=chunk, spread=spread,
-                    progress=progress, external=external,
-                    figures_dir=folder / "figures" / "runs",
-                    stage_tests={name: replace(test, fidelity=fid)
-                                 for name, fid in study.stage_fidelities().items()},
-                    beside=beside_tests(study, test))
+    runner = Runner(store, test, RunnerOptions(
+        workers=workers or ex.workers or default_workers(),
+        dask=dask if dask is not None else ex.dask, chunk=chunk, spread=spread,
+        progress=progress, external=external, figures_dir=folder / "figures" / "runs",
+        stage_tests={name: replace(test, fidelity=fid)
+                     for name, fid in study.stage_fidelities().items()},
+        beside=beside_tests(study, test)))
     specs = _responses(study, target)
     labs = {s.name: lab for s in specs if (lab := s.lab(path.parent)) is not None}
     lead = labs.get(specs[0].name)

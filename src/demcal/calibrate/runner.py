@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +30,7 @@ from demcal.results import RunResult
 from demcal.store import RunRecord, RunStore, params_hash, run_key
 
 __all__ = ["ENGINE_FAILURES", "RETRY_DT_SCALE", "RETRY_OUTCOMES", "ExternalPending", "Point",
-           "Runner"]
+           "Runner", "RunnerOptions"]
 
 RETRY_OUTCOMES = ("unstable", "unsettled")
 RETRY_DT_SCALE = 0.5
@@ -80,20 +80,18 @@ class Point:
     seed: int
 
 
-class Runner:
-    """Runs points of a stage through an executor and stores each run as it ends.
+@dataclass(frozen=True)
+class RunnerOptions:
+    """How a :class:`Runner` makes its runs.
 
-    Parameters
+    Attributes
     ----------
-    store : RunStore
-    test : TestDef
-        The virtual test (its identity enters every run key).
-    stage_tests : dict of str -> TestDef, optional
+    stage_tests : dict of str -> TestDef
         Another test for some stages (a screening at a lower fidelity); its identity enters
         those stages' run keys.
     workers : int
         Local worker processes (1 = in this process).
-    dask : str or Client, optional
+    dask : str or Client or None
         A Dask scheduler; replaces the local pool.
     chunk : int
         Runs per task (batched worlds of one engine).
@@ -102,14 +100,14 @@ class Runner:
         workers and the rest in this process on every thread, instead of chunks of
         ``chunk`` (the CPU's default: a single-thread worker runs a lone test as fast as a
         batch, `small` tests 8 % faster, and no worker waits while a last chunk runs).
-    progress : callable, optional
+    progress : callable or None
         ``progress(stage, done, total)`` after each run.
     external : bool
         Run nothing: :meth:`run` returns the missing points instead (external mode).
-    figures_dir : path, optional
+    figures_dir : path or None
         Engine runs that form a pile save a side view with the fitted flanks there
         (``<stage>_<hash>.png``, in the run's ``artefacts["pile_png"]``).
-    beside : dict of str -> TestDef, optional
+    beside : dict of str -> TestDef
         Tests run beside ``test`` on every point of every stage but range finding (the drum:
         ``{"drum": TestDef(kind="drum", ...)}``). Each is stored as its own run under the
         stage ``<stage>+<name>`` (so a failed drum run loses no lift run, and each resumes
@@ -117,27 +115,49 @@ class Runner:
         runs beside them joined in.
     """
 
-    def __init__(self, store: RunStore, test: TestDef, *, workers: int = 1, dask: Any = None,
-                 chunk: int = 1, progress: Callable[[str, int, int], None] | None = None,
-                 external: bool = False, figures_dir: str | Path | None = None,
-                 stage_tests: dict[str, TestDef] | None = None, spread: bool = False,
-                 beside: dict[str, TestDef] | None = None) -> None:
+    workers: int = 1
+    dask: Any = None
+    chunk: int = 1
+    progress: Callable[[str, int, int], None] | None = None
+    external: bool = False
+    figures_dir: str | Path | None = None
+    stage_tests: dict[str, TestDef] = field(default_factory=dict)
+    spread: bool = False
+    beside: dict[str, TestDef] = field(default_factory=dict)
+
+
+class Runner:
+    """Runs points of a stage through an executor and stores each run as it ends.
+
+    Parameters
+    ----------
+    store : RunStore
+    test : TestDef
+        The virtual test (its identity enters every run key).
+    options : RunnerOptions, optional
+        How the runs are made (workers, Dask, chunks, progress, external mode, figures, the
+        stages' own tests and the tests beside them).
+    """
+
+    def __init__(self, store: RunStore, test: TestDef,
+                 options: RunnerOptions | None = None) -> None:
+        o = options or RunnerOptions()
         self.store = store
         self.test = test
         self.test_hash = params_hash(test.identity())
-        self.beside = dict(beside or {})
-        self.stage_tests = dict(stage_tests or {})
+        self.beside = dict(o.beside)
+        self.stage_tests = dict(o.stage_tests)
         self._stage_hashes = {s: params_hash(t.identity()) for s, t in self.stage_tests.items()}
         self._beside_hashes = {n: params_hash(t.identity()) for n, t in self.beside.items()}
         #: the keys of the runs beside the test that :meth:`run` returned (joined)
         self.beside_keys: set[str] = set()
-        self.workers = workers
-        self.dask = dask
-        self.chunk = max(1, chunk)
-        self.spread = spread
-        self.progress = progress
-        self.external = external
-        self.figures_dir = None if figures_dir is None else Path(figures_dir)
+        self.workers = o.workers
+        self.dask = o.dask
+        self.chunk = max(1, o.chunk)
+        self.spread = o.spread
+        self.progress = o.progress
+        self.external = o.external
+        self.figures_dir = None if o.figures_dir is None else Path(o.figures_dir)
         self.executed = 0
         #: with Dask: give up after this many seconds without a worker (None: wait)
         self.dask_timeout: float | None = None
