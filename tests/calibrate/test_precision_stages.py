@@ -59,6 +59,16 @@ def test_verification_size_reaches_the_half_width():
     assert verification_size(np.array([40.0, 40.1, 39.9]), 1.5, 50, sigma=4.0) == 30
     assert verification_size(np.array([40.0, 40.1, 39.9]), 1.5, 20, sigma=4.0) == 20
     assert verification_size(v, 1.5, 50, sigma=1.0) == 10  # the runs' own 2 deg rules
+    # with the pure error's degrees of freedom the two are pooled, each weighted by its df:
+    # a pure error of 4 deg from 32 df still holds three agreeing runs back (pooled 3.9 deg:
+    # t(n-1) 3.9 / sqrt(n) <= 1.5 first at n = 29) ...
+    assert verification_size(np.array([40.0, 40.1, 39.9]), 1.5, 50, sigma=4.0,
+                             sigma_df=32) == 29
+    # ... but three centre points (2 df) do not outweigh the LAMMPS standard study's first
+    # 8 verification piles (std 2.07, 7 df): pooled 2.61 deg, +/- 2 deg at 10 runs, not 18
+    piles = np.array([45.19, 49.17, 49.87, 43.72, 45.77, 47.76, 45.82, 47.06])
+    assert verification_size(piles, 2.0, 20, sigma=3.94, sigma_df=2) == 10
+    assert verification_size(piles, 2.0, 20, sigma=3.94) == 18  # sigma taken as exact
 
 
 @pytest.fixture(scope="module")

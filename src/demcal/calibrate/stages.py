@@ -356,7 +356,8 @@ def verification(ctx: Context) -> Verification:
         vals = np.array([a for a in values if a is not None])
         if opts.half_width_deg is None or vals.size < 2 or vals.size < len(recs):
             break
-        want = verification_size(vals, opts.half_width_deg, max(opts.max_n, opts.n), sigma)
+        want = verification_size(vals, opts.half_width_deg, max(opts.max_n, opts.n), sigma,
+                                 sigma_df)
         if want <= n:
             break
         n = want

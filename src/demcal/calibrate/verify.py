@@ -139,21 +139,28 @@ def interval_half_width(values: np.ndarray, alpha: float = 0.05) -> float:
 
 
 def verification_size(values: np.ndarray, half_width: float, max_n: int,
-                      sigma: float | None = None) -> int:
+                      sigma: float | None = None, sigma_df: int | None = None) -> int:
     """Replicates whose 95 % interval half-width should reach ``half_width`` deg (<= max_n).
 
     The smallest n with t(n-1) s / sqrt(n) <= half_width, at least one more than now while the
-    interval is still too wide. ``s`` is the larger of the runs' own spread and ``sigma``, the
-    test's scatter known from elsewhere (the response surface's pure error, with far more
-    degrees of freedom than a few verification runs): a verification whose first runs happen
-    to agree closely does not stop before the test's known scatter allows the goal.
+    interval is still too wide. ``s`` is the test's scatter as well as it is known: the runs'
+    own spread with ``sigma``, the scatter measured elsewhere (the response surface's pure
+    error), so that a verification whose first runs happen to agree closely does not stop
+    before the test's known scatter allows the goal. With ``sigma_df`` (sigma's degrees of
+    freedom) the two are pooled, each weighted by its degrees of freedom: a pure error from
+    30-odd df dominates a few runs, one from three centre points (2 df) does not outweigh ten
+    runs. Without it ``sigma`` counts as known exactly and the larger of the two is taken.
     """
     from scipy import stats
 
     n = values.size
     s = float(values.std(ddof=1)) if n > 1 else math.inf
     if sigma is not None and math.isfinite(sigma):
-        s = max(s, float(sigma))
+        if sigma_df is not None and sigma_df > 0 and n > 1:
+            own = n - 1
+            s = math.sqrt((sigma_df * sigma ** 2 + own * s ** 2) / (sigma_df + own))
+        else:
+            s = max(s, float(sigma))
 
     def wide(k: int) -> bool:
         return bool(stats.t.ppf(0.975, k - 1) * s / math.sqrt(k) > half_width)
