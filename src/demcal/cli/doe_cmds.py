@@ -30,6 +30,7 @@ from demcal.cli._common import (
 )
 from demcal.cli._outputs import refuse_overwrites
 from demcal.cli.optimize_goals import GoalsRun, check_goal_options, optimize_goals
+from demcal.doe.goal import REACHED
 from demcal.errors import InputError
 from demcal.limits import MAX_DESIGN_RUNS, MAX_SEED, check_finite
 from demcal.safety import regular_input, repeated_column
@@ -696,16 +697,11 @@ def analyze(o: AnalyzeOptions) -> None:
         console.print(f"results written to {o.json_out}", highlight=False)
 
 
-#: the best desirability at which a target counts as reached (1: the prediction is the
-#: target; the search stops within about 1e-4 of it)
-REACHED = 0.99
-
-
 def _optimize_headline(frame: Any, response: str, target: float, model: str) -> str:
     """The solutions table's title; a target no setting reaches (every desirability 0:
     every prediction outside the limits) is called unreachable, and one the best setting
-    only approaches (desirability below :data:`REACHED`) not reached, never "predicted to
-    give"."""
+    only approaches (desirability below :data:`~demcal.doe.goal.REACHED`) not reached, never
+    "predicted to give"."""
     best = float(frame["desirability"].max()) if len(frame) else 0.0
     if best >= REACHED:
         return f"Settings predicted to give {response} = {target:g} ({model} model)"

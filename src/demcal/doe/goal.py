@@ -14,12 +14,15 @@ import numpy as np
 from demcal.doe.factors import finite_number
 from demcal.errors import InputError
 
-__all__ = ["GOALS", "IMPORTANCE_RANGE", "WEIGHT_RANGE", "ResponseGoal"]
+__all__ = ["GOALS", "IMPORTANCE_RANGE", "REACHED", "WEIGHT_RANGE", "ResponseGoal"]
 
 GOALS = ("target", "maximize", "minimize", "in_range")
 #: Design-Expert's ranges of a goal's weight (the exponent) and importance.
 WEIGHT_RANGE = (0.1, 10.0)
 IMPORTANCE_RANGE = (1, 5)
+#: the desirability from which a target counts as reached (1: the prediction is the target;
+#: the search stops within about 1e-4 of it)
+REACHED = 0.99
 
 @dataclass(frozen=True)
 class ResponseGoal:

@@ -16,12 +16,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from demcal.doe.goal import REACHED
 from demcal.summaries.optimum import Optimum
 
 __all__ = ["FactorSpan", "TargetSpread", "target_spread"]
 
-#: a candidate reaches the target at this desirability (1: the prediction is the target)
-REACHED = 0.99
 #: a factor's span among the candidates counts from this fraction of its searched range
 MIN_FRACTION = 0.1
 
