@@ -128,3 +128,8 @@ def test_missing_keys_take_their_defaults_and_unknown_keys_are_left_out():
     failed = Surface.from_summary({"design": "ccd", "factors": FACTORS, "runs": [],
                                    "excluded_points": [0, 1], "error": "rsm: cannot fit"})
     assert failed.design == "ccd" and failed.adequate is None and not failed.coefficients_coded
+
+
+def test_the_surface_s_ranges_are_its_factors():
+    assert _surface().ranges == {"pp.static_friction": (0.2, 1.0),
+                                 "pp.rolling_friction": (0.0, 0.4)}

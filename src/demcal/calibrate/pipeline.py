@@ -357,6 +357,6 @@ def run_stages(ctx: st.Context) -> CalibrationResult:
                              removed_terms=list(surface.removed_terms or []),
                              resolution=surface.resolution),
         stages=_stage_json(ctx), responses=several,
-        spread=target_spread(opt, {f.name: (f.low, f.high) for f in surface.factors}))
+        spread=target_spread(opt, surface.ranges))
     ctx.store.set_meta("result", result.to_summary())
     return result

@@ -565,7 +565,7 @@ def _optimize(b: _Builder) -> str:
     def render() -> str:
         opt = d.optimum
         chosen = ", ".join(f"{d.symbol(k)} = {_fmt(v, '.4g')}" for k, v in opt.chosen.items())
-        spread = target_spread(opt, {f.name: (f.low, f.high) for f in d.surface.factors})
+        spread = target_spread(opt, d.surface.ranges)
         return (f"<p>Target {_fmt(opt.target)}°. <b>Chosen:</b> "
                 f"{escape(chosen or '—')}, predicted AoR "
                 f"{_fmt(opt.predicted_lead)}°.</p>"

@@ -248,6 +248,11 @@ class Surface:
         return [f.name for f in self.factors]
 
     @property
+    def ranges(self) -> dict[str, tuple[float, float]]:
+        """Each factor's range the design spans, ``(low, high)``, SI."""
+        return {f.name: (f.low, f.high) for f in self.factors}
+
+    @property
     def model_kind(self) -> str:
         """The model the optimum is read from (``"quadratic"`` where a store predates the
         reduction)."""
