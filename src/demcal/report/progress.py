@@ -125,14 +125,18 @@ def _optimum_found(summary: dict[str, Any]) -> str:
     return f"{chosen}{pred}" if chosen else ""
 
 
-def _verification_found(summary: dict[str, Any]) -> str:
-    v = Verification.from_summary(summary)
+def _verified(v: Verification) -> str:
+    """A verification in a few words: its mean, spread, piles and error ("" before any)."""
     if v.mean is None:
         return ""
     rel = "" if v.relative_error_percent is None else \
         f", {v.relative_error_percent:.2f} % from the target"
     std = "" if v.std is None else f" +/- {v.std:.2f}"
     return f"mean {v.mean:.2f}{std} on {v.n} piles{rel}"
+
+
+def _verification_found(summary: dict[str, Any]) -> str:
+    return _verified(Verification.from_summary(summary))
 
 
 def _bayes_found(summary: dict[str, Any]) -> str:
@@ -183,11 +187,8 @@ def study_progress(store: RunStore) -> StudyProgress:
     result = None
     if isinstance(stored, dict) and stored:
         res = CalibrationResult.from_summary(stored)
-        v = res.verification
-        if v.mean is not None:
-            result = (f"verified {v.mean:.2f} on {v.n} piles against {res.target:.2f} "
-                      f"({v.relative_error_percent:.2f} % off)"
-                      if v.relative_error_percent is not None else f"verified {v.mean:.2f}")
+        if words := _verified(res.verification):
+            result = f"verified {words} (target {res.target:.2f})"
     last = max((r.finished_at for r in runs), default=None)
     study = StudyMeta.from_summary(store.meta("study"))
     return StudyProgress(name=str(study.name or store.path.parent.name), runs=len(runs),
