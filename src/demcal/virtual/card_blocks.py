@@ -175,10 +175,7 @@ class CardEngine:
         if rolling is not None and rolling not in ROLLING_MODELS:
             raise InputError(f"{where}.rolling_model must be one of "
                              f"{', '.join(ROLLING_MODELS)}; got {rolling!r}")
-        texts = {k: _text(table, k, where) for k in (
-            "version", "backend", "lammps_version", "command", "template", "template_sha256")}
-        return cls(name=name, rolling_model=rolling,
-                   dt_fraction=number(table, "dt_fraction", where), **texts)
+        return cls(name=name, **_read_fields(cls, table, where))
 
 
 @dataclass(frozen=True)
