@@ -72,8 +72,8 @@ from typing import Any
 
 from demcal.errors import StoreError
 
-__all__ = ["STAGES", "STORE_NAME", "RunRecord", "RunStore", "StageRecord", "params_hash", "run_key",
-           "salvage"]
+__all__ = ["STAGES", "STORE_NAME", "RunRecord", "RunStore", "StageRecord", "describe_holder",
+           "holder_alive", "params_hash", "run_key", "salvage"]
 
 STORE_NAME = "demcal.sqlite"
 #: The calibration's stages, in the order they run, with their titles: the names the
@@ -284,7 +284,7 @@ def _proc_start(pid: int) -> str | None:
         return None
 
 
-def _holder_alive(holder: Mapping[str, Any]) -> bool | None:
+def holder_alive(holder: Mapping[str, Any]) -> bool | None:
     """Whether the lock holder still runs: True, False, or None (another host: unknown)."""
     if holder.get("host") != socket.gethostname():
         return None
@@ -495,12 +495,6 @@ class RunStore:
         holder = self.meta(LOCK_KEY)
         return holder if isinstance(holder, dict) else None
 
-    def lock_holder_alive(self) -> bool | None:
-        """Whether the writer lock's holder still runs: True, False (or no holder), or None
-        (held from another host: it cannot be checked here)."""
-        holder = self.lock_holder()
-        return False if holder is None else _holder_alive(holder)
-
     def acquire_lock(self, *, break_lock: bool = False) -> None:
         """Take the study's writer lock (one immediate transaction: check, then write).
 
@@ -532,7 +526,7 @@ class RunStore:
                 except ValueError:
                     holder = None
             if isinstance(holder, dict):
-                alive = _holder_alive(holder)
+                alive = holder_alive(holder)
                 who = describe_holder(holder)
                 if alive is True:
                     raise StoreError(f"{self.path.parent}: study is being written by {who}; "

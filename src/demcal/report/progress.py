@@ -14,7 +14,8 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from demcal.store import RunStore, describe_holder
+from demcal.lead import ANGLE
+from demcal.store import RunStore, describe_holder, holder_alive
 from demcal.summaries import CalibrationResult, Optimum, Surface, Verification
 from demcal.summaries.bayes import BayesSummary
 from demcal.summaries.study_meta import StudyMeta
@@ -164,7 +165,7 @@ def _writer(store: RunStore) -> Writer | None:
     holder = store.lock_holder()
     if holder is None:
         return None
-    return Writer(description=describe_holder(holder), alive=store.lock_holder_alive())
+    return Writer(description=describe_holder(holder), alive=holder_alive(holder))
 
 
 def study_progress(store: RunStore) -> StudyProgress:
@@ -200,4 +201,4 @@ def study_progress(store: RunStore) -> StudyProgress:
 def _lead(store: RunStore) -> str:
     """The study's lead response (the angle where the study names no other)."""
     own = store.meta("lead")
-    return str(own["name"]) if isinstance(own, dict) and own.get("name") else "aor_deg"
+    return str(own["name"]) if isinstance(own, dict) and own.get("name") else ANGLE
