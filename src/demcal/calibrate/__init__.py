@@ -154,6 +154,7 @@ __getattr__, __dir__, __all__ = exports(__name__, {
     "STAGES": "pipeline",
     "calibrate": "pipeline",
     "open_study": "pipeline",
+    "StudyAccess": "pipeline",
     "ExternalPending": "runner",
     "Point": "runner",
     "Runner": "runner",

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import platform
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -45,8 +45,8 @@ from demcal.summaries.provenance import EngineMeta, Versions
 from demcal.summaries.spread import target_spread
 from demcal.summaries.target import Target, TargetPhoto
 
-__all__ = ["STAGES", "calibrate", "engine_meta", "open_study", "resolve_target", "test_def",
-           "versions_meta"]
+__all__ = ["STAGES", "StudyAccess", "calibrate", "engine_meta", "open_study", "resolve_target",
+           "test_def", "versions_meta"]
 
 STAGES = tuple(STAGE_TITLES)  #: the stages in the order they run (demcal.store.STAGES)
 
@@ -165,15 +165,39 @@ def _fixed(study: Study) -> tuple[dict[str, float], dict[str, Any] | None]:
     return params, physical
 
 
-def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any = None,
-               external: bool = False,
-               progress: Callable[[str, int, int], None] | None = None,
-               break_lock: bool = False) -> st.Context:
+@dataclass(frozen=True)
+class StudyAccess:
+    """How a study is opened for its stages (:func:`open_study`).
+
+    Attributes
+    ----------
+    workers : int or None
+        Local worker processes; None: the study's ``[executor] workers``, else one per core.
+    dask : str or Client or None
+        A Dask scheduler instead of the local pool; None: the study's ``[executor] dask``.
+    external : bool
+        External mode: run nothing, the stages' runs come from run sheets.
+    progress : callable or None
+        ``progress(stage, done, total)`` after each run.
+    break_lock : bool
+        Take over a writer lock whose holder is gone (:class:`demcal.store.RunStore`).
+    """
+
+    workers: int | None = None
+    dask: Any = None
+    external: bool = False
+    progress: Callable[[str, int, int], None] | None = None
+    break_lock: bool = False
+
+
+def open_study(study_file: str | Path, access: StudyAccess | None = None) -> st.Context:
     """Load the study, open its store, write the meta keys and build the stage context.
 
     The store is opened (created) only once the study's inputs are read, with the study's
-    writer lock (``break_lock``: see :class:`demcal.store.RunStore`).
+    writer lock (``access.break_lock``: see :class:`demcal.store.RunStore`).
     """
+    access = access or StudyAccess()
+    external = access.external
     path = Path(study_file).resolve()
     study = load_study(path)
     if external and study.tests.drum is not None:
@@ -187,7 +211,7 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     folder = study_folder(path)
     target = None if study.target is None else resolve_target(study, figures=folder / "figures")
     fixed, physical = _fixed(study)
-    store = RunStore(folder, lock=True, break_lock=break_lock)
+    store = RunStore(folder, lock=True, break_lock=access.break_lock)
     factors = [StudyFactor(name=f.name, symbol=f.symbol, low=f.low, high=f.high,
                            unit=f.unit) for f in study.factors]
     store.set_meta("study", study.model_dump(mode="json"))
@@ -208,9 +232,9 @@ def open_study(study_file: str | Path, *, workers: int | None = None, dask: Any 
     spread = batched and ex.chunk is None and chunk < GPU_CHUNK
     test = test_def(study, folder)
     runner = Runner(store, test, RunnerOptions(
-        workers=workers or ex.workers or default_workers(),
-        dask=dask if dask is not None else ex.dask, chunk=chunk, spread=spread,
-        progress=progress, external=external, figures_dir=folder / "figures" / "runs",
+        workers=access.workers or ex.workers or default_workers(),
+        dask=access.dask if access.dask is not None else ex.dask, chunk=chunk, spread=spread,
+        progress=access.progress, external=external, figures_dir=folder / "figures" / "runs",
         stage_tests={name: replace(test, fidelity=fid)
                      for name, fid in study.stage_fidelities().items()},
         beside=beside_tests(study, test)))
@@ -294,8 +318,8 @@ def calibrate(study_file: str | Path, *, workers: int | None = None, dask: Any =
     Raises :class:`demcal.calibrate.runner.ExternalPending` in external mode when a stage
     needs runs done outside demcal.
     """
-    ctx = open_study(study_file, workers=workers, dask=dask, external=external,
-                     progress=progress)
+    ctx = open_study(study_file, StudyAccess(workers=workers, dask=dask, external=external,
+                                             progress=progress))
     try:
         return run_stages(ctx).to_summary()
     finally:

@@ -240,9 +240,12 @@ class Runner:
         digest = key.partition(":")[2]  # keys are "<stage>:<hash>"
         return str(self.figures_dir / f"{stage}_{digest[:12]}.png")
 
-    def _execute(self, stage: str, points: list[Point], dt_scale: float, attempts: int,
-                 total: int, done0: int) -> list[Point]:
-        """Run points; return those to retry."""
+    def _execute(self, stage: str, points: list[Point], attempts: int, total: int,
+                 done0: int) -> list[Point]:
+        """Run points (``attempts``: 1 the first time, 2 a retry at :data:`RETRY_DT_SCALE`
+        of the time step; ``done0`` of the stage's ``total`` runs are stored before them);
+        return those to retry."""
+        dt_scale = 1.0 if attempts == 1 else RETRY_DT_SCALE
         by_key = {self.key(stage, p): p for p in points}
         test = self.test_for(stage)
         tasks = [RunTask(k, test, p.params, p.seed, dt_scale, self._plot_path(stage, k))
@@ -313,10 +316,10 @@ class Runner:
             self.progress(stage, total - len(todo), total)
         fresh = [p for p in todo if self._fresh(self.store.get_run(self.key(stage, p)))]
         stale = [p for p in todo if p not in fresh]  # failed once, retry pending
-        retry = self._execute(stage, fresh, 1.0, 1, total, total - len(todo)) if fresh else []
+        retry = self._execute(stage, fresh, 1, total, total - len(todo)) if fresh else []
         retry += stale
         if retry:
-            self._execute(stage, retry, RETRY_DT_SCALE, 2, total, total - len(retry))
+            self._execute(stage, retry, 2, total, total - len(retry))
         out = []
         for p in points:
             r = self.store.get_run(self.key(stage, p))

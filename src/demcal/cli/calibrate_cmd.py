@@ -352,13 +352,13 @@ def _run(o: CalibrateOptions, dask: str | None) -> tuple[CalibrationResult, bool
     where ``--external`` wrote the next run sheet. A Ctrl-C or SIGTERM says how many runs
     are stored and exits with its code."""
     from demcal.calibrate.external import write_run_sheet
-    from demcal.calibrate.pipeline import open_study, run_stages
+    from demcal.calibrate.pipeline import StudyAccess, open_study, run_stages
     from demcal.calibrate.runner import ExternalPending
 
     progress, on_progress = _progress(o.external)
     try:
-        ctx = open_study(o.study, workers=o.workers, dask=dask, external=o.external,
-                         progress=on_progress, break_lock=o.break_lock)
+        ctx = open_study(o.study, StudyAccess(workers=o.workers, dask=dask, external=o.external,
+                                              progress=on_progress, break_lock=o.break_lock))
         ctx.runner.dask_timeout = o.dask_timeout if o.dask_timeout is not None else \
             ctx.study.executor.dask_timeout
         try:
@@ -435,13 +435,13 @@ def import_cmd(
 ) -> None:
     """Store the responses of an externally run sheet; `demcal calibrate` then goes on."""
     from demcal.calibrate.external import import_results
-    from demcal.calibrate.pipeline import open_study
+    from demcal.calibrate.pipeline import StudyAccess, open_study
     from demcal.store import STORE_NAME
 
     if not (study_folder(study) / STORE_NAME).is_file():  # a sheet comes from a store
         raise InputError(f"no run store {STORE_NAME} next to {study}: run `demcal calibrate "
                          f"{study} --external` first, it writes the run sheets")
-    ctx = open_study(study, external=True, break_lock=break_lock)
+    ctx = open_study(study, StudyAccess(external=True, break_lock=break_lock))
     try:
         n = import_results(results, ctx.runner, [r.name for r in ctx.responses])
     finally:
