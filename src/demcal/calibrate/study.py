@@ -419,6 +419,14 @@ class Executor(_M):
     lammps: LammpsOptions = Field(default_factory=LammpsOptions,
                                   description="how LAMMPS is started (engine = 'lammps')")
 
+    @field_validator("lammps")
+    @classmethod
+    def _lammps(cls, v: LammpsOptions) -> LammpsOptions:
+        if v.jobs != 1:  # the pool's workers each run one LAMMPS at a time
+            raise ValueError(f"jobs = {v.jobs}: a study runs [executor] workers runs at once "
+                             "(each on np ranks); set workers instead of jobs")
+        return v
+
     @field_validator("dask")
     @classmethod
     def _dask(cls, v: str | None) -> str | None:

@@ -226,6 +226,9 @@ class SimulateAorOptions:
     hostfile: Annotated[Path | None, typer.Option(
         help="LAMMPS: MPI hostfile (mpirun -f FILE) to run the ranks on several machines.")] \
         = None
+    jobs: Annotated[int, typer.Option(
+        help="LAMMPS: runs at once (each on --lammps-np ranks), e.g. --seeds 6 --jobs 2 on "
+        "2 cores; demcal's engine batches the seeds as worlds instead.")] = 1
 
 
 @dataclass(frozen=True)
@@ -321,6 +324,11 @@ def _plan(o: SimulateAorOptions) -> _Plan:
         raise InputError(f"--test: {exc}") from None
     if engine == "lammps" and o.vtk is not None:
         raise InputError("--vtk is for demcal's engine; LAMMPS writes no VTK here")
+    if not 1 <= o.jobs <= MAX_REPLICATES:  # no more runs at once than runs
+        raise InputError(f"--jobs must be in 1..{MAX_REPLICATES}; got {o.jobs}")
+    if engine != "lammps" and o.jobs != 1:
+        raise InputError("--jobs is for --engine lammps; demcal's engine runs the seeds as "
+                         "worlds of one engine, on every thread")
     return _Plan(params=params, config=config, fidelity=fidelity, preset=preset,
                  engine=engine, backend=backend,
                  seeds=[o.seed0 + k for k in range(seeds)])
@@ -350,7 +358,7 @@ def _run_plan(o: SimulateAorOptions, plan: _Plan) -> list:
             from demcal.virtual.lammps_options import LammpsOptions
             from demcal.virtual.lammps_run import RunReporting, run_aor_lammps
 
-            options = LammpsOptions(np=o.lammps_np, launcher=o.launcher,
+            options = LammpsOptions(np=o.lammps_np, launcher=o.launcher, jobs=o.jobs,
                                     hostfile=None if o.hostfile is None else str(o.hostfile))
             return run_aor_lammps([plan.params] * n, config=plan.config, seeds=plan.seeds,
                                   options=options,

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from demcal.limits import MAX_REPLICATES
+
 __all__ = ["LammpsOptions"]
 
 
@@ -24,3 +26,6 @@ class LammpsOptions(BaseModel):
     work_dir: str | None = Field(None, description="keep each run's LAMMPS files in "
                                  "a new folder WORK_DIR/seed<k>-... (default: a temporary "
                                  "folder, removed)")
+    jobs: int = Field(1, ge=1, le=MAX_REPLICATES, description="runs at once outside a "
+                      "study (simulate aor --engine lammps --seeds N --jobs J), each on np "
+                      "ranks; a study runs [executor] workers at once instead")

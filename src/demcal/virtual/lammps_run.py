@@ -22,8 +22,10 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -314,13 +316,74 @@ class RunReporting:
 
 
 def _run_one(run: RunSpec, config: AoRTestConfig, options: LammpsOptions,
-             folder: Path) -> AoRResult:
+             folder: Path, watch: Callable[[], None] | None = None) -> AoRResult:
     """Write the run's case into ``folder``, run LAMMPS there and read its result."""
     cmd = lammps_command(options)
     t0 = time.perf_counter()
     case = write_case(run.params, config, run.seed, folder)
-    failure = launch(cmd, folder, options.timeout_s)
+    failure = launch(cmd, folder, options.timeout_s, watch)
     return _result(case, config, time.perf_counter() - t0, run.plot_path, failure)
+
+
+def _run_in_folder(run: RunSpec, config: AoRTestConfig, options: LammpsOptions,
+                   watch: Callable[[], None] | None = None) -> AoRResult:
+    """:func:`_run_one` in a new folder under ``options.work_dir`` (kept) or a temporary one."""
+    if options.work_dir is not None:
+        Path(options.work_dir).mkdir(parents=True, exist_ok=True)
+        folder = Path(tempfile.mkdtemp(prefix=f"seed{run.seed}-", dir=options.work_dir))
+        res = _run_one(run, config, options, folder, watch)
+    else:
+        with tempfile.TemporaryDirectory(prefix="demcal-lammps-") as tmp:
+            res = _run_one(run, config, options, Path(tmp), watch)
+    res.engine = "lammps"
+    return res
+
+
+class _Stopped(Exception):
+    """A run's LAMMPS is ended because the caller stopped (Ctrl-C, SIGTERM, an error)."""
+
+
+def _at_once(runs: Sequence[RunSpec], config: AoRTestConfig, options: LammpsOptions,
+             reporting: RunReporting) -> list[AoRResult]:
+    """The runs, ``options.jobs`` at once, each LAMMPS watched from its own thread.
+
+    The threads only wait on their LAMMPS; this (the main) thread hands out the results in
+    the order the runs end. When it is stopped (Ctrl-C or SIGTERM land here, or a callback
+    fails), every running LAMMPS group is ended before the stop goes on, and no further run
+    starts: nothing is left running, as with one run at a time.
+    """
+    stop = threading.Event()
+
+    def watch() -> None:
+        if stop.is_set():
+            raise _Stopped
+
+    def one(i: int) -> AoRResult:
+        watch()  # a run queued behind a stop never starts
+        if reporting.progress is not None:
+            reporting.progress(i, "lammps", 0.0, 0.0)
+        return _run_in_folder(runs[i], config, options, watch)
+
+    results: list[AoRResult | None] = [None] * len(runs)
+    pool = ThreadPoolExecutor(max_workers=options.jobs, thread_name_prefix="lammps")
+    try:
+        pending: dict[Future[AoRResult], int] = {pool.submit(one, i): i
+                                                 for i in range(len(runs))}
+        while pending:
+            done, _ = wait(pending, timeout=WATCH_INTERVAL_S, return_when=FIRST_COMPLETED)
+            for fut in done:
+                i = pending.pop(fut)
+                res = results[i] = fut.result()
+                if reporting.progress is not None:
+                    reporting.progress(i, res.outcome, res.sim_time_s, res.wall_time_s)
+                if reporting.on_result is not None:
+                    reporting.on_result(i, res)
+    except BaseException:
+        stop.set()  # each watched LAMMPS is ended within WATCH_INTERVAL_S (its group killed)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return [r for r in results if r is not None]
 
 
 def launch(cmd: list[str], folder: Path, timeout_s: float,
@@ -369,7 +432,8 @@ def launch(cmd: list[str], folder: Path, timeout_s: float,
 def run_aor_lammps(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestConfig,
                    seeds: Sequence[int], options: LammpsOptions | None = None,
                    reporting: RunReporting | None = None) -> list[AoRResult]:
-    """Run the AoR test in LAMMPS, one run after another (each on ``options.np`` ranks).
+    """Run the AoR test in LAMMPS, one run after another or ``options.jobs`` at once (each
+    on ``options.np`` ranks).
 
     Parameters
     ----------
@@ -393,21 +457,16 @@ def run_aor_lammps(parameter_sets: Sequence[Mapping[str, float]], *, config: AoR
     options = options or LammpsOptions()
     reporting = reporting or RunReporting()
     lammps_command(options)  # fail before any work when LAMMPS is missing
+    runs = [RunSpec(params=check_parameters(dict(pset)), seed=int(seed),
+                    plot_path=None if reporting.plot_paths is None else reporting.plot_paths[i])
+            for i, (pset, seed) in enumerate(zip(parameter_sets, seeds, strict=True))]
+    if options.jobs > 1 and len(runs) > 1:
+        return _at_once(runs, config, options, reporting)
     results: list[AoRResult] = []
-    for i, (pset, seed) in enumerate(zip(parameter_sets, seeds, strict=True)):
-        run = RunSpec(params=check_parameters(dict(pset)), seed=int(seed),
-                      plot_path=None if reporting.plot_paths is None
-                      else reporting.plot_paths[i])
+    for i, run in enumerate(runs):
         if reporting.progress is not None:
             reporting.progress(i, "lammps", 0.0, 0.0)
-        if options.work_dir is not None:
-            Path(options.work_dir).mkdir(parents=True, exist_ok=True)
-            folder = Path(tempfile.mkdtemp(prefix=f"seed{seed}-", dir=options.work_dir))
-            res = _run_one(run, config, options, folder)
-        else:
-            with tempfile.TemporaryDirectory(prefix="demcal-lammps-") as tmp:
-                res = _run_one(run, config, options, Path(tmp))
-        res.engine = "lammps"
+        res = _run_in_folder(run, config, options)
         results.append(res)
         if reporting.progress is not None:
             reporting.progress(i, res.outcome, res.sim_time_s, res.wall_time_s)
