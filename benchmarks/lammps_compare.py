@@ -10,9 +10,14 @@ start from the same packing):
 - ``demcal_C_jkr`` / ``lammps_jkr``: the same with a small cohesion (gamma = 0.01 J/m^2:
   demcal's JKR version 1 against LAMMPS' hysteretic jkr).
 
-Each case's runs are written to the JSON file as they end (a partial file is usable)::
+Each run is written to the JSON file as it ends, by case and seed, with its case's summary
+(a partial file is usable). A second call with the same file runs only the seeds it lacks, so
+a comparison too long for one sitting (the paper fidelity: ~1400 CPU-s per LAMMPS run) is
+finished over several, the file committed between them::
 
     python benchmarks/lammps_compare.py --seeds 4 --out benchmarks/results/lammps_compare.json
+    python benchmarks/lammps_compare.py --fidelity paper --seeds 6 --cases demcal_C,lammps \
+        --jobs 2 --out benchmarks/results/lammps_compare_paper.json
 """
 
 from __future__ import annotations
@@ -25,7 +30,8 @@ import time
 from pathlib import Path
 
 from demcal.virtual import fidelity_config, preset_parameters, run_aor
-from demcal.virtual.lammps_run import LammpsOptions, run_aor_lammps
+from demcal.virtual.aor import AoRResult
+from demcal.virtual.lammps_run import LammpsOptions, RunReporting, run_aor_lammps
 
 CASES = {
     "demcal_A": ("demcal", "A", 0.0),
@@ -51,38 +57,62 @@ def _summary(runs: list[dict]) -> dict:
     return out
 
 
+#: what is kept of each run (the whole result holds every view's fit: too much to commit)
+RUN_KEYS = ("outcome", "aor_deg", "n_particles", "fill_level_m", "bulk_density_kg_m3",
+            "sim_time_s", "sphere_steps", "wall_time_s")
+
+
+def _run_case(name: str, args: argparse.Namespace, doc: dict, out: Path) -> None:
+    """The case's seeds its entry in ``doc`` lacks, each saved to ``out`` as it ends."""
+    engine, rolling, gamma = CASES[name]
+    params = preset_parameters("corn_stalk_dry", {"pp.rolling_friction": 0.14,
+                                                  "pp.surface_energy": gamma})
+    config = fidelity_config(args.fidelity, rolling_model=rolling)
+    case = doc["cases"].setdefault(name, {"engine": engine, "rolling_model": rolling,
+                                          "pp.surface_energy": gamma, "runs": {}})
+    runs: dict = case.setdefault("runs", {})
+    todo = [s for s in range(args.seed0, args.seed0 + args.seeds) if str(s) not in runs]
+    t0 = time.perf_counter()
+
+    def save(_i: int, res: AoRResult) -> None:
+        nonlocal t0
+        d = res.to_dict()
+        runs[str(res.seed)] = {k: d.get(k) for k in RUN_KEYS}
+        ordered = [runs[k] for k in sorted(runs, key=int)]
+        case.update(seeds=sorted(int(k) for k in runs), **_summary(ordered))
+        case["elapsed_s"] = round(case.get("elapsed_s", 0.0) + time.perf_counter() - t0, 1)
+        t0 = time.perf_counter()  # the next run's time starts here
+        out.write_text(json.dumps(doc, indent=1) + "\n")
+        print(name, res.seed, res.outcome, res.aor_deg, flush=True)
+
+    if engine == "lammps":
+        run_aor_lammps([params] * len(todo), config=config, seeds=todo,
+                       options=LammpsOptions(np=args.np, jobs=args.jobs),
+                       reporting=RunReporting(on_result=save))
+    else:  # one seed at a time, so that each is saved as it ends
+        for i, seed in enumerate(todo):
+            save(i, run_aor([params], config=config, seeds=[seed], backend="cpu")[0])
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fidelity", default="quick")
-    ap.add_argument("--seeds", type=int, default=4)
+    ap.add_argument("--seeds", type=int, default=4, help="seeds SEED0..SEED0+N-1")
+    ap.add_argument("--seed0", type=int, default=0)
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--np", type=int, default=1, help="LAMMPS MPI ranks")
+    ap.add_argument("--jobs", type=int, default=1, help="LAMMPS runs at once")
     ap.add_argument("--out", default="benchmarks/results/lammps_compare.json")
     args = ap.parse_args()
     out = Path(args.out)
     doc = json.loads(out.read_text()) if out.exists() else {}
+    if doc.get("fidelity", args.fidelity) != args.fidelity:
+        raise SystemExit(f"{out} holds the {doc['fidelity']} fidelity; name another --out")
     doc.update({"fidelity": args.fidelity, "machine": platform.processor() or platform.machine(),
                 "params": "corn_stalk_dry, pp.rolling_friction 0.14 (mu_s 0.55)"})
     doc.setdefault("cases", {})
-    seeds = list(range(args.seeds))
     for name in args.cases.split(","):
-        engine, rolling, gamma = CASES[name]
-        params = preset_parameters("corn_stalk_dry", {"pp.rolling_friction": 0.14,
-                                                      "pp.surface_energy": gamma})
-        config = fidelity_config(args.fidelity, rolling_model=rolling)
-        t0 = time.perf_counter()
-        if engine == "lammps":
-            res = run_aor_lammps([params] * len(seeds), config=config, seeds=seeds,
-                                 options=LammpsOptions(np=args.np))
-        else:
-            res = run_aor([params] * len(seeds), config=config, seeds=seeds, backend="cpu")
-        runs = [r.to_dict() for r in res]
-        doc["cases"][name] = {"engine": engine, "rolling_model": rolling,
-                              "pp.surface_energy": gamma, "seeds": seeds,
-                              "elapsed_s": round(time.perf_counter() - t0, 1),
-                              **_summary(runs)}
-        out.write_text(json.dumps(doc, indent=1) + "\n")
-        print(name, json.dumps(doc["cases"][name]), flush=True)
+        _run_case(name, args, doc, out)
 
 
 if __name__ == "__main__":
