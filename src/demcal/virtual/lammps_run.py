@@ -349,8 +349,8 @@ def _at_once(runs: Sequence[RunSpec], config: AoRTestConfig, options: LammpsOpti
 
     The threads only wait on their LAMMPS; this (the main) thread hands out the results in
     the order the runs end. When it is stopped (Ctrl-C or SIGTERM land here, or a callback
-    fails), every running LAMMPS group is ended before the stop goes on, and no further run
-    starts: nothing is left running, as with one run at a time.
+    fails), every running LAMMPS group is ended before the stop goes on, and no run starts
+    after it: nothing is left running, as with one run at a time.
     """
     stop = threading.Event()
 
