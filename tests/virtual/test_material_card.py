@@ -257,7 +257,8 @@ def test_docstrings(module):
             assert obj.__doc__ and len(obj.__doc__) > 30, f"{module}.{name}"
 
 
-@pytest.mark.parametrize("name", ["material_bayes_standard.toml", "material_lammps_small.toml"])
+@pytest.mark.parametrize("name", ["material_bayes_standard.toml", "material_lammps_small.toml",
+                                  "material_lammps_low_cohesion.toml"])
 def test_a_committed_card_reads_and_writes_back_byte_for_byte(name):
     # every block is typed (CardEngine, CardTest, CardVerification, CardPosterior, ...): their
     # keys and order are the card format, so a renamed or reordered field fails here
