@@ -8,13 +8,13 @@ takes LAMMPS' place, so these run where LAMMPS is not installed; each run is the
 
 from __future__ import annotations
 
-import os
 import stat
 import sys
 import time
 from pathlib import Path
 
 import pytest
+from process_checks import wait_gone
 from typer.testing import CliRunner
 
 from demcal.cli import app
@@ -83,14 +83,6 @@ def test_one_job_runs_one_after_another(tmp_path):
     assert _most_at_once(tmp_path / "times") == 1
 
 
-def _gone(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return True
-    return False
-
-
 def test_a_stop_ends_every_running_lammps_at_once(tmp_path):
     # the first LAMMPS to start ends soon and its result's handler fails (as Ctrl-C or
     # SIGTERM would land in this thread); the others would run a minute: each one running
@@ -118,10 +110,7 @@ def test_a_stop_ends_every_running_lammps_at_once(tmp_path):
     assert took < 20.0, f"the stop waited {took:.1f} s for a LAMMPS that should have ended"
     children = [int(p) for p in (tmp_path / "slow" / "children").read_text().split()]
     assert 1 <= len(children) <= 2
-    deadline = time.monotonic() + 5.0
-    while not all(_gone(p) for p in children) and time.monotonic() < deadline:
-        time.sleep(0.05)
-    assert all(_gone(p) for p in children), "a running LAMMPS outlived the stop"
+    assert wait_gone(children, timeout=5.0), "a running LAMMPS outlived the stop"
 
 
 def test_simulate_refuses_jobs_for_demcal_s_engine():
