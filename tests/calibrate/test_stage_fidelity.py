@@ -71,6 +71,59 @@ def test_screening_and_path_run_at_their_fidelity_the_surface_at_the_study_s(
     assert again.asked == {}
 
 
+def _surface_at(path, fid):
+    """The study at ``path`` with its response surface fitted on the ``fid`` test."""
+    text = path.read_text()
+    assert "[stages.rsm]\n" in text
+    path.write_text(text.replace("[stages.rsm]\n", f'[stages.rsm]\nfidelity = "{fid}"\n'))
+
+
+def test_a_surface_on_the_small_test_verified_on_the_study_s(two_fidelity_study, monkeypatch):
+    """stages.rsm.fidelity: the design runs the small test, the verification the study's
+    (standard); the path at the surface's fidelity needs no anchor; the verification is not
+    sized with the other test's pure error; the result, the store and the report say which
+    test the surface is on."""
+    from demcal.report import build_report
+
+    path, analytic = two_fidelity_study
+    _surface_at(path, "small")
+    stand_in = StandIn(analytic)
+    monkeypatch.setattr(tasks, "run_chunk", stand_in)
+    res = calibrate(path)
+    assert stand_in.asked == {"rangefind": {"quick"}, "screening": {"small"},
+                              "steepest": {"small"}, "rsm": {"small"},
+                              "verification": {"standard"}}
+    assert res["stages"]["rsm"]["fidelity"] == "small"
+    with RunStore(path.parent) as store:
+        assert store.stage("rsm").summary["fidelity"] == "small"
+        assert "sized_with_std" not in store.stage("verification").summary
+    html = build_report(path.parent, out_dir=path.parent / "report").read_text()
+    assert "on the small test (the verification runs the study&#x27;s)" in html
+    again = StandIn(analytic)
+    monkeypatch.setattr(tasks, "run_chunk", again)
+    assert calibrate(path)["optimum"] == res["optimum"]
+    assert again.asked == {}
+
+
+def test_a_path_cheaper_than_the_surface_is_anchored_at_the_surface_s_test(
+        two_fidelity_study, monkeypatch):
+    """Path at 'quick', surface at 'small' in a 'standard' study: the anchor runs the test
+    the surface is fitted on, not the study's."""
+    path, analytic = two_fidelity_study
+    _surface_at(path, "small")
+    path.write_text(path.read_text().replace(
+        '[stages.steepest]\nfidelity = "small"\n', '[stages.steepest]\nfidelity = "quick"\n'))
+    stand_in = StandIn(analytic)
+    monkeypatch.setattr(tasks, "run_chunk", stand_in)
+    res = calibrate(path)
+    assert stand_in.asked["steepest_anchor"] == {"small"}
+    assert stand_in.asked["rsm"] == {"small"}
+    assert stand_in.asked["verification"] == {"standard"}
+    anchor = res["stages"]["steepest"]["anchor"]
+    assert anchor["fidelity"] == "small"
+    assert anchor["message"].startswith("the surface's test (small)")
+
+
 def test_a_stage_fidelity_changes_that_stage_s_run_keys_only(two_fidelity_study):
     path, _ = two_fidelity_study
     study = parse_study(tomllib.loads(path.read_text()))

@@ -192,6 +192,13 @@ class Context:
         fid = self.study.stage_fidelities().get(stage)
         return {"fidelity": fid} if fid is not None else {}
 
+    def surface_fidelity(self) -> str | None:
+        """The fidelity the response surface is fitted on where it is not the study's
+        (``stages.rsm.fidelity``), else None: then the surface, its pure error and the
+        verification share one test."""
+        fid = self.study.stage_fidelities().get("rsm")
+        return None if fid is None or fid == self.study.test.fidelity else fid
+
     def run(self, stage: str, points: Sequence[Point]) -> list[RunRecord]:
         recs = self.runner.run(stage, points)
         self.records.extend(recs)

@@ -235,8 +235,7 @@ def open_study(study_file: str | Path, access: StudyAccess | None = None) -> st.
         workers=access.workers or ex.workers or default_workers(),
         dask=access.dask if access.dask is not None else ex.dask, chunk=chunk, spread=spread,
         progress=access.progress, external=external, figures_dir=folder / "figures" / "runs",
-        stage_tests={name: replace(test, fidelity=fid)
-                     for name, fid in study.stage_fidelities().items()},
+        stage_tests=stage_tests(study, test),
         beside=beside_tests(study, test)))
     specs = _responses(study, target)
     labs = {s.name: lab for s in specs if (lab := s.lab(path.parent)) is not None}
@@ -249,6 +248,15 @@ def open_study(study_file: str | Path, access: StudyAccess | None = None) -> st.
         "n": lead.n})
     return st.Context(study, store, runner, fixed, lead.mean, factors,
                       target_std=lead.std, target_n=lead.n, responses=specs, labs=labs)
+
+
+def stage_tests(study: Study, test: TestDef) -> dict[str, TestDef]:
+    """The tests of the stages that run at their own fidelity, by stage; the path's anchor
+    runs the surface's test (:func:`demcal.calibrate.steepest._surface_centre`)."""
+    own = {name: replace(test, fidelity=fid) for name, fid in study.stage_fidelities().items()}
+    if "rsm" in own:
+        own["steepest_anchor"] = own["rsm"]
+    return own
 
 
 def _responses(study: Study, target: Target | None) -> list[ResponseSpec]:
@@ -284,8 +292,9 @@ def _stage_json(ctx: st.Context) -> dict[str, Any]:
         elif name == "screening" and s.ran:  # a skipped screening: no runs
             out[name] = {**_design_json(s.design, s.factors, s.runs, s.excluded_points),
                          "selected": s.selected}
-        elif name == "rsm":  # typed (demcal.summaries.Surface), no fidelity of its own
+        elif name == "rsm":  # typed (demcal.summaries.Surface)
             out[name] = {**_design_json(s.design, s.factors, s.runs, s.excluded_points),
+                         **({"fidelity": s.fidelity} if s.fidelity is not None else {}),
                          "adequate": s.adequate, "warnings": s.warnings,
                          "equation_actual": s.equation_actual,
                          "adequacy": None if s.adequacy is None else s.adequacy.to_summary(),

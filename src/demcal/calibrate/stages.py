@@ -87,7 +87,10 @@ def rsm(ctx: Context) -> Surface:
     levels = ctx.results.steepest.levels
     factors = [replace(ctx.factor(n), low=lv[0], high=lv[2]) for n, lv in levels.items()]
     rows = ctx.factor_rows(factors)
-    h = ctx.begin("rsm", {"factors": rows, "opts": opts.model_dump(mode="json"),
+    # the stage's own fidelity enters the hash through its test (Context.begin): left out
+    # of the options so that a store written before it keeps its stage
+    h = ctx.begin("rsm", {"factors": rows,
+                          "opts": opts.model_dump(mode="json", exclude={"fidelity"}),
                           "fixed": ctx.fixed, "reps": ctx.reps("rsm"),
                           "crn": ctx.study.common_seeds})
     design, design_name = _rsm_design(opts, factor_space(factors))
@@ -106,7 +109,8 @@ def rsm(ctx: Context) -> Surface:
     table, lof_p = choice.chosen.table, choice.chosen.lack_of_fit_p
     responses, response_warnings = _other_responses(ctx, design, last.recs, n_reps)
     surface = Surface(
-        design=design_name, factors=factors, runs=last.design_rows,
+        design=design_name, fidelity=ctx.own_fidelity("rsm").get("fidelity"),
+        factors=factors, runs=last.design_rows,
         excluded_points=last.excluded, replicates=n_reps, responses=responses,
         anova=anova_records(table.to_records()),
         fit=AnovaFit.from_summary(table.fit.to_dict()), lack_of_fit_p=lof_p,
@@ -339,12 +343,15 @@ def verification(ctx: Context) -> Verification:
 
     Starts with ``stages.verification.n`` runs; while the 95 % interval of the mean is wider
     than ``half_width_deg`` either side, or would be at the response surface's pure error
-    (the test's scatter measured with many degrees of freedom), adds the runs needed, up to
+    (the test's scatter measured with many degrees of freedom; not where the surface was
+    fitted on another fidelity, whose scatter is another test's), adds the runs needed, up to
     ``max_n`` (:func:`verification_size`).
     """
     opts = ctx.study.stages.verification
     params = ctx.full(ctx.results.optimize.chosen)
-    sigma, sigma_df = pure_error_std(ctx.results.rsm_model)
+    # a surface fitted on another fidelity measured another test's scatter
+    sigma, sigma_df = ((None, 0) if ctx.surface_fidelity() is not None
+                       else pure_error_std(ctx.results.rsm_model))
     k = ctx.rounds.number
     h = ctx.begin("verification", {"params": params, "n": opts.n,
                                    **({"round": k} if k > 1 else {})})

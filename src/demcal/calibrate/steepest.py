@@ -174,13 +174,14 @@ def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, b
     the stage's message.
 
     The best step of the path, unless the path ran at its own fidelity and
-    ``anchor_rounds`` > 0: then the study's own test is run at path points around it
+    ``anchor_rounds`` > 0: then the surface's test (the study's own unless
+    ``stages.rsm.fidelity`` names another than the path's) is run at path points around it
     (:mod:`demcal.calibrate.anchor`) and the centre is where that test crosses the target;
     the stage's message (``path_message``, what the path itself found) then says so too.
     """
     rounds = ctx.study.stages.steepest.anchor_rounds
     path_fid = ctx.study.stage_fidelities().get("steepest")
-    if path_fid is None or rounds < 1 or len(path) < 2:
+    if path_fid is None or path_fid == _surface_test(ctx)[0] or rounds < 1 or len(path) < 2:
         return dict(path[best]), None
     path_values = [float(v) for v in y]
     got: dict[int, RunRecord] = {}
@@ -202,7 +203,7 @@ def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, b
                       value=ctx.measured(r), outcome=r.outcome,
                       path_value=None if math.isnan(path_values[s]) else path_values[s])
             for s, r in sorted(got.items())]
-    anchored = Anchor(fidelity=ctx.study.test.fidelity, runs=runs, crossing_step=cross,
+    anchored = Anchor(fidelity=_surface_test(ctx)[0], runs=runs, crossing_step=cross,
                       centre_step=centre_step, offset=anchor.offset(path_values, piles),
                       message=message)
     return anchor.path_point(path, centre_step), (anchored, (
@@ -213,19 +214,27 @@ def _surface_centre(ctx: Context, path: list[dict[str, float]], y: np.ndarray, b
 def _anchor_step(ctx: Context, piles: Mapping[int, float], cross: float | None, best: int
                  ) -> tuple[float, str]:
     """The anchored step the surface is centred on, and why."""
-    fid = ctx.study.test.fidelity
+    fid, who = _surface_test(ctx)
     if cross is not None:
-        return cross, (f"the study's test ({fid}) crosses the target "
+        return cross, (f"{who} ({fid}) crosses the target "
                        f"{ctx.target:.2f}{ctx.unit} at step {cross:.2f} of the path")
     if not piles:
-        return float(best), (f"no anchored point formed a pile at the study's test ({fid}): "
+        return float(best), (f"no anchored point formed a pile at {who} ({fid}): "
                              f"the path's best step {best} is the centre")
     near = min(piles, key=lambda s: abs(piles[s] - ctx.target))
-    return float(near), (f"the study's test ({fid}) did not reach the target "
+    return float(near), (f"{who} ({fid}) did not reach the target "
                          f"{ctx.target:.2f}{ctx.unit} at the anchored steps {sorted(piles)}: "
                          f"step {near} (closest, {piles[near]:.2f}{ctx.unit}) is the centre; "
                          "the target may lie beyond the path or the ranges")
 
 
-#: the stage name of the anchor's runs (the study's own test, in the steepest stage)
+def _surface_test(ctx: Context) -> tuple[str, str]:
+    """The fidelity of the test the response surface is fitted on, which the path is anchored
+    at, and its name in the stage's message."""
+    fid = ctx.surface_fidelity()
+    return (ctx.study.test.fidelity, "the study's test") if fid is None else (
+        fid, "the surface's test")
+
+
+#: the stage name of the anchor's runs (the surface's test, in the steepest stage)
 _ANCHOR_STAGE = "steepest_anchor"

@@ -273,6 +273,11 @@ class RsmOptions(_M):
         "else the reduced one)")
     alpha_out: float = Field(0.1, gt=0, lt=1, description="backward elimination: a term "
                              "with p above this leaves the model")
+    fidelity: Literal[tuple(FIDELITIES)] | None = Field(
+        None, description="fit the surface on another test fidelity than the study's (e.g. "
+        "'small' in a 'standard' study): the verification, and the rounds that aim the "
+        "surface by the offset its piles measured, run the study's own test; default: the "
+        "study's")
 
 
 class OptimizeOptions(_M):
@@ -571,7 +576,7 @@ class Study(_M):
 
     def stage_fidelities(self) -> dict[str, str]:
         """The stages that run at their own fidelity: stage name -> fidelity."""
-        return {name: fid for name in ("rangefind", "screening", "steepest")
+        return {name: fid for name in ("rangefind", "screening", "steepest", "rsm")
                 if (fid := getattr(self.stages, name).fidelity) is not None}
 
     @model_validator(mode="after")

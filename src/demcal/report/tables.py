@@ -395,7 +395,8 @@ def steepest_levels_table(path: Steepest, symbols: Mapping[str, str]) -> Table:
 # ------------------------------------------------------------------------------------------ rsm
 def rsm_design_table(surface: Surface, symbols: Mapping[str, str]) -> Table:
     """The response-surface design, coded and actual, with its responses (cf. Table 7); with
-    replicates, the AoR is their mean and each replicate and their spread are shown."""
+    replicates, the AoR is their mean and each replicate and their spread are shown; the
+    title names the surface's own fidelity where it has one."""
     facs = _factor_symbols(surface.factors, symbols)
     runs = surface.runs
     replicated = any(len(r.replicates or []) > 1 for r in runs)
@@ -418,8 +419,10 @@ def rsm_design_table(surface: Surface, symbols: Mapping[str, str]) -> Table:
     for _, s in facs:
         frame[s] = [None if v is None else int(v) if float(v).is_integer() else v
                     for v in frame[s]]
+    own = ("" if surface.fidelity is None else f", on the {surface.fidelity} test (the "
+           "verification runs the study's)")
     return Table("rsm_design", f"{_design_name(surface.design)} design and results "
-                 "(cf. Table 7)", frame)
+                 f"(cf. Table 7){own}", frame)
 
 
 def _design_name(design: str | None) -> str:

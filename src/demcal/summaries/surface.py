@@ -153,6 +153,9 @@ class Surface:
     ----------
     design : str or None
         ``"box_behnken"`` or ``"ccd"``.
+    fidelity : str or None
+        The stage's own test fidelity, where it ran at one (``stages.rsm.fidelity``: the
+        verification runs the study's).
     factors : list of StudyFactor
         The ranges the design spans.
     runs : list of DesignRun
@@ -191,6 +194,7 @@ class Surface:
     """
 
     design: str | None = None
+    fidelity: str | None = None
     factors: list[StudyFactor] = field(default_factory=list)
     runs: list[DesignRun] = field(default_factory=list)
     excluded_points: list[int] = field(default_factory=list)
