@@ -64,7 +64,7 @@ import sqlite3
 import sys
 import tempfile
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -292,19 +292,25 @@ def holder_alive(holder: Mapping[str, Any]) -> bool | None:
         pid = int(holder.get("pid"))  # type: ignore[arg-type]
     except (TypeError, ValueError):
         return False
+    if not _pid_alive(pid):
+        return False
+    # a live pid of another process than the holder's (the pid was reused)
+    start = _proc_start(pid)
+    recorded = holder.get("proc_start")
+    return not (start is not None and recorded is not None and start != recorded)
+
+
+def _pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists on this host (one of another user's counts)."""
     if pid <= 0:
         return False
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
     except PermissionError:
         return True
-    except OSError:
+    except OSError:  # ProcessLookupError among them
         return False
-    start = _proc_start(pid)
-    recorded = holder.get("proc_start")
-    return not (start is not None and recorded is not None and start != recorded)
+    return True
 
 
 def describe_holder(holder: Mapping[str, Any]) -> str:
@@ -822,62 +828,88 @@ def salvage(source: str | Path, target: str | Path) -> dict[str, int]:
     StoreError
         The source is not an SQLite file, or the target exists.
     """
-    src = Path(source)
-    if src.is_dir():
-        src = src / STORE_NAME
+    src = _salvage_source(Path(source))
     dst = Path(target)
     if dst.exists():
         raise StoreError(f"{dst}: exists; give a new file for the salvaged store")
-    if not src.is_file() or src.stat().st_size == 0:
-        raise StoreError(f"{src}: no readable run store there (nothing to salvage)")
-    with src.open("rb") as fh:
-        if fh.read(len(_SQLITE_HEADER)) != _SQLITE_HEADER:
-            raise StoreError(f"{src}: not an SQLite database (nothing to salvage)")
     tmp = Path(tempfile.mkdtemp(prefix="demcal-salvage-"))
-    copy = tmp / STORE_NAME
-    shutil.copyfile(src, copy)
-    wal = src.with_name(src.name + "-wal")
-    if wal.is_file():
-        shutil.copyfile(wal, copy.with_name(copy.name + "-wal"))
-    _patch_header(copy, keep_wal=wal.is_file())
-    conn = sqlite3.connect(copy)
-    counts = {"runs": 0, "runs_skipped": 0, "stages": 0, "meta": 0}
+    conn = sqlite3.connect(_readable_copy(src, tmp))
     try:
         _refuse_newer_schema(conn, src)  # before the target is created
-        out = RunStore(dst)
-        with out:
-            responses = _salvage_responses(conn)
-            for row in _readable_rows(conn, "runs"):
-                try:
-                    # schema 1 kept the angle in the row itself (column 10)
-                    kept = responses.get(row[0], {} if row[10] is None
-                                         else {"aor_deg": row[10]})
-                    out.record_run(out._run_from_row(row, kept))
-                    counts["runs"] += 1
-                except (StoreError, ValueError, TypeError):
-                    counts["runs_skipped"] += 1
-            for row in _readable_rows(conn, "stages"):
-                try:
-                    out.set_stage(row[0], row[1], json.loads(row[2]), row[3])
-                    counts["stages"] += 1
-                except (ValueError, TypeError, IndexError, RecursionError):
-                    pass
-            for row in _readable_rows(conn, "meta"):
-                if row[0] in ("schema_version", LOCK_KEY):
-                    continue
-                try:
-                    out.set_meta(row[0], json.loads(row[1]))
-                    counts["meta"] += 1
-                except (ValueError, TypeError, IndexError, RecursionError):
-                    pass
-            try:
-                total = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
-                counts["runs_skipped"] = max(counts["runs_skipped"], total - counts["runs"])
-            except sqlite3.DatabaseError:
-                pass
+        with RunStore(dst) as out:
+            counts = _copy_runs(conn, out)
+            counts["stages"] = _copy_rows(conn, "stages", lambda row: out.set_stage(
+                row[0], row[1], json.loads(row[2]), row[3]))
+
+            def copy_meta(row: tuple) -> bool:
+                if row[0] in ("schema_version", LOCK_KEY):  # the target's own
+                    return False
+                out.set_meta(row[0], json.loads(row[1]))
+                return True
+
+            counts["meta"] = _copy_rows(conn, "meta", copy_meta)
     except sqlite3.DatabaseError as exc:
         raise StoreError(f"{src}: cannot be read ({exc}); nothing salvaged") from None
     finally:
         conn.close()
         shutil.rmtree(tmp, ignore_errors=True)
     return counts
+
+
+def _salvage_source(src: Path) -> Path:
+    """The store file to salvage (``src`` or the store in the folder ``src``); StoreError
+    where there is no SQLite file to read."""
+    if src.is_dir():
+        src = src / STORE_NAME
+    if not src.is_file() or src.stat().st_size == 0:
+        raise StoreError(f"{src}: no readable run store there (nothing to salvage)")
+    with src.open("rb") as fh:
+        if fh.read(len(_SQLITE_HEADER)) != _SQLITE_HEADER:
+            raise StoreError(f"{src}: not an SQLite database (nothing to salvage)")
+    return src
+
+
+def _readable_copy(src: Path, folder: Path) -> Path:
+    """A copy of the store ``src`` and its write-ahead log in ``folder``, its header patched
+    so that SQLite opens it; the source is only read."""
+    copy = folder / STORE_NAME
+    shutil.copyfile(src, copy)
+    wal = src.with_name(src.name + "-wal")
+    if wal.is_file():
+        shutil.copyfile(wal, copy.with_name(copy.name + "-wal"))
+    _patch_header(copy, keep_wal=wal.is_file())
+    return copy
+
+
+def _copy_runs(conn: sqlite3.Connection, out: RunStore) -> dict[str, int]:
+    """Every readable run of ``conn`` into ``out``: ``{"runs": copied, "runs_skipped": n}``
+    (the rows SQLite could not read count as skipped)."""
+    counts = {"runs": 0, "runs_skipped": 0}
+    responses = _salvage_responses(conn)
+    for row in _readable_rows(conn, "runs"):
+        try:
+            # schema 1 kept the angle in the row itself (column 10)
+            kept = responses.get(row[0], {} if row[10] is None else {"aor_deg": row[10]})
+            out.record_run(out._run_from_row(row, kept))
+            counts["runs"] += 1
+        except (StoreError, ValueError, TypeError):
+            counts["runs_skipped"] += 1
+    try:
+        total = conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+        counts["runs_skipped"] = max(counts["runs_skipped"], total - counts["runs"])
+    except sqlite3.DatabaseError:
+        pass
+    return counts
+
+
+def _copy_rows(conn: sqlite3.Connection, table: str, copy: Callable[[tuple], Any]) -> int:
+    """``copy(row)`` for every readable row of ``table``; the rows copied (a row whose JSON is
+    damaged is skipped, and so is one ``copy`` declines by returning False)."""
+    n = 0
+    for row in _readable_rows(conn, table):
+        try:
+            if copy(row) is not False:
+                n += 1
+        except (ValueError, TypeError, IndexError, RecursionError):
+            pass
+    return n
