@@ -341,6 +341,111 @@ def _check_settings(ci_level: Any, range_rule: Any, range_k: Any) -> None:
         raise InputError(f"range_k must be a number > 0; got {range_k!r}")
 
 
+@dataclass
+class _Derived:
+    """What :func:`derive_parameters` has found so far, and the range settings it uses:
+    every measurement's summary, the fixed parameters, the factor ranges and the notes."""
+
+    level: float
+    rule: str
+    k: float
+    summaries: dict[str, RepeatSummary] = field(default_factory=dict)
+    fixed: dict[str, FixedParameter] = field(default_factory=dict)
+    factors: dict[str, FactorRange] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    def summary(self, values: Any, name: str, unit: str) -> RepeatSummary:
+        """The repeats ``values`` summarised (and kept) as ``name`` in ``unit``."""
+        s = summarize(values, name=name, unit=unit, level=self.level)
+        self.summaries[s.name] = s
+        return s
+
+    def add_fixed(self, name: str, s: RepeatSummary, what: str) -> None:
+        """``name`` fixed at the measured central value of ``s`` (measured by ``what``)."""
+        how = "mean of " if (s.n_repeats or 0) > 1 and not s.range_only else ""
+        if s.range_only:
+            how = "midpoint of the "
+        self.fixed[name] = FixedParameter(
+            name, s.central, f"measured ({what}; {how}{_repeats_text(s)})", s
+        )
+
+    def add_factor(self, name: str, s: RepeatSummary, what: str) -> None:
+        """``name`` a factor over the range the rule gives ``s`` (fixed where it is one
+        value); a rule that needs repeats falls back to min-max, with a note."""
+        info = PARAMETERS[name]
+        used = self.rule
+        if self.rule != "minmax" and s.std is None:
+            used = "minmax"
+            self.notes.append(
+                f"{name}: range rule {self.rule!r} needs >= 2 repeats, got "
+                f"{'a range only' if s.range_only else 'one value'}: used 'minmax'"
+            )
+        low, high = suggest_range(s, rule=used, k=self.k, bounds=info.clip_bounds())  # type: ignore[arg-type]
+        if low == high:
+            self.add_fixed(name, s, what)
+            return
+        rule_text = {
+            "minmax": "min-max",
+            "mean_std": f"mean +- {self.k:g} sd",
+            "ci": f"{self.level:.0%} CI of the mean",
+        }[used]
+        how = _repeats_text(s) if s.range_only else f"{rule_text} of {_repeats_text(s)}"
+        self.factors[name] = FactorRange(name, low, high, f"measured ({what}; {how})", s, used)
+
+
+def _density(m: Measurements, out: _Derived) -> None:
+    """The particle density, fixed."""
+    if m.density is not None:
+        s = out.summary(m.density.densities(), "particle.density", "kg/m^3")
+        out.add_fixed("particle.density", s, f"{m.density.method} method")
+
+
+def _elasticity(m: Measurements, out: _Derived) -> None:
+    """The particle's shear modulus, fixed, and its Poisson ratio: a factor where repeats
+    differ."""
+    if m.elasticity is None:
+        return
+    g, e, nu = m.elasticity.moduli()
+    sg = out.summary(g, "particle.shear_modulus", "Pa")
+    out.summary(e, "particle.youngs_modulus", "Pa")
+    sv = out.summary(nu, "particle.poisson", "-")
+    what = m.elasticity.method or (
+        "compression test" if m.elasticity.compression else "elastic constants"
+    )
+    out.add_fixed("particle.shear_modulus", sg, what)
+    if sv.n_repeats and sv.n_repeats >= 2 and sv.maximum > sv.minimum:
+        out.add_factor("particle.poisson", sv, what)
+    else:
+        out.add_fixed("particle.poisson", sv, what)
+
+
+def _wall(m: Measurements, out: _Derived) -> None:
+    """The wall's density, shear modulus and Poisson ratio, fixed."""
+    if m.wall is None:
+        return
+    g, e, nu = m.wall.moduli()
+    rho = out.summary(m.wall.density_kg_m3, "wall.density", "kg/m^3")
+    sg = out.summary(g, "wall.shear_modulus", "Pa")
+    out.summary(e, "wall.youngs_modulus", "Pa")
+    sv = out.summary(nu, "wall.poisson", "-")
+    out.add_fixed("wall.density", rho, m.wall.name)
+    out.add_fixed("wall.shear_modulus", sg, m.wall.name)
+    out.add_fixed("wall.poisson", sv, m.wall.name)
+
+
+def _friction(m: Measurements, out: _Derived) -> None:
+    """The static frictions from inclined-plane angles: factors over their tangents."""
+    for key, plane in (("pp", m.friction.particle_particle), ("pw", m.friction.particle_wall)):
+        if plane is None:
+            continue
+        angles = _angle_summary(plane, f"{key}.inclination_deg", out.level)
+        mu = angles.map(friction_from_angle, name=f"{key}.static_friction", unit="-")
+        out.summaries[angles.name] = angles
+        out.summaries[mu.name] = mu
+        what = f"inclined plane, tan of {_fmt(angles.minimum)}-{_fmt(angles.maximum)} deg"
+        out.add_factor(f"{key}.static_friction", mu, what)
+
+
 def derive_parameters(
     measurements: Measurements | Mapping[str, Any],
     *,
@@ -380,85 +485,10 @@ def derive_parameters(
     level = float(level)
     k = float(k)
 
-    summaries: dict[str, RepeatSummary] = {}
-    fixed: dict[str, FixedParameter] = {}
-    factors: dict[str, FactorRange] = {}
-    notes: list[str] = []
-
-    def add_fixed(name: str, s: RepeatSummary, what: str) -> None:
-        how = "mean of " if (s.n_repeats or 0) > 1 and not s.range_only else ""
-        if s.range_only:
-            how = "midpoint of the "
-        fixed[name] = FixedParameter(
-            name, s.central, f"measured ({what}; {how}{_repeats_text(s)})", s
-        )
-
-    def add_factor(name: str, s: RepeatSummary, what: str) -> None:
-        info = PARAMETERS[name]
-        used = rule
-        if rule != "minmax" and s.std is None:
-            used = "minmax"
-            notes.append(
-                f"{name}: range rule {rule!r} needs >= 2 repeats, got "
-                f"{'a range only' if s.range_only else 'one value'}: used 'minmax'"
-            )
-        low, high = suggest_range(s, rule=used, k=k, bounds=info.clip_bounds())  # type: ignore[arg-type]
-        if low == high:
-            add_fixed(name, s, what)
-            return
-        rule_text = {
-            "minmax": "min-max",
-            "mean_std": f"mean +- {k:g} sd",
-            "ci": f"{level:.0%} CI of the mean",
-        }[used]
-        how = _repeats_text(s) if s.range_only else f"{rule_text} of {_repeats_text(s)}"
-        factors[name] = FactorRange(name, low, high, f"measured ({what}; {how})", s, used)
-
-    # --- particle density
-    if m.density is not None:
-        s = summarize(m.density.densities(), name="particle.density", unit="kg/m^3", level=level)
-        summaries[s.name] = s
-        add_fixed("particle.density", s, f"{m.density.method} method")
-
-    # --- particle elasticity
-    if m.elasticity is not None:
-        g, e, nu = m.elasticity.moduli()
-        sg = summarize(g, name="particle.shear_modulus", unit="Pa", level=level)
-        se = summarize(e, name="particle.youngs_modulus", unit="Pa", level=level)
-        sv = summarize(nu, name="particle.poisson", unit="-", level=level)
-        summaries.update({sg.name: sg, se.name: se, sv.name: sv})
-        what = m.elasticity.method or (
-            "compression test" if m.elasticity.compression else "elastic constants"
-        )
-        add_fixed("particle.shear_modulus", sg, what)
-        if sv.n_repeats and sv.n_repeats >= 2 and sv.maximum > sv.minimum:
-            add_factor("particle.poisson", sv, what)
-        else:
-            add_fixed("particle.poisson", sv, what)
-
-    # --- wall
-    if m.wall is not None:
-        g, e, nu = m.wall.moduli()
-        rho = summarize(m.wall.density_kg_m3, name="wall.density", unit="kg/m^3", level=level)
-        sg = summarize(g, name="wall.shear_modulus", unit="Pa", level=level)
-        se = summarize(e, name="wall.youngs_modulus", unit="Pa", level=level)
-        sv = summarize(nu, name="wall.poisson", unit="-", level=level)
-        summaries.update({rho.name: rho, sg.name: sg, se.name: se, sv.name: sv})
-        what = m.wall.name
-        add_fixed("wall.density", rho, what)
-        add_fixed("wall.shear_modulus", sg, what)
-        add_fixed("wall.poisson", sv, what)
-
-    # --- friction from inclined-plane angles
-    for key, plane in (("pp", m.friction.particle_particle), ("pw", m.friction.particle_wall)):
-        if plane is None:
-            continue
-        angles = _angle_summary(plane, f"{key}.inclination_deg", level)
-        mu = angles.map(friction_from_angle, name=f"{key}.static_friction", unit="-")
-        summaries[angles.name] = angles
-        summaries[mu.name] = mu
-        what = f"inclined plane, tan of {_fmt(angles.minimum)}-{_fmt(angles.maximum)} deg"
-        add_factor(f"{key}.static_friction", mu, what)
+    found = _Derived(level=level, rule=rule, k=k)
+    for derive in (_density, _elasticity, _wall, _friction):
+        derive(m, found)
+    summaries, fixed, factors, notes = found.summaries, found.fixed, found.factors, found.notes
 
     template_choice, target = _shape_and_target(m, level, summaries, fixed)
     _apply_given(m, fixed, factors, notes)
