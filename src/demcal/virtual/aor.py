@@ -203,77 +203,112 @@ def run_aor(parameter_sets: Sequence[Mapping[str, float]], *, config: AoRTestCon
     checked = check_parameter_sets(parameter_sets, seeds)
     if not parameter_sets:
         return []
-    if plot_paths is not None and len(plot_paths) != len(parameter_sets):
-        raise InputError(f"plot_paths needs one entry per parameter set; got {len(plot_paths)} "
-                         f"for {len(parameter_sets)} sets")
-    if pile_paths is not None and len(pile_paths) != len(parameter_sets):
-        raise InputError(f"pile_paths needs one entry per parameter set; got {len(pile_paths)} "
-                         f"for {len(parameter_sets)} sets")
+    plots, piles = _per_run(len(checked), plot_paths=plot_paths, pile_paths=pile_paths)
     template = make_template(config.particle)
-    cap = fill_capacity(config, template)
-    g = config.geometry
-    r_in = 0.5 * g.cylinder_inner_diameter
-    half = 0.5 * g.plate_size
-    z_top = g.cylinder_height + (config.phases.lift_height or g.cylinder_height) + 0.1
-    runs: list[_Run] = []
-    worlds: list[World] = []
-    for i, (params, seed) in enumerate(zip(checked, seeds, strict=True)):
-        rng = np.random.default_rng(int(seed))
-        scales = draw_scales(cap, config.particle, rng)
-        runs.append(_Run(i, params, int(seed), rng, scales, cap,
-                         plot_path=None if plot_paths is None else plot_paths[i],
-                         pile_path=None if pile_paths is None else pile_paths[i]))
-        walls = [
-            PlaneWall(origin=[0.0, 0.0, 0.0], normal=[0.0, 0.0, 1.0], half_size=(half, half),
-                      material="wall", name="plate"),
-            TubeWall(base=[0.0, 0.0, 0.0], axis=[0.0, 0.0, 1.0], inner_radius=r_in,
-                     thickness=g.cylinder_wall_thickness, length=g.cylinder_height,
-                     material="wall", name="cylinder"),
-        ]
-        worlds.append(World(
-            material_table(params), [ClumpGroup(template, "particle", cap, scales=scales)], walls,
-            domain_lo=(-half - 0.02, -half - 0.02, -0.05), domain_hi=(half + 0.02, half + 0.02,
-                                                                      z_top)))
-    sim = Simulation(worlds, backend=backend, dt_fraction=config.dt_fraction,
-                     rolling_friction=config.rolling_model, raise_on_unstable=False)
+    runs = [_new_run(i, params, int(seed), config, template)
+            for i, (params, seed) in enumerate(zip(checked, seeds, strict=True))]
+    for run, plot, pile in zip(runs, plots, piles, strict=True):
+        run.plot_path, run.pile_path = plot, pile
+    sim = Simulation([_world(run, config, template) for run in runs], backend=backend,
+                     dt_fraction=config.dt_fraction, rolling_friction=config.rolling_model,
+                     raise_on_unstable=False)
     try:  # a run of 1e150 steps would hang, not fail: refused before the first step
         check_time_step(float(np.min(sim.dt)))
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    n_template = len(template.radii)
+    batch = _Batch(sim, config, template, _Snapshots(vtk_dir) if vtk_dir is not None else None)
     t_start = time.perf_counter()
     for run in runs:
-        _start_fill(sim, run, config, template)
-    snap = _Snapshots(vtk_dir) if vtk_dir is not None else None
+        _start_fill(batch, run)
     for run in runs:  # each world is checked every interval of its own time step
         run.check_every = config.phases.check_steps(float(sim.dt[run.index]))
         run.next_check = run.check_every
     while not all(r.done for r in runs):
         live = [r for r in runs if not r.done]
-        _advance_to_next_check(sim, live, n_template)
+        _advance_to_next_check(sim, live, len(template.radii))
         times = sim.time
         for run in live:
             if run.steps < run.next_check:
                 continue  # not this world's check yet: its run goes on as if it ran alone
             run.next_check += run.check_every
-            w = run.index
-            t = float(times[w])
-            if sim.world_errors[w] is not None:
-                _finish(sim, run, config, Outcome.UNSTABLE, t, reason=sim.world_errors[w])
-            else:
-                _step_phase(sim, run, config, template, t, snap)
-            run.wall_time = time.perf_counter() - t_start
-            if run.done:
-                if snap is not None:
-                    run.result.artefacts["vtk_series"] = snap.close(sim, run)
-                sim.set_world_enabled(w, False)
-                run.result.wall_time_s = run.wall_time
-                run.result.sphere_steps = run.sphere_steps
-                if on_result is not None:
-                    on_result(w, run.result)
+            _check(batch, run, float(times[run.index]), t_start, on_result)
             if progress is not None:
-                progress(w, run.phase, t, run.wall_time)
+                progress(run.index, run.phase, float(times[run.index]), run.wall_time)
     return [r.result for r in runs]  # type: ignore[misc]
+
+
+@dataclass(frozen=True)
+class _Batch:
+    """What every run of a batch shares: the engine, the test, the particle template and
+    the VTK snapshots (None: none written)."""
+
+    sim: Simulation
+    config: AoRTestConfig
+    template: Any
+    snap: _Snapshots | None
+
+
+def _per_run(n: int, **paths: Sequence[str | Path | None] | None
+             ) -> list[list[str | Path | None]]:
+    """Each of ``paths`` (by argument name) as one entry per run (all None where not
+    given); InputError naming it where its length is not ``n``."""
+    out = []
+    for name, given in paths.items():
+        if given is not None and len(given) != n:
+            raise InputError(f"{name} needs one entry per parameter set; got {len(given)} "
+                             f"for {n} sets")
+        out.append([None] * n if given is None else list(given))
+    return out
+
+
+def _new_run(i: int, params: dict[str, float], seed: int, config: AoRTestConfig,
+             template) -> _Run:
+    """Run ``i``'s host state: its generator (seeded) and its particles' drawn sizes."""
+    cap = fill_capacity(config, template)
+    rng = np.random.default_rng(seed)
+    return _Run(i, params, seed, rng, draw_scales(cap, config.particle, rng), cap)
+
+
+def _world(run: _Run, config: AoRTestConfig, template) -> World:
+    """Run ``run``'s world: the plate, the cylinder on it and room for its particles."""
+    g = config.geometry
+    half = 0.5 * g.plate_size
+    z_top = g.cylinder_height + (config.phases.lift_height or g.cylinder_height) + 0.1
+    walls = [
+        PlaneWall(origin=[0.0, 0.0, 0.0], normal=[0.0, 0.0, 1.0], half_size=(half, half),
+                  material="wall", name="plate"),
+        TubeWall(base=[0.0, 0.0, 0.0], axis=[0.0, 0.0, 1.0],
+                 inner_radius=0.5 * g.cylinder_inner_diameter,
+                 thickness=g.cylinder_wall_thickness, length=g.cylinder_height,
+                 material="wall", name="cylinder"),
+    ]
+    return World(material_table(run.params),
+                 [ClumpGroup(template, "particle", run.capacity, scales=run.scales)], walls,
+                 domain_lo=(-half - 0.02, -half - 0.02, -0.05),
+                 domain_hi=(half + 0.02, half + 0.02, z_top))
+
+
+def _check(b: _Batch, run: _Run, t: float, t_start: float,
+           on_result: Callable[[int, AoRResult], None] | None) -> None:
+    """A run's check at its time ``t``: the next phase (or its end, with ``on_result``);
+    a world the engine found unstable ends there. ``t_start``: the batch's start on
+    :func:`time.perf_counter` (the run's wall time counts from it)."""
+    w = run.index
+    error = b.sim.world_errors[w]
+    if error is not None:
+        _finish(b, run, Outcome.UNSTABLE, t, reason=error)
+    else:
+        _PHASES[run.phase](b, run, t)
+    run.wall_time = time.perf_counter() - t_start
+    if not run.done:
+        return
+    if b.snap is not None:
+        run.result.artefacts["vtk_series"] = b.snap.close(b.sim, run)
+    b.sim.set_world_enabled(w, False)
+    run.result.wall_time_s = run.wall_time
+    run.result.sphere_steps = run.sphere_steps
+    if on_result is not None:
+        on_result(w, run.result)
 
 
 def _advance_to_next_check(sim: Simulation, live: list[_Run], n_template: int) -> None:
@@ -292,11 +327,11 @@ def _advance_to_next_check(sim: Simulation, live: list[_Run], n_template: int) -
         run.sphere_steps += n * sim.n_active(run.index) * n_template
 
 
-def _start_fill(sim: Simulation, run: _Run, config: AoRTestConfig, template) -> None:
-    fill = config.fill
-    if fill.method == "packing":
-        idx, pos, quat = pack_cylinder(template, run.scales, config, run.rng)
-        sim.place_clumps(run.index, idx, pos, quat)
+def _start_fill(b: _Batch, run: _Run) -> None:
+    """A packed fill placed at once (then it settles); a factory's starts empty."""
+    if b.config.fill.method == "packing":
+        idx, pos, quat = pack_cylinder(b.template, run.scales, b.config, run.rng)
+        b.sim.place_clumps(run.index, idx, pos, quat)
         run.inserted = run.capacity
         _enter(run, "fill_settle", 0.0)
 
@@ -327,66 +362,79 @@ def _material_top(sim: Simulation, w: int) -> float:
     return float(np.max(centres[:, 2] + radii))
 
 
-def _step_phase(sim: Simulation, run: _Run, config: AoRTestConfig, template, t: float,
-                snap) -> None:
-    w = run.index
+def _fill_step(b: _Batch, run: _Run, t: float) -> None:
+    """The factory fills until its time is up or the cylinder's capacity is in."""
+    _factory_insert_slots(b.sim, run, b.config, b.template, t)
+    if t >= b.config.fill.filling_time or run.inserted >= run.capacity:
+        _enter(run, "fill_settle", t)
+
+
+def _fill_settle_step(b: _Batch, run: _Run, t: float) -> None:
+    """Once the fill has settled: its height, level and mass, then the lift starts."""
+    sim, config, w = b.sim, b.config, run.index
     ph = config.phases
-    g = config.geometry
-    if run.phase == "fill":
-        _factory_insert_slots(sim, run, config, template, t)
-        if t >= config.fill.filling_time or run.inserted >= run.capacity:
-            _enter(run, "fill_settle", t)
+    elapsed = t - run.phase_start
+    ok, rms, vmax = _settled(sim, w, config)
+    if ok and elapsed >= ph.min_settle_time:
+        run.fill_height = _material_top(sim, w)
+        centres, radii, _ = sim.spheres(w)
+        run.fill_level = fill_level(centres, radii, cell=config.particle.diameter,
+                                    tube_radius=0.5 * config.geometry.cylinder_inner_diameter)
+        run.fill_mass = float(sim.clump_masses(w).sum())
+        if b.snap is not None:
+            b.snap.write(sim, run, "filled")
+        sim.set_wall_velocity(w, TUBE, [0.0, 0.0, ph.lift_speed])
+        _enter(run, "lift", t)
+    elif elapsed > ph.fill_settle_max_time:
+        _finish(b, run, Outcome.UNSETTLED, t,
+                reason=f"the fill did not settle within {ph.fill_settle_max_time} s "
+                       f"(rms speed {rms:.3g} m/s, max {vmax:.3g} m/s)")
+
+
+def _lift_step(b: _Batch, run: _Run, t: float) -> None:
+    """The cylinder rises until it clears the material (or reaches its lift height); then
+    what stands is classified, and a pile goes on to settle."""
+    sim, config, w = b.sim, b.config, run.index
+    ph, g = config.phases, config.geometry
+    z_b = float(sim.wall_origin(w, TUBE)[2])
+    limit = ph.lift_height if ph.lift_height is not None else g.cylinder_height
+    clearance = 0.5 * config.particle.diameter
+    cleared = ph.lift_height is None and z_b > _material_top(sim, w) + clearance
+    if not (cleared or z_b >= limit):
         return
-    if run.phase == "fill_settle":
-        elapsed = t - run.phase_start
-        ok, rms, vmax = _settled(sim, w, config)
-        if ok and elapsed >= ph.min_settle_time:
-            run.fill_height = _material_top(sim, w)
-            centres, radii, _ = sim.spheres(w)
-            run.fill_level = fill_level(centres, radii, cell=config.particle.diameter,
-                                        tube_radius=0.5 * g.cylinder_inner_diameter)
-            run.fill_mass = float(sim.clump_masses(w).sum())
-            if snap is not None:
-                snap.write(sim, run, "filled")
-            sim.set_wall_velocity(w, TUBE, [0.0, 0.0, ph.lift_speed])
-            _enter(run, "lift", t)
-        elif elapsed > ph.fill_settle_max_time:
-            _finish(sim, run, config, Outcome.UNSETTLED, t,
-                    reason=f"the fill did not settle within {ph.fill_settle_max_time} s "
-                           f"(rms speed {rms:.3g} m/s, max {vmax:.3g} m/s)")
+    sim.set_wall_velocity(w, TUBE, [0.0, 0.0, 0.0])
+    if b.snap is not None:
+        b.snap.write(sim, run, "lifted")
+    outcome, reason = classify_after_lift(sim.clump_positions(w), sim.clump_masses(w),
+                                          tube_bottom=z_b, tube_height=g.cylinder_height,
+                                          tube_radius=0.5 * g.cylinder_inner_diameter,
+                                          criteria=config.outcome)
+    if outcome is not None:
+        _finish(b, run, outcome, t, reason=reason)
         return
-    if run.phase == "lift":
-        z_b = float(sim.wall_origin(w, TUBE)[2])
-        limit = ph.lift_height if ph.lift_height is not None else g.cylinder_height
-        clearance = 0.5 * config.particle.diameter
-        cleared = ph.lift_height is None and z_b > _material_top(sim, w) + clearance
-        if cleared or z_b >= limit:
-            sim.set_wall_velocity(w, TUBE, [0.0, 0.0, 0.0])
-            if snap is not None:
-                snap.write(sim, run, "lifted")
-            pos = sim.clump_positions(w)
-            mass = sim.clump_masses(w)
-            outcome, reason = classify_after_lift(pos, mass, tube_bottom=z_b,
-                                                  tube_height=g.cylinder_height,
-                                                  tube_radius=0.5 * g.cylinder_inner_diameter,
-                                                  criteria=config.outcome)
-            if outcome is not None:
-                _finish(sim, run, config, outcome, t, reason=reason)
-                return
-            _enter(run, "pile_settle", t)
-        return
-    if run.phase == "pile_settle":
-        elapsed = t - run.phase_start
-        ok, rms, vmax = _settled(sim, w, config)
-        if ok and elapsed >= ph.min_settle_time:
-            if snap is not None:
-                snap.write(sim, run, "settled")
-            _finish(sim, run, config, None, t)
-        elif elapsed > ph.pile_settle_max_time:
-            _finish(sim, run, config, Outcome.UNSETTLED, t,
-                    reason=f"the pile did not settle within {ph.pile_settle_max_time} s "
-                           f"(rms speed {rms:.3g} m/s, max {vmax:.3g} m/s)"
-                           + _column_hint(sim, run, config))
+    _enter(run, "pile_settle", t)
+
+
+def _pile_settle_step(b: _Batch, run: _Run, t: float) -> None:
+    """Once the pile has settled it is measured; one that keeps moving ends unsettled."""
+    ph = b.config.phases
+    elapsed = t - run.phase_start
+    ok, rms, vmax = _settled(b.sim, run.index, b.config)
+    if ok and elapsed >= ph.min_settle_time:
+        if b.snap is not None:
+            b.snap.write(b.sim, run, "settled")
+        _finish(b, run, None, t)
+    elif elapsed > ph.pile_settle_max_time:
+        _finish(b, run, Outcome.UNSETTLED, t,
+                reason=f"the pile did not settle within {ph.pile_settle_max_time} s "
+                       f"(rms speed {rms:.3g} m/s, max {vmax:.3g} m/s)"
+                       + _column_hint(b.sim, run, b.config))
+
+
+#: what a run's check does in each phase
+_PHASES: dict[str, Callable[[_Batch, _Run, float], None]] = {
+    "fill": _fill_step, "fill_settle": _fill_settle_step, "lift": _lift_step,
+    "pile_settle": _pile_settle_step}
 
 
 def _column_hint(sim: Simulation, run: _Run, config: AoRTestConfig) -> str:
@@ -452,10 +500,10 @@ def _factory_insert_slots(sim: Simulation, run: _Run, config: AoRTestConfig, tem
     run.inserted += lead
 
 
-def _finish(sim: Simulation, run: _Run, config: AoRTestConfig, outcome: Outcome | None,
-            t: float, reason: str | None = None) -> None:
+def _finish(b: _Batch, run: _Run, outcome: Outcome | None, t: float,
+            reason: str | None = None) -> None:
     """Classify (if not yet), measure a pile, and store the result."""
-    w = run.index
+    sim, config, w = b.sim, b.config, run.index
     run.phase_times[run.phase] = t
     centres, radii, _clump_ids = sim.spheres(w)
     pos = sim.clump_positions(w)
