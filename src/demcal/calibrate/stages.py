@@ -109,7 +109,7 @@ def rsm(ctx: Context) -> Surface:
     table, lof_p = choice.chosen.table, choice.chosen.lack_of_fit_p
     responses, response_warnings = _other_responses(ctx, design, last.recs, n_reps)
     surface = Surface(
-        design=design_name, fidelity=ctx.own_fidelity("rsm").get("fidelity"),
+        design=design_name, fidelity=ctx.surface_fidelity(),
         factors=factors, runs=last.design_rows,
         excluded_points=last.excluded, replicates=n_reps, responses=responses,
         anova=anova_records(table.to_records()),

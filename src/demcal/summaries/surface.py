@@ -154,8 +154,8 @@ class Surface:
     design : str or None
         ``"box_behnken"`` or ``"ccd"``.
     fidelity : str or None
-        The stage's own test fidelity, where it ran at one (``stages.rsm.fidelity``: the
-        verification runs the study's).
+        The test fidelity the surface was fitted on where it is not the study's
+        (``stages.rsm.fidelity``; the verification runs the study's).
     factors : list of StudyFactor
         The ranges the design spans.
     runs : list of DesignRun
