@@ -117,6 +117,38 @@ class Outline:
         return best - 1.0
 
 
+def _checked_base_row(region: np.ndarray, base_row: int | None) -> int:
+    """The base line's row: ``base_row`` checked against the image, or found below the pile."""
+    if base_row is None:
+        base_row = find_base_row(region)
+        if base_row >= region.shape[0]:
+            raise InputError(
+                "the pile reaches the bottom border of the image and no plate was found, so "
+                "the base line is not visible; frame the pile with its base, or give base_line")
+    if not 0 < base_row <= region.shape[0]:
+        raise InputError(f"base_line must be a row in 1..{region.shape[0]}; got {base_row}")
+    return base_row
+
+
+def _check_clear_of_border(rows: np.ndarray, left: np.ndarray, right: np.ndarray,
+                           width: int) -> None:
+    """Raise if the pile's rows touch the top, left or right border of a ``width``-px image.
+
+    A pile cut by the frame has no visible foot, so its flanks would be measured short.
+    """
+    sides = []
+    if rows[0] == 0:
+        sides.append("top")
+    if np.any(left == 0):
+        sides.append("left")
+    if np.any(right == width - 1):
+        sides.append("right")
+    if sides:
+        raise InputError(
+            f"the pile touches the image border ({', '.join(sides)}); frame the whole pile "
+            "with a margin, or set roi / threshold so that the background is excluded")
+
+
 def outline(mask: np.ndarray, *, base_row: int | None = None,
             check_border: bool = True) -> Outline:
     """Outer boundary of the largest region of ``mask`` above the base line.
@@ -137,14 +169,7 @@ def outline(mask: np.ndarray, *, base_row: int | None = None,
     """
     mask = np.asarray(mask, dtype=bool)
     region = largest_region(mask)
-    if base_row is None:
-        base_row = find_base_row(region)
-        if base_row >= region.shape[0]:
-            raise InputError(
-                "the pile reaches the bottom border of the image and no plate was found, so "
-                "the base line is not visible; frame the pile with its base, or give base_line")
-    if not 0 < base_row <= region.shape[0]:
-        raise InputError(f"base_line must be a row in 1..{region.shape[0]}; got {base_row}")
+    base_row = _checked_base_row(region, base_row)
     full_rows = np.flatnonzero(region.any(axis=1))
     below = int(max(0, full_rows[-1] + 1 - base_row))
     region = region.copy()
@@ -154,17 +179,7 @@ def outline(mask: np.ndarray, *, base_row: int | None = None,
     region = largest_region(region)
     rows, left, right = _row_extents(region)
     if check_border:
-        sides = []
-        if rows[0] == 0:
-            sides.append("top")
-        if np.any(left == 0):
-            sides.append("left")
-        if np.any(right == region.shape[1] - 1):
-            sides.append("right")
-        if sides:
-            raise InputError(
-                f"the pile touches the image border ({', '.join(sides)}); frame the whole pile "
-                "with a margin, or set roi / threshold so that the background is excluded")
+        _check_clear_of_border(rows, left, right, region.shape[1])
     if rows.size < 2:
         raise InputError(f"the pile region is only {rows.size} pixel row(s) high; too small "
                          "to measure")

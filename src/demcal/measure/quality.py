@@ -84,7 +84,11 @@ def flank_rejection(flank: Flank, gates: FlankGates | None = DEFAULT_GATES) -> s
     """
     if gates is None:
         return None
-    angle = flank.angle_deg
+    return _angle_rejection(flank.angle_deg, gates) or _fit_rejection(flank, gates)
+
+
+def _angle_rejection(angle: float, gates: FlankGates) -> str | None:
+    """Why a flank at ``angle`` (deg) is no pile's flank, or None when its angle passes."""
     if not math.isfinite(angle):
         return "no angle"
     if angle > gates.max_angle_deg:
@@ -92,6 +96,11 @@ def flank_rejection(flank: Flank, gates: FlankGates | None = DEFAULT_GATES) -> s
         return f"{angle:.1f} deg is steeper than the limit ({gates.max_angle_deg:g} deg){kind}"
     if angle < gates.min_angle_deg:
         return f"{angle:.1f} deg is flatter than the limit ({gates.min_angle_deg:g} deg)"
+    return None
+
+
+def _fit_rejection(flank: Flank, gates: FlankGates) -> str | None:
+    """Why the straight line fitted to ``flank`` says nothing of it, or None when it holds."""
     fit = flank.fit
     if fit.n_points < gates.min_points:
         return f"{fit.n_points} boundary points (need {gates.min_points})"
