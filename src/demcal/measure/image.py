@@ -28,29 +28,42 @@ def load_gray(image_or_path: Any) -> tuple[np.ndarray, str]:
     InputError
         Missing or unreadable file, wrong array shape, an empty or uniform image.
     """
-    from PIL import Image, UnidentifiedImageError
-    from skimage import color, util
-
     if isinstance(image_or_path, str | Path):
-        path = Path(image_or_path)
-        name = str(path)
-        if not path.is_file():
-            raise InputError(f"photo {name}: no such file")
-        try:
-            with Image.open(path) as im:
-                im.load()
-                if im.mode not in ("L", "RGB", "RGBA", "I;16", "I", "F"):
-                    im = im.convert("RGBA" if "A" in im.mode else "RGB")
-                img = np.asarray(im)
-        except (UnidentifiedImageError, OSError, ValueError) as exc:
-            raise InputError(f"photo {name}: not a readable image ({type(exc).__name__}: "
-                             f"{str(exc).splitlines()[0] if str(exc) else 'unknown format'})"
-                             ) from None
-        if img.dtype == np.int32:  # 16-bit greyscale read as 32-bit integers
-            img = img.astype(np.float64) / (65535.0 if img.max() > 255 else 255.0)
+        name = str(image_or_path)
+        img = _read_photo(Path(image_or_path))
     else:
         name = "<array>"
         img = image_or_path
+    img = _checked_pixels(img, name)
+    gray = _unit_gray(img, name)
+    if float(np.ptp(gray)) < 1e-3:
+        raise InputError(f"photo {name}: the image is uniform (no contrast); no pile to find")
+    return gray, name
+
+
+def _read_photo(path: Path) -> np.ndarray:
+    """The pixels of the image file at ``path`` (16-bit grey already scaled to [0, 1])."""
+    from PIL import Image, UnidentifiedImageError
+
+    if not path.is_file():
+        raise InputError(f"photo {path}: no such file")
+    try:
+        with Image.open(path) as im:
+            im.load()
+            if im.mode not in ("L", "RGB", "RGBA", "I;16", "I", "F"):
+                im = im.convert("RGBA" if "A" in im.mode else "RGB")
+            img = np.asarray(im)
+    except (UnidentifiedImageError, OSError, ValueError) as exc:
+        raise InputError(f"photo {path}: not a readable image ({type(exc).__name__}: "
+                         f"{str(exc).splitlines()[0] if str(exc) else 'unknown format'})"
+                         ) from None
+    if img.dtype == np.int32:  # 16-bit greyscale read as 32-bit integers
+        img = img.astype(np.float64) / (65535.0 if img.max() > 255 else 255.0)
+    return img
+
+
+def _checked_pixels(img: Any, name: str) -> np.ndarray:
+    """``img`` as a numeric (H, W), (H, W, 3) or (H, W, 4) array of at least 8 x 8 pixels."""
     try:
         img = np.asarray(img)
     except (TypeError, ValueError):
@@ -65,6 +78,13 @@ def load_gray(image_or_path: Any) -> tuple[np.ndarray, str]:
     if img.shape[0] < 8 or img.shape[1] < 8:
         raise InputError(f"photo {name}: image is empty or too small ({img.shape[:2]}; "
                          "need at least 8 x 8 pixels)")
+    return img
+
+
+def _unit_gray(img: np.ndarray, name: str) -> np.ndarray:
+    """A checked pixel array as float grey in [0, 1] (floats are taken as [0, 1] already)."""
+    from skimage import color, util
+
     if img.dtype == bool:
         img = img.astype(np.float64)
     elif np.issubdtype(img.dtype, np.floating):
@@ -77,9 +97,7 @@ def load_gray(image_or_path: Any) -> tuple[np.ndarray, str]:
         if img.shape[2] == 4:
             img = color.rgba2rgb(img)
         img = color.rgb2gray(img)
-    if float(np.ptp(img)) < 1e-3:
-        raise InputError(f"photo {name}: the image is uniform (no contrast); no pile to find")
-    return img, name
+    return img
 
 
 def flatten_illumination(gray: np.ndarray, *, n_iter: int = 3) -> tuple[np.ndarray, float]:
@@ -176,6 +194,43 @@ def _check_roi(roi: Any, shape: tuple[int, ...]) -> tuple[int, int, int, int]:
     return r0, r1, c0, c1
 
 
+def _checked_roll(roll_deg: Any) -> float:
+    """The camera's roll in deg, a finite number within [-45, 45]."""
+    try:
+        roll = float(roll_deg)
+    except (TypeError, ValueError):
+        raise InputError(f"roll_deg must be a number of degrees; got {roll_deg!r}") from None
+    if not (math.isfinite(roll) and abs(roll) <= 45):
+        raise InputError(f"roll_deg must be within [-45, 45] deg; got {roll_deg!r}")
+    return roll
+
+
+def _cleaned(mask: np.ndarray, clean_px: int) -> np.ndarray:
+    """``mask`` opened then closed by a disc of radius ``clean_px`` (none when 0)."""
+    from skimage import morphology
+
+    if clean_px <= 0:
+        return mask
+    foot = morphology.disk(clean_px)
+    padded = np.pad(mask, 2 * clean_px, mode="edge")  # the frame's edge is not a pile edge
+    padded = ndi.binary_closing(ndi.binary_opening(padded, foot), foot)
+    return padded[2 * clean_px:-2 * clean_px, 2 * clean_px:-2 * clean_px]
+
+
+def _pile_tone(candidates: dict[str, np.ndarray], name: str) -> str:
+    """The tone whose largest region stays off the frame's top (the background's reaches it).
+
+    The larger such region when both do.
+    """
+    regions = {tone: largest_region(m) for tone, m in candidates.items()}
+    ok = {tone: reg for tone, reg in regions.items() if not reg[0].any()}
+    if not ok:
+        raise InputError(
+            f"photo {name}: cannot tell the pile from the background (both tones reach "
+            "the top of the frame); pass pile='dark' or 'light', or an roi")
+    return max(ok, key=lambda k: int(ok[k].sum()))
+
+
 def binarise(image_or_path: Any, *, threshold: Any = "otsu", roi: Any = None,
              roll_deg: float = 0.0, pile: str = "auto", smooth_px: float = 1.5,
              clean_px: int = 2) -> tuple[Binarised, str]:
@@ -189,15 +244,10 @@ def binarise(image_or_path: Any, *, threshold: Any = "otsu", roi: Any = None,
     region does not reach the top border of the frame (the background does), the larger such
     region if both.
     """
-    from skimage import filters, morphology, transform
+    from skimage import filters, transform
 
     gray, name = load_gray(image_or_path)
-    try:
-        roll = float(roll_deg)
-    except (TypeError, ValueError):
-        raise InputError(f"roll_deg must be a number of degrees; got {roll_deg!r}") from None
-    if not (math.isfinite(roll) and abs(roll) <= 45):
-        raise InputError(f"roll_deg must be within [-45, 45] deg; got {roll_deg!r}")
+    roll = _checked_roll(roll_deg)
     if pile not in ("auto", "dark", "light"):
         raise InputError(f"pile must be 'auto', 'dark' or 'light'; got {pile!r}")
     if roll:
@@ -212,28 +262,13 @@ def binarise(image_or_path: Any, *, threshold: Any = "otsu", roi: Any = None,
         level, t = flatten_illumination(smooth)
     else:
         level, t = smooth, threshold_value(smooth, threshold)
-    foot = morphology.disk(int(clean_px)) if clean_px > 0 else None
     candidates = {}
     for tone in ("dark", "light") if pile == "auto" else (pile,):
-        m = level < t if tone == "dark" else level > t
-        if foot is not None:
-            k = int(clean_px)
-            padded = np.pad(m, 2 * k, mode="edge")  # the frame's edge is not a pile edge
-            padded = ndi.binary_closing(ndi.binary_opening(padded, foot), foot)
-            m = padded[2 * k:-2 * k, 2 * k:-2 * k]
+        m = _cleaned(level < t if tone == "dark" else level > t, int(clean_px))
         if m.any():
             candidates[tone] = m
     if not candidates:
         raise InputError(f"photo {name}: no pile found after thresholding (threshold "
                          f"{threshold!r}); try another threshold or pile tone")
-    if pile == "auto":
-        regions = {tone: largest_region(m) for tone, m in candidates.items()}
-        ok = {tone: reg for tone, reg in regions.items() if not reg[0].any()}
-        if not ok:
-            raise InputError(
-                f"photo {name}: cannot tell the pile from the background (both tones reach "
-                "the top of the frame); pass pile='dark' or 'light', or an roi")
-        tone = max(ok, key=lambda k: int(ok[k].sum()))
-    else:
-        tone = pile
+    tone = _pile_tone(candidates, name) if pile == "auto" else pile
     return Binarised(gray, candidates[tone], level, (r0, c0), float(t), tone), name
