@@ -856,6 +856,57 @@ def _main_effect_coefficients(source: Any) -> dict[str, float]:
     return out
 
 
+def _moving_factors(move: Sequence[str] | None, steps: Mapping[str, float] | None,
+                    names: Sequence[str], coefs: Mapping[str, float]) -> list[str]:
+    """The factors a steepest path moves: ``move``, else the keys of ``steps``, else all
+    factors with a coefficient; each must be varied and have a coefficient."""
+    if move is None:
+        move = list(steps) if steps is not None else [n for n in names if n in coefs]
+    move = [str(m) for m in move]
+    for m in move:
+        if m not in names:
+            raise InputError(f"move: {m!r} is not a varied factor ({', '.join(names)})")
+        if m not in coefs:
+            raise InputError(f"move: no coefficient given for factor {m!r}")
+    if not move:
+        raise InputError("steepest_path needs at least one moving factor")
+    return move
+
+
+def _given_steps_coded(steps: Mapping[str, float], move: Sequence[str],
+                       coefs: Mapping[str, float], unit: Mapping[str, float],
+                       sgn: float) -> dict[str, float]:
+    """Coded signed step per run of each moving factor from the user's step magnitudes.
+
+    ``unit`` is one coded unit of each factor in the user's units; ``sgn`` is +1 to ascend.
+    """
+    missing = [m for m in move if m not in steps]
+    if missing:
+        raise InputError(f"steps: no step given for moving factor(s) {', '.join(missing)}")
+    step_coded = {}
+    for m in move:
+        s = float(steps[m])
+        if not (math.isfinite(s) and s > 0):
+            raise InputError(f"steps[{m!r}] must be > 0; got {steps[m]!r}")
+        if coefs[m] == 0:
+            raise InputError(f"coefficient of {m!r} is 0; its direction is undefined")
+        step_coded[m] = sgn * math.copysign(s / unit[m], coefs[m])
+    return step_coded
+
+
+def _proportional_steps_coded(step: float, move: Sequence[str], coefs: Mapping[str, float],
+                              unit: Mapping[str, float], sgn: float) -> dict[str, float]:
+    """Coded signed steps along the gradient: the largest ``|b|`` moves by ``step``."""
+    key = max(move, key=lambda m: abs(coefs[m]))
+    bmax = abs(coefs[key])
+    if bmax == 0:
+        raise InputError("all coefficients are 0; the path has no direction")
+    if not (math.isfinite(float(step)) and step > 0):
+        raise InputError(f"step must be > 0; got {step!r}")
+    key_step = float(step) / unit[key]
+    return {m: sgn * key_step * coefs[m] / bmax for m in move}
+
+
 def steepest_path(
     coefficients: Any,
     *,
@@ -919,45 +970,18 @@ def steepest_path(
     space = None if factors is None else as_factor_space(factors)
     if space is not None:
         names = space.free.names
+    elif units == "actual":
+        raise InputError("units='actual' needs factors with low and high")
     else:
-        if units == "actual":
-            raise InputError("units='actual' needs factors with low and high")
         names = tuple(coefs)
-    if move is None:
-        move = list(steps) if steps is not None else [n for n in names if n in coefs]
-    move = [str(m) for m in move]
-    for m in move:
-        if m not in names:
-            raise InputError(f"move: {m!r} is not a varied factor ({', '.join(names)})")
-        if m not in coefs:
-            raise InputError(f"move: no coefficient given for factor {m!r}")
-    if not move:
-        raise InputError("steepest_path needs at least one moving factor")
+    move = _moving_factors(move, steps, names, coefs)
     sgn = 1.0 if direction == "ascent" else -1.0
     half = {n: (space[n].half_range if space is not None else 1.0) for n in names}
-    step_coded: dict[str, float] = {}
+    unit = {m: (half[m] if units == "actual" else 1.0) for m in move}
     if steps is not None:
-        missing = [m for m in move if m not in steps]
-        if missing:
-            raise InputError(f"steps: no step given for moving factor(s) {', '.join(missing)}")
-        for m in move:
-            s = float(steps[m])
-            if not (math.isfinite(s) and s > 0):
-                raise InputError(f"steps[{m!r}] must be > 0; got {steps[m]!r}")
-            if coefs[m] == 0:
-                raise InputError(f"coefficient of {m!r} is 0; its direction is undefined")
-            s_c = s / half[m] if units == "actual" else s
-            step_coded[m] = sgn * math.copysign(s_c, coefs[m])
+        step_coded = _given_steps_coded(steps, move, coefs, unit, sgn)
     else:
-        key = max(move, key=lambda m: abs(coefs[m]))
-        bmax = abs(coefs[key])
-        if bmax == 0:
-            raise InputError("all coefficients are 0; the path has no direction")
-        if not (math.isfinite(float(step)) and step > 0):
-            raise InputError(f"step must be > 0; got {step!r}")
-        key_step = float(step) / half[key] if units == "actual" else float(step)
-        for m in move:
-            step_coded[m] = sgn * key_step * coefs[m] / bmax
+        step_coded = _proportional_steps_coded(step, move, coefs, unit, sgn)
     origin = np.zeros(len(names))
     for m, v in (start or {}).items():
         if m not in move:
