@@ -433,30 +433,29 @@ def plackett_burman(
     )
 
 
+def _parse_generator(g: Any, letters: str) -> tuple[int, frozenset[int], int]:
+    """Parse one ``'D=ABC'`` (or ``'D=-ABC'``) over ``letters`` into (factor, word, sign)."""
+    text = str(g).replace(" ", "").upper()
+    if "=" not in text:
+        raise InputError(f"generators: {g!r} must look like 'D=ABC'")
+    lhs, rhs = text.split("=", 1)
+    sign = -1 if rhs.startswith("-") else 1
+    rhs = rhs[1:] if rhs[:1] in ("-", "+") else rhs
+    if len(lhs) != 1 or lhs not in letters:
+        raise InputError(f"generators: {g!r}: left side must be one of the letters {letters}")
+    if not rhs or any(c not in letters for c in rhs) or len(set(rhs)) != len(rhs):
+        raise InputError(f"generators: {g!r}: right side must be distinct letters of {letters}")
+    if lhs in rhs:
+        raise InputError(f"generators: {g!r} defines a factor from itself")
+    return letters.index(lhs), frozenset(letters.index(c) for c in rhs), sign
+
+
 def _parse_generators(generators: Any, k: int) -> list[tuple[int, frozenset[int], int]]:
     """Parse ``'D=ABC'`` strings into (generated factor, word of basic factors, sign)."""
     if isinstance(generators, str):
         generators = generators.replace(",", " ").split()
     letters = _LETTERS[:k]
-    out = []
-    for g in generators:
-        text = str(g).replace(" ", "").upper()
-        if "=" not in text:
-            raise InputError(f"generators: {g!r} must look like 'D=ABC'")
-        lhs, rhs = text.split("=", 1)
-        sign = 1
-        if rhs.startswith("-"):
-            sign, rhs = -1, rhs[1:]
-        elif rhs.startswith("+"):
-            rhs = rhs[1:]
-        if len(lhs) != 1 or lhs not in letters:
-            raise InputError(f"generators: {g!r}: left side must be one of the letters {letters}")
-        if not rhs or any(c not in letters for c in rhs) or len(set(rhs)) != len(rhs):
-            raise InputError(f"generators: {g!r}: right side must be distinct letters of {letters}")
-        if lhs in rhs:
-            raise InputError(f"generators: {g!r} defines a factor from itself")
-        word = frozenset(letters.index(c) for c in rhs)
-        out.append((letters.index(lhs), word, sign))
+    out = [_parse_generator(g, letters) for g in generators]
     targets = [t for t, _, _ in out]
     if len(set(targets)) != len(targets):
         raise InputError("generators: a factor is generated twice")
@@ -481,6 +480,38 @@ def _check_factorial_size(k: int, p: int, center_points: int) -> None:
     if 2 ** p - 1 > MAX_DESIGN_RUNS:
         raise InputError(f"{p} generators give a defining relation of {2 ** p - 1:,} words; at "
                          f"most {MAX_DESIGN_RUNS:,}")
+
+
+def _defining_relation(gens: Sequence[tuple[int, frozenset[int], int]]
+                       ) -> list[tuple[frozenset[int], int]]:
+    """Every product of the generator words I = target * word, with its sign."""
+    gen_words = [(word | {t}, sign) for t, word, sign in gens]
+    relation: list[tuple[frozenset[int], int]] = []
+    for r in range(1, len(gen_words) + 1):
+        for combo in itertools.combinations(gen_words, r):
+            w: frozenset[int] = frozenset()
+            s = 1
+            for gw, gs in combo:
+                w = w ^ gw
+                s *= gs
+            relation.append((w, s))
+    return relation
+
+
+def _aliases(relation: Sequence[tuple[frozenset[int], int]], k: int) -> dict[str, list[str]]:
+    """Aliases (of up to three letters) of each main effect and two-factor interaction."""
+    if not relation:
+        return {}
+    effects = [frozenset([i]) for i in range(k)] + [
+        frozenset(c) for c in itertools.combinations(range(k), 2)
+    ]
+    return {
+        _word(e): sorted(
+            {("-" if s < 0 else "") + _word(e ^ w) for w, s in relation if len(e ^ w) <= 3},
+            key=lambda t: (len(t.lstrip("-")), t.lstrip("-")),
+        )
+        for e in effects
+    }
 
 
 def factorial(
@@ -546,29 +577,9 @@ def factorial(
     coded[:, basic] = base
     for target, word, sign in gens:
         coded[:, target] = sign * np.prod(coded[:, sorted(word)], axis=1)
-    # defining relation: all products of the generator words I = target*word
-    gen_words = [(word | {t}, sign) for t, word, sign in gens]
-    relation: list[tuple[frozenset[int], int]] = []
-    for r in range(1, p + 1):
-        for combo in itertools.combinations(gen_words, r):
-            w: frozenset[int] = frozenset()
-            s = 1
-            for gw, gs in combo:
-                w = w ^ gw
-                s *= gs
-            relation.append((w, s))
+    relation = _defining_relation(gens)
     resolution = min((len(w) for w, _ in relation), default=None)
-    aliases: dict[str, list[str]] = {}
-    if relation:
-        effects = [frozenset([i]) for i in range(k)] + [
-            frozenset(c) for c in itertools.combinations(range(k), 2)
-        ]
-        for e in effects:
-            al = sorted(
-                {("-" if s < 0 else "") + _word(e ^ w) for w, s in relation if len(e ^ w) <= 3},
-                key=lambda t: (len(t.lstrip("-")), t.lstrip("-")),
-            )
-            aliases[_word(e)] = al
+    aliases = _aliases(relation, k)
     n_fact = coded.shape[0]
     if center_points:
         coded = np.vstack([coded, np.zeros((center_points, k))])
