@@ -49,6 +49,22 @@ class UnbalancedBlocksError(InputError):
 _RANK_TOL = 1e-9
 
 
+def _point_rows(points: Any, names: Sequence[str]) -> np.ndarray:
+    """Points (a DataFrame or mapping with a column per factor, or an array) as float rows."""
+    if isinstance(points, pd.DataFrame):
+        missing = [n for n in names if n not in points.columns]
+        if missing:
+            raise InputError(f"points lack factor column(s) {', '.join(missing)}")
+        return points[list(names)].to_numpy(dtype=float)
+    if isinstance(points, Mapping):
+        missing = [n for n in names if n not in points]
+        if missing:
+            raise InputError(f"points lack factor(s) {', '.join(missing)}")
+        return np.column_stack([np.atleast_1d(np.asarray(points[n], float)) for n in names])
+    arr = np.asarray(points, dtype=float)
+    return arr.reshape(1, -1) if arr.ndim == 1 else arr
+
+
 @dataclass(frozen=True, eq=False)
 class ResponseSurface:
     """A fitted polynomial response surface (immutable; statistics computed on first use).
@@ -416,20 +432,7 @@ class ResponseSurface:
             units = "actual" if self.factors is not None else "coded"
         if units not in ("coded", "actual"):
             raise InputError(f"units must be 'coded' or 'actual'; got {units!r}")
-        if isinstance(points, pd.DataFrame):
-            missing = [n for n in self.names if n not in points.columns]
-            if missing:
-                raise InputError(f"points lack factor column(s) {', '.join(missing)}")
-            arr = points[list(self.names)].to_numpy(dtype=float)
-        elif isinstance(points, Mapping):
-            missing = [n for n in self.names if n not in points]
-            if missing:
-                raise InputError(f"points lack factor(s) {', '.join(missing)}")
-            arr = np.column_stack([np.atleast_1d(np.asarray(points[n], float)) for n in self.names])
-        else:
-            arr = np.asarray(points, dtype=float)
-            if arr.ndim == 1:
-                arr = arr.reshape(1, -1)
+        arr = _point_rows(points, self.names)
         if arr.ndim != 2 or arr.shape[1] != len(self.names):
             raise InputError(
                 f"points must have {len(self.names)} columns ({', '.join(self.names)}); "
@@ -700,6 +703,31 @@ def _coded_design(design: Any, names: Sequence[str] | None, space: FactorSpace |
     return x, nm, labels, space
 
 
+def _response_values(response: Any, n_runs: int) -> np.ndarray:
+    """The response as ``n_runs`` floats, finite or NaN (NaN marks a run without a result)."""
+    try:
+        y = np.asarray(response, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError("response must be numeric (NaN marks a run without a result)") from None
+    if y.shape[0] != n_runs:
+        raise InputError(f"response has {y.shape[0]} values but the design has {n_runs} runs")
+    if np.any(np.isinf(y)):
+        raise InputError("response must be finite or NaN (NaN marks a run without a result)")
+    return y
+
+
+def _fit_terms(terms: Any, model: str, names: Sequence[str]) -> tuple[tuple[Powers, ...], str]:
+    """The model's terms and its kind: the user's ``terms`` ("custom"), else ``model``'s."""
+    if terms is not None:
+        parsed = tuple(parse_term(t, names) if isinstance(t, str) else tuple(t) for t in terms)
+        if len(set(parsed)) != len(parsed):
+            raise InputError("terms: a term is listed twice")
+        return parsed, "custom"
+    if model not in MODELS:
+        raise InputError(f"model must be one of {', '.join(MODELS)}; got {model!r}")
+    return model_terms(len(names), model), model
+
+
 def fit(
     design: Any,
     response: Any,
@@ -772,14 +800,7 @@ def fit(
 
     if isinstance(response, pd.Series) and response_name is None:
         response_name = str(response.name) if response.name is not None else None
-    try:
-        y = np.asarray(response, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise InputError("response must be numeric (NaN marks a run without a result)") from None
-    if y.shape[0] != x.shape[0]:
-        raise InputError(f"response has {y.shape[0]} values but the design has {x.shape[0]} runs")
-    if np.any(np.isinf(y)):
-        raise InputError("response must be finite or NaN (NaN marks a run without a result)")
+    y = _response_values(response, x.shape[0])
     bad_x = ~np.isfinite(x)
     if bad_x.any():
         i, j = np.argwhere(bad_x)[0]
@@ -788,16 +809,7 @@ def fit(
     excluded = tuple(lab for lab, k in zip(labels, keep, strict=True) if not k)
     used = tuple(lab for lab, k in zip(labels, keep, strict=True) if k)
 
-    if terms is not None:
-        parsed = tuple(parse_term(t, nm) if isinstance(t, str) else tuple(t) for t in terms)
-        if len(set(parsed)) != len(parsed):
-            raise InputError("terms: a term is listed twice")
-        kind = "custom"
-    else:
-        if model not in MODELS:
-            raise InputError(f"model must be one of {', '.join(MODELS)}; got {model!r}")
-        parsed = model_terms(len(nm), model)
-        kind = model
+    parsed, kind = _fit_terms(terms, model, nm)
     y_fit, block_stats = y[keep], (0, 0.0, 0.0)
     if blocks is not None:
         labels_b = np.asarray(list(blocks), dtype=object)
