@@ -19,6 +19,7 @@ RESULTS = sorted(EXAMPLES.glob("**/result*.json"))
 #: results written by this release's code: written back key for key, in order
 CURRENT = ["corn_stalk/result_standard.json", "corn_stalk/result_bayes_standard.json",
            "corn_stalk/result_lammps_small.json", "corn_stalk/result_lammps_low_cohesion.json",
+           "corn_stalk/result_lammps_low_cohesion_standard.json",
            "two_responses/result.json",
            "several_responses/result.json", "aor_and_drum/result.json"]
 

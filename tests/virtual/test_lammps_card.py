@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ from demcal.virtual.card_blocks import CardEngine, CardTest
 from demcal.virtual.factory import make_template
 from demcal.virtual.lammps_card import lammps_lines
 from demcal.virtual.lammps_laws import contact_laws, model_string
-from demcal.virtual.material_card import MaterialCard
+from demcal.virtual.material_card import MaterialCard, read_material_card
 
 
 def _card(engine: str = "lammps", rolling: str = "C", **params: float) -> MaterialCard:
@@ -104,3 +105,13 @@ def test_the_lines_run_in_lammps_on_a_small_bed(tmp_path) -> None:
     assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
     zmax = float(run.stdout.split("ZMAX ")[-1].split()[0])
     assert zmax < 5 * r and math.isfinite(zmax)  # fell and rests on the floor or the other
+
+
+@pytest.mark.parametrize("name", ["material_lammps_small", "material_lammps_low_cohesion",
+                                  "material_lammps_low_cohesion_standard"])
+def test_a_committed_lammps_input_is_its_card_s_lines(name: str) -> None:
+    # the .in files beside the LAMMPS cards are what a LAMMPS user pastes: they must be the
+    # card's own numbers as this release maps them, not a copy left behind by a re-run
+    folder = Path(__file__).parents[2] / "examples" / "corn_stalk"
+    card = read_material_card(folder / f"{name}.toml")
+    assert lammps_lines(card).text == (folder / f"{name}.in").read_text(encoding="utf-8")

@@ -258,7 +258,8 @@ def test_docstrings(module):
 
 
 @pytest.mark.parametrize("name", ["material_bayes_standard.toml", "material_lammps_small.toml",
-                                  "material_lammps_low_cohesion.toml"])
+                                  "material_lammps_low_cohesion.toml",
+                                  "material_lammps_low_cohesion_standard.toml"])
 def test_a_committed_card_reads_and_writes_back_byte_for_byte(name):
     # every block is typed (CardEngine, CardTest, CardVerification, CardPosterior, ...): their
     # keys and order are the card format, so a renamed or reordered field fails here
