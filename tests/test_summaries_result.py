@@ -143,3 +143,33 @@ def test_the_fit_statistics_are_read_typed_from_a_result_and_a_store():
         adj_r2=0.9)
     assert Surface.from_summary(None).adequacy is None
     assert not FitStatistics().known and FitStatistics(adj_r2=0.9).known
+
+
+def test_the_result_names_the_fidelity_of_its_test_beside_a_stage_s_own():
+    # the standard study fitted its surface on the small test: the result must say which
+    # test its verification (and card) ran, or it reads as a small-fidelity calibration
+    stored = json.loads(
+        (EXAMPLES / "corn_stalk" / "result_lammps_low_cohesion_standard.json").read_text())
+    r = CalibrationResult.from_summary(stored)
+    assert r.fidelity == stored["fidelity"] == "standard"
+    assert stored["stages"]["rsm"]["fidelity"] == "small"
+    assert list(r.to_summary())[:2] == ["study", "fidelity"]
+    earlier = CalibrationResult.from_summary({k: v for k, v in stored.items()
+                                              if k != "fidelity"})
+    assert earlier.fidelity is None and "fidelity" not in earlier.to_summary()
+
+
+@pytest.mark.parametrize(("study", "fidelity"), [
+    ("corn_stalk/study_lammps_low_cohesion_standard.toml", "standard"),
+    ("corn_stalk/study.toml", "quick"),
+    ("analytic/study.toml", None),          # the stand-in has no test fidelity
+    ("stand_in_engine/study.toml", None),   # an external engine runs its own test
+])
+def test_the_study_s_test_fidelity_is_what_the_result_is_given(study: str, fidelity):
+    from types import SimpleNamespace
+
+    from demcal.calibrate.context import Context
+    from demcal.calibrate.study import load_study
+
+    ctx = SimpleNamespace(study=load_study(EXAMPLES / study))
+    assert Context.test_fidelity(ctx) == fidelity

@@ -136,7 +136,9 @@ AoRResult.to_dict() or the stand-in's dict), reason, attempts, timings, artefact
 
 Also written (extra keys, readers may ignore them): steepest "message"; optimize
 "classifier" and each candidate's "desirability"; verification "n_piles"; a retried run's
-result "first_attempt"; meta "result" also holds "optimum_full" (every parameter),
+result "first_attempt"; meta "result" also holds "fidelity" (the test the verification and
+the card ran, where it is demcal's or LAMMPS' AoR test; a stage at another names its own),
+"optimum_full" (every parameter),
 "n_runs_executed", "n_runs_used" (the runs this study's stages used; "n_runs" counts every
 stored run, a reused store's others included), "ranges" (final factor ranges), "rounds"
 (one row per verification round: its optimum, prediction, piles and confirmation; the

@@ -240,6 +240,10 @@ class CalibrationResult:
         Where two or more of the optimize stage's distinct settings reach the target and lie
         far apart: how many, and each factor's span among them (``target_spread``; DOE
         path).
+    fidelity : str or None
+        The fidelity of the test the verification and the card ran (``quick`` ... ``paper``;
+        a stage may have run at another, which its own block names). None for the analytic
+        stand-in or an external engine's test, and in a result of an earlier release.
     """
 
     study: str
@@ -259,6 +263,7 @@ class CalibrationResult:
     responses: ResultResponses | None = None
     bayes: BayesSummary | None = None
     spread: TargetSpread | None = None
+    fidelity: str | None = None
 
     def __post_init__(self) -> None:
         # the result JSON writes a Bayesian study's optimum from its posterior: a different
@@ -285,6 +290,8 @@ class CalibrationResult:
     def to_summary(self) -> dict[str, Any]:
         """The result JSON, in the key order every release wrote."""
         out: dict[str, Any] = {"study": self.study}
+        if self.fidelity is not None:
+            out["fidelity"] = self.fidelity
         if self.bayes is not None:  # the posterior's keys first (its optimum among them)
             out.update(strategy="bayes", **self.bayes.in_result())
         else:
@@ -336,4 +343,5 @@ class CalibrationResult:
             n_runs_used=stored.get("n_runs_used"), surface=SurfaceFacts.from_result(stored),
             stages=stored.get("stages"),
             responses=None if several is None else ResultResponses.from_summary(several),
-            bayes=bayes, spread=TargetSpread.from_summary(stored.get("target_spread")))
+            bayes=bayes, spread=TargetSpread.from_summary(stored.get("target_spread")),
+            fidelity=stored.get("fidelity"))
