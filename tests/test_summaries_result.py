@@ -166,10 +166,6 @@ def test_the_result_names_the_fidelity_of_its_test_beside_a_stage_s_own():
     ("stand_in_engine/study.toml", None),   # an external engine runs its own test
 ])
 def test_the_study_s_test_fidelity_is_what_the_result_is_given(study: str, fidelity):
-    from types import SimpleNamespace
-
-    from demcal.calibrate.context import Context
     from demcal.calibrate.study import load_study
 
-    ctx = SimpleNamespace(study=load_study(EXAMPLES / study))
-    assert Context.test_fidelity(ctx) == fidelity
+    assert load_study(EXAMPLES / study).test_fidelity == fidelity

@@ -581,6 +581,6 @@ def _result(ctx: st.Context, summary: BayesSummary, ver: Verification) -> Calibr
         # as the DOE path's: every stored run; the loop's own runs are n_runs_strategy
         n_runs=ctx.store.count(), n_runs_executed=ctx.runner.executed,
         ranges={f.name: [f.low, f.high] for f in ctx.factors}, responses=several,
-        bayes=summary, fidelity=ctx.test_fidelity())
+        bayes=summary, fidelity=ctx.study.test_fidelity)
     ctx.store.set_meta("result", result.to_summary())
     return result

@@ -192,13 +192,6 @@ class Context:
         fid = self.study.stage_fidelities().get(stage)
         return {"fidelity": fid} if fid is not None else {}
 
-    def test_fidelity(self) -> str | None:
-        """The fidelity of the study's own test (its verification's and card's): None for the
-        analytic stand-in or an external engine's test, which have none of demcal's."""
-        if self.study.test.kind != "aor" or self.study.engine is not None:
-            return None
-        return self.study.test.fidelity
-
     def surface_fidelity(self) -> str | None:
         """The fidelity the response surface is fitted on where it is not the study's
         (``stages.rsm.fidelity``), else None: then the surface, its pure error and the

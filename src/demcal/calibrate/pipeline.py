@@ -390,6 +390,6 @@ def run_stages(ctx: st.Context) -> CalibrationResult:
                              removed_terms=list(surface.removed_terms or []),
                              resolution=surface.resolution),
         stages=_stage_json(ctx), responses=several,
-        spread=target_spread(opt, surface.ranges), fidelity=ctx.test_fidelity())
+        spread=target_spread(opt, surface.ranges), fidelity=ctx.study.test_fidelity)
     ctx.store.set_meta("result", result.to_summary())
     return result

@@ -486,8 +486,8 @@ class Study(_M):
             raise ValueError("tests.drum: the drum runs on demcal's engine or LAMMPS "
                              "(executor.engine), not on an external [engine]; remove [engine]")
         if self.replicates is None:
-            self.replicates = (FIDELITY_REPLICATES[self.test.fidelity]
-                               if self.test.kind == "aor" and self.engine is None else 1)
+            self.replicates = (1 if self.test_fidelity is None
+                               else FIDELITY_REPLICATES[self.test_fidelity])
         return self
 
     @model_validator(mode="after")
@@ -574,6 +574,12 @@ class Study(_M):
             self._engine = load_engine(self.engine, (base or Path.cwd()).resolve(), known)
         return self._engine
 
+    @property
+    def test_fidelity(self) -> str | None:
+        """The fidelity of the study's own test (its verification's and card's): None for the
+        analytic stand-in or an external engine's test, which have none of demcal's."""
+        return self.test.fidelity if self.test.kind == "aor" and self.engine is None else None
+
     def stage_fidelities(self) -> dict[str, str]:
         """The stages that run at their own fidelity: stage name -> fidelity."""
         return {name: fid for name in ("rangefind", "screening", "steepest", "rsm")
@@ -582,7 +588,7 @@ class Study(_M):
     @model_validator(mode="after")
     def _stage_fidelity(self) -> Study:
         for name, fid in self.stage_fidelities().items():
-            if self.test.kind != "aor" or self.engine is not None:
+            if self.test_fidelity is None:
                 raise ValueError(f"stages.{name}.fidelity: only demcal's angle-of-repose test "
                                  "has fidelities (test.kind 'aor', no [engine])")
             from demcal.limits import check_test_size

@@ -29,8 +29,9 @@ def load_gray(image_or_path: Any) -> tuple[np.ndarray, str]:
         Missing or unreadable file, wrong array shape, an empty or uniform image.
     """
     if isinstance(image_or_path, str | Path):
-        name = str(image_or_path)
-        img = _read_photo(Path(image_or_path))
+        path = Path(image_or_path)
+        name = str(path)
+        img = _read_photo(path)
     else:
         name = "<array>"
         img = image_or_path
